@@ -1,0 +1,61 @@
+// Frames as devices deliver them, with the metadata needed to reprocess them without the rig.
+// The capture layer adds what only it knows (site, sun position, bracket id) when it stores
+// them.
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/pinhole.h"
+#include "core/time.h"
+
+namespace relume::drivers {
+
+// Exposure as it was when the frame was taken. NaN where the device does not say.
+struct ExposureRecord {
+  double exposure_time_s = NAN;  // NaN on EV-only cameras that do not report it
+  double ev_compensation = 0.0;  // relative EV asked of an EV-only camera, else 0
+  double aperture_f = NAN;       // f-number
+  double iso = NAN;
+  double gain_db = NAN;
+};
+
+struct FrameTiming {
+  UtcTime host_utc;                             // host clock when the frame was received
+  MonotonicTime host_monotonic;                 // host steady clock, same instant
+  std::optional<Nanoseconds> device_timestamp;  // the device's own clock, when it has one
+  std::uint64_t sequence = 0;                   // frame counter of the device (or of the driver)
+};
+
+struct StillFrame {
+  std::string device_id;  // DeviceInfo::FullId()
+  std::string model;
+  CameraImage image;  // decoded pixels
+  // The camera's own file, byte for byte (raw or JPEG from a DSLR), when there is one; the
+  // capture layer stores it unchanged. original_format: "jpeg", "nef", "cr2", "tiff", ...
+  std::vector<std::uint8_t> original_file;
+  std::string original_format;
+  ExposureRecord exposure;
+  FrameTiming timing;
+  std::optional<double> sensor_temperature_c;
+};
+
+struct RgbdFrame {
+  std::string device_id;
+  cv::Mat depth_m;  // CV_32FC1, metres along the optical axis; NaN = no measurement (hole)
+  CameraImage color;
+  PinholeIntrinsics depth_intrinsics;
+  PinholeIntrinsics color_intrinsics;
+  // True when depth_m was resampled into the colour camera's image (then depth_intrinsics
+  // equals color_intrinsics and color_from_depth is the identity).
+  bool registered_to_color = false;
+  Eigen::Isometry3d color_from_depth = Eigen::Isometry3d::Identity();
+  FrameTiming depth_timing;
+  FrameTiming color_timing;
+};
+
+}  // namespace relume::drivers
