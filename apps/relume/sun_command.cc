@@ -12,9 +12,9 @@
 #include <tuple>
 #include <vector>
 
-#include "apps/relume/yaml_config.h"
 #include "core/error.h"
 #include "core/sun/sun_track.h"
+#include "core/yaml_file.h"
 
 namespace relume::app {
 

@@ -1,11 +1,11 @@
-#include "apps/relume/yaml_config.h"
+#include "core/yaml_file.h"
 
 #include <cmath>
 #include <fstream>
 
 #include "core/error.h"
 
-namespace relume::app {
+namespace relume {
 
 YamlFile::YamlFile(std::string path) : path_(std::move(path)) {
   std::ifstream stream(path_);
@@ -69,4 +69,4 @@ SiteConfig LoadSiteConfig(const std::string& path) {
   return config;
 }
 
-}  // namespace relume::app
+}  // namespace relume

@@ -1,4 +1,4 @@
-#include "apps/relume/yaml_config.h"
+#include "core/yaml_file.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 
 #include "core/error.h"
 
-namespace relume::app {
+namespace relume {
 namespace {
 
 class YamlConfigTest : public ::testing::Test {
@@ -49,4 +49,4 @@ TEST_F(YamlConfigTest, ErrorsNameFileLineAndKey) {
 }
 
 }  // namespace
-}  // namespace relume::app
+}  // namespace relume

@@ -1,5 +1,5 @@
-// Reading relume's YAML configuration files with errors that name the file, the line, the
-// key and what was expected (relume::ConfigError).
+// Reading relume's YAML files (sites, scenes, rigs) with errors that name the file, the line,
+// the key and what was expected (relume::ConfigError).
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -9,7 +9,7 @@
 
 #include "core/site.h"
 
-namespace relume::app {
+namespace relume {
 
 // A parsed YAML file that remembers its path for error messages.
 class YamlFile {
@@ -40,4 +40,4 @@ struct SiteConfig {
 };
 SiteConfig LoadSiteConfig(const std::string& path);
 
-}  // namespace relume::app
+}  // namespace relume
