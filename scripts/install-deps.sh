@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   # toolchain
-  build-essential cmake ninja-build pkg-config git clang-format
+  build-essential cmake ninja-build pkg-config git clang-format libssl-dev
   # core, calibration, processing
   libeigen3-dev libgeographiclib-dev liberfa-dev libopencv-dev libopencv-contrib-dev libembree-dev libraw-dev
   # storage, config, CLI, logs, reports

@@ -1,0 +1,27 @@
+// Crash-safe file writing: write to a temporary name in the destination folder, fsync, rename
+// over the final name, fsync the folder. After WriteFileDurably returns, the file exists under
+// its final name with its full contents even if the process is killed or the power fails.
+// A crash before that leaves at most a "*.tmp" file, which `relume session recover` removes.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+
+namespace relume::capture {
+
+inline constexpr const char* kTempSuffix = ".tmp";
+
+// Throws IoError naming the path (and "disk full" for ENOSPC / EDQUOT).
+void WriteFileDurably(const std::filesystem::path& path, std::span<const std::uint8_t> bytes);
+// fsyncs a directory so that a rename or new entry in it is durable.
+void SyncDirectory(const std::filesystem::path& dir);
+// Creates a directory (and parents) and makes its entry durable.
+void CreateDirectoryDurably(const std::filesystem::path& dir);
+
+// SHA-256 of bytes and of a file, as 64 lowercase hex digits.
+std::string Sha256Hex(std::span<const std::uint8_t> bytes);
+std::string Sha256HexOfFile(const std::filesystem::path& path);
+
+}  // namespace relume::capture

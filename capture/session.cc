@@ -1,0 +1,521 @@
+#include "capture/session.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "capture/durable_file.h"
+#include "core/error.h"
+
+namespace relume::capture {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Schema migrations: entry i upgrades version i to i + 1.
+const std::vector<std::string>& Migrations() {
+  static const std::vector<std::string> migrations = {
+      R"sql(
+CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE session(id INTEGER PRIMARY KEY CHECK (id = 1), name TEXT NOT NULL, latitude_deg REAL NOT NULL,
+  longitude_deg REAL NOT NULL, height_m REAL NOT NULL, rig_config TEXT NOT NULL, software_version TEXT NOT NULL,
+  clock TEXT NOT NULL, created_utc_ns INTEGER NOT NULL);
+CREATE TABLE devices(full_id TEXT PRIMARY KEY, backend TEXT NOT NULL, kind TEXT NOT NULL, model TEXT, serial TEXT,
+  address TEXT, details_json TEXT);
+CREATE TABLE brackets(id INTEGER PRIMARY KEY, device_id TEXT NOT NULL, started_utc_ns INTEGER NOT NULL,
+  planned_count INTEGER NOT NULL, status TEXT NOT NULL, reason TEXT NOT NULL DEFAULT '');
+CREATE TABLE frames(id INTEGER PRIMARY KEY, device_id TEXT NOT NULL, stream TEXT NOT NULL, bracket_id INTEGER,
+  bracket_index INTEGER NOT NULL, utc_ns INTEGER NOT NULL, monotonic_ns INTEGER NOT NULL, device_timestamp_ns INTEGER,
+  sequence INTEGER NOT NULL, exposure_time_s REAL, ev_compensation REAL, aperture_f REAL, iso REAL, gain_db REAL,
+  file_path TEXT NOT NULL UNIQUE, sha256 TEXT NOT NULL, file_format TEXT NOT NULL, layout TEXT NOT NULL,
+  encoding TEXT NOT NULL, bits_per_sample INTEGER NOT NULL, black_level INTEGER NOT NULL, white_level INTEGER NOT NULL,
+  width INTEGER NOT NULL, height INTEGER NOT NULL, sun_azimuth_deg REAL NOT NULL, sun_elevation_deg REAL NOT NULL,
+  sun_algorithm TEXT NOT NULL, sensor_temperature_c REAL);
+CREATE INDEX frames_by_device ON frames(device_id, utc_ns);
+CREATE TABLE events(id INTEGER PRIMARY KEY, utc_ns INTEGER NOT NULL, monotonic_ns INTEGER NOT NULL, device_id TEXT,
+  type TEXT NOT NULL, message TEXT NOT NULL);
+CREATE TABLE calibrations(id INTEGER PRIMARY KEY, created_utc_ns INTEGER NOT NULL, kind TEXT NOT NULL,
+  device_id TEXT, json TEXT NOT NULL, source_frame_ids TEXT NOT NULL);
+)sql",
+  };
+  return migrations;
+}
+
+int SchemaVersion(Database& db) {
+  Statement exists = db.Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'meta'");
+  exists.Step();
+  if (exists.Int(0) == 0) return 0;
+  Statement version = db.Prepare("SELECT value FROM meta WHERE key = 'schema_version'");
+  return version.Step() ? std::stoi(version.Text(0)) : 0;
+}
+
+// Brings the schema to kSessionSchemaVersion; refuses a newer one.
+void Migrate(Database& db) {
+  const int version = SchemaVersion(db);
+  if (version > kSessionSchemaVersion) {
+    throw ConfigError(db.path(), 0, "schema_version",
+                      "written by a newer relume (schema " + std::to_string(version) + ", this build reads up to " +
+                          std::to_string(kSessionSchemaVersion) + "): update relume");
+  }
+  for (int v = version; v < kSessionSchemaVersion; ++v) {
+    Transaction transaction(db);
+    db.Exec(Migrations()[static_cast<std::size_t>(v)]);
+    db.Prepare("INSERT OR REPLACE INTO meta(key, value) VALUES('schema_version', ?)")
+        .Bind(1, std::to_string(v + 1))
+        .Run();
+    transaction.Commit();
+  }
+}
+
+std::unique_ptr<Database> OpenDatabase(const fs::path& dir, bool create) {
+  auto db = std::make_unique<Database>((dir / kSessionDatabaseName).string(), create);
+  db->Exec("PRAGMA journal_mode = WAL");
+  db->Exec("PRAGMA synchronous = FULL");  // fsync the WAL at every commit: a committed row is durable
+  db->Exec("PRAGMA foreign_keys = ON");
+  Migrate(*db);
+  return db;
+}
+
+std::int64_t Ns(UtcTime t) {
+  return t.time_since_epoch().count();
+}
+std::int64_t Ns(MonotonicTime t) {
+  return t.time_since_epoch().count();
+}
+
+ColorLayout ParseLayout(const std::string& text) {
+  for (ColorLayout layout : {ColorLayout::kMono, ColorLayout::kRgb, ColorLayout::kBayerRggb, ColorLayout::kBayerBggr,
+                             ColorLayout::kBayerGrbg, ColorLayout::kBayerGbrg}) {
+    if (text == ToString(layout)) return layout;
+  }
+  throw IoError(text, "unknown colour layout in the session database");
+}
+
+SampleEncoding ParseEncoding(const std::string& text) {
+  return text == ToString(SampleEncoding::kSensorLinear) ? SampleEncoding::kSensorLinear
+                                                         : SampleEncoding::kCameraResponse;
+}
+
+std::string Slug(const std::string& id) {
+  std::string slug;
+  for (char c : id) slug.push_back(std::isalnum(static_cast<unsigned char>(c)) || c == '-' ? c : '_');
+  return slug;
+}
+
+std::vector<std::uint8_t> Encode(const cv::Mat& pixels_rgb_or_mono, const std::string& extension) {
+  cv::Mat native = pixels_rgb_or_mono;
+  if (native.channels() == 3) cv::cvtColor(pixels_rgb_or_mono, native, cv::COLOR_RGB2BGR);
+  std::vector<std::uint8_t> bytes;
+  if (!cv::imencode(extension, native, bytes)) throw IoError(extension, "OpenCV could not encode the frame");
+  return bytes;
+}
+
+std::vector<std::uint8_t> ReadFile(const fs::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw IoError(path.string(), "frame file is missing (run `relume session verify`)");
+  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
+}
+
+}  // namespace
+
+SessionWriter::SessionWriter(fs::path dir, std::unique_ptr<Database> db, Site site)
+    : dir_(std::move(dir)), db_(std::move(db)), site_(site), sun_(site) {
+  Statement count = db_->Prepare("SELECT coalesce(max(id), 0) FROM frames");
+  count.Step();
+  file_counter_ = count.Int(0);
+}
+
+std::unique_ptr<SessionWriter> SessionWriter::Create(const fs::path& dir, const SessionInfo& info) {
+  std::string why;
+  if (!info.site.IsValid(&why)) throw InvalidArgumentError("session site: " + why);
+  if (fs::exists(dir / kSessionDatabaseName)) {
+    throw IoError(dir.string(), "already holds a session; choose a new --out folder (or append after `recover`)");
+  }
+  CreateDirectoryDurably(dir / "frames");
+  auto db = OpenDatabase(dir, true);
+  {
+    Transaction transaction(*db);
+    db->Prepare(
+          "INSERT INTO session(id, name, latitude_deg, longitude_deg, height_m, rig_config, software_version, clock, "
+          "created_utc_ns) VALUES(1, ?, ?, ?, ?, ?, ?, ?, ?)")
+        .Bind(1, info.name)
+        .Bind(2, info.site.latitude_deg())
+        .Bind(3, info.site.longitude_deg())
+        .Bind(4, info.site.height_m)
+        .Bind(5, info.rig_config)
+        .Bind(6, info.software_version)
+        .Bind(7, info.clock_name)
+        .Bind(8, Ns(info.created_utc))
+        .Run();
+    transaction.Commit();
+  }
+  SyncDirectory(dir);
+  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), info.site));
+}
+
+std::unique_ptr<SessionWriter> SessionWriter::Append(const fs::path& dir) {
+  const SessionReader reader(dir);
+  auto db = OpenDatabase(dir, false);
+  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), reader.info().site));
+}
+
+void SessionWriter::AddDevice(const drivers::DeviceInfo& device) {
+  nlohmann::json details = device.details;
+  db_->Prepare(
+         "INSERT OR REPLACE INTO devices(full_id, backend, kind, model, serial, address, details_json) "
+         "VALUES(?, ?, ?, ?, ?, ?, ?)")
+      .Bind(1, device.FullId())
+      .Bind(2, device.backend)
+      .Bind(3, std::string(drivers::ToString(device.kind)))
+      .Bind(4, device.model)
+      .Bind(5, device.serial)
+      .Bind(6, device.address)
+      .Bind(7, details.dump())
+      .Run();
+}
+
+std::int64_t SessionWriter::BeginBracket(const std::string& device_id, UtcTime started_utc, int planned_count) {
+  db_->Prepare("INSERT INTO brackets(device_id, started_utc_ns, planned_count, status) VALUES(?, ?, ?, 'open')")
+      .Bind(1, device_id)
+      .Bind(2, Ns(started_utc))
+      .Bind(3, std::int64_t{planned_count})
+      .Run();
+  return db_->LastInsertId();
+}
+
+void SessionWriter::EndBracket(std::int64_t bracket_id, const std::string& status, const std::string& reason) {
+  db_->Prepare("UPDATE brackets SET status = ?, reason = ? WHERE id = ?")
+      .Bind(1, status)
+      .Bind(2, reason)
+      .Bind(3, bracket_id)
+      .Run();
+}
+
+FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes) {
+  const fs::path folder = dir_ / "frames" / Slug(record.device_id);
+  if (!fs::exists(folder)) CreateDirectoryDurably(folder);
+  fs::path relative;
+  do {
+    ++file_counter_;
+    char name[96];
+    std::snprintf(name, sizeof(name), "%08lld_%s.%s", static_cast<long long>(file_counter_), record.stream.c_str(),
+                  record.file_format.c_str());
+    relative = fs::path("frames") / Slug(record.device_id) / name;
+  } while (fs::exists(dir_ / relative));
+  WriteFileDurably(dir_ / relative, bytes);
+  bytes_written_ += bytes.size();
+  record.file_path = relative.generic_string();
+  record.sha256 = Sha256Hex(bytes);
+  const SunPosition sun = sun_.At(record.utc);
+  record.sun_azimuth_deg = RadToDeg(sun.azimuth_rad);
+  record.sun_elevation_deg = RadToDeg(sun.elevation_rad);
+  record.sun_algorithm = kSunAlgorithmName;
+  return record;
+}
+
+void SessionWriter::InsertFrame(FrameRecord& r) {
+  Statement insert = db_->Prepare(
+      "INSERT INTO frames(device_id, stream, bracket_id, bracket_index, utc_ns, monotonic_ns, device_timestamp_ns, "
+      "sequence, exposure_time_s, ev_compensation, aperture_f, iso, gain_db, file_path, sha256, file_format, layout, "
+      "encoding, bits_per_sample, black_level, white_level, width, height, sun_azimuth_deg, sun_elevation_deg, "
+      "sun_algorithm, sensor_temperature_c) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
+      "?, "
+      "?, ?, ?, ?)");
+  std::optional<std::int64_t> device_ts;
+  if (r.device_timestamp) device_ts = r.device_timestamp->count();
+  insert.Bind(1, r.device_id)
+      .Bind(2, r.stream)
+      .Bind(3, r.bracket_id)
+      .Bind(4, std::int64_t{r.bracket_index})
+      .Bind(5, Ns(r.utc))
+      .Bind(6, Ns(r.monotonic))
+      .Bind(7, device_ts)
+      .Bind(8, static_cast<std::int64_t>(r.sequence))
+      .Bind(9, r.exposure.exposure_time_s)
+      .Bind(10, r.exposure.ev_compensation)
+      .Bind(11, r.exposure.aperture_f)
+      .Bind(12, r.exposure.iso)
+      .Bind(13, r.exposure.gain_db)
+      .Bind(14, r.file_path)
+      .Bind(15, r.sha256)
+      .Bind(16, r.file_format)
+      .Bind(17, std::string(ToString(r.layout)))
+      .Bind(18, std::string(ToString(r.encoding)))
+      .Bind(19, std::int64_t{r.bits_per_sample})
+      .Bind(20, std::int64_t{r.black_level})
+      .Bind(21, std::int64_t{r.white_level})
+      .Bind(22, std::int64_t{r.width})
+      .Bind(23, std::int64_t{r.height})
+      .Bind(24, r.sun_azimuth_deg)
+      .Bind(25, r.sun_elevation_deg)
+      .Bind(26, r.sun_algorithm)
+      .Bind(27, r.sensor_temperature_c)
+      .Run();
+  r.id = db_->LastInsertId();
+}
+
+namespace {
+FrameRecord RecordFromImage(const std::string& device_id, const std::string& stream, const CameraImage& image,
+                            const drivers::FrameTiming& timing) {
+  FrameRecord r;
+  r.device_id = device_id;
+  r.stream = stream;
+  r.utc = timing.host_utc;
+  r.monotonic = timing.host_monotonic;
+  r.device_timestamp = timing.device_timestamp;
+  r.sequence = timing.sequence;
+  r.layout = image.layout;
+  r.encoding = image.encoding;
+  r.bits_per_sample = image.bits_per_sample;
+  r.black_level = image.black_level;
+  r.white_level = image.white_level;
+  r.width = image.width();
+  r.height = image.height();
+  return r;
+}
+}  // namespace
+
+FrameRecord SessionWriter::WriteStillFrame(const drivers::StillFrame& frame, std::optional<std::int64_t> bracket_id,
+                                           int bracket_index) {
+  std::string why;
+  if (!frame.image.IsValid(&why)) {
+    throw InvalidArgumentError("frame from " + frame.device_id + " has invalid pixels: " + why);
+  }
+  FrameRecord record = RecordFromImage(frame.device_id, "still", frame.image, frame.timing);
+  record.bracket_id = bracket_id;
+  record.bracket_index = bracket_index;
+  record.exposure = frame.exposure;
+  record.sensor_temperature_c = frame.sensor_temperature_c;
+  std::vector<std::uint8_t> encoded;
+  std::span<const std::uint8_t> bytes;
+  if (!frame.original_file.empty()) {
+    record.file_format = frame.original_format.empty() ? "bin" : frame.original_format;
+    bytes = frame.original_file;  // the camera's own file, byte for byte
+  } else {
+    record.file_format = frame.image.pixels.depth() == CV_8U ? "png" : "tiff";
+    encoded = Encode(frame.image.pixels, "." + record.file_format);
+    bytes = encoded;
+  }
+  record = StoreFile(std::move(record), bytes);
+  Transaction transaction(*db_);
+  InsertFrame(record);
+  transaction.Commit();
+  return record;
+}
+
+std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers::RgbdFrame& frame) {
+  // Depth as 16-bit millimetres; NaN, non-positive and out-of-range values become 0 (none).
+  cv::Mat depth_mm(frame.depth_m.size(), CV_16UC1);
+  for (int y = 0; y < frame.depth_m.rows; ++y) {
+    const float* in = frame.depth_m.ptr<float>(y);
+    std::uint16_t* out = depth_mm.ptr<std::uint16_t>(y);
+    for (int x = 0; x < frame.depth_m.cols; ++x) {
+      const float mm = in[x] * 1000.0f;
+      out[x] = (std::isfinite(mm) && mm >= 0.5f && mm < 65535.5f) ? static_cast<std::uint16_t>(std::lround(mm)) : 0;
+    }
+  }
+  CameraImage depth_image;
+  depth_image.pixels = depth_mm;
+  depth_image.layout = ColorLayout::kMono;
+  depth_image.encoding = SampleEncoding::kSensorLinear;
+  depth_image.bits_per_sample = 16;
+  depth_image.white_level = 65535;
+  FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
+  depth.file_format = "png";
+  FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
+  color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
+  const std::vector<std::uint8_t> depth_bytes = Encode(depth_mm, ".png");
+  const std::vector<std::uint8_t> color_bytes = Encode(frame.color.pixels, "." + color.file_format);
+  depth = StoreFile(std::move(depth), depth_bytes);
+  color = StoreFile(std::move(color), color_bytes);
+  Transaction transaction(*db_);
+  InsertFrame(depth);
+  InsertFrame(color);
+  transaction.Commit();
+  return {depth, color};
+}
+
+std::int64_t SessionWriter::AddEvent(const EventRecord& event) {
+  db_->Prepare("INSERT INTO events(utc_ns, monotonic_ns, device_id, type, message) VALUES(?, ?, ?, ?, ?)")
+      .Bind(1, Ns(event.utc))
+      .Bind(2, Ns(event.monotonic))
+      .Bind(3, event.device_id)
+      .Bind(4, event.type)
+      .Bind(5, event.message)
+      .Run();
+  return db_->LastInsertId();
+}
+
+std::int64_t SessionWriter::AddCalibration(const CalibrationRecord& calibration) {
+  nlohmann::json sources = calibration.source_frame_ids;
+  db_->Prepare(
+         "INSERT INTO calibrations(created_utc_ns, kind, device_id, json, source_frame_ids) VALUES(?, ?, ?, ?, ?)")
+      .Bind(1, Ns(calibration.created_utc))
+      .Bind(2, calibration.kind)
+      .Bind(3, calibration.device_id)
+      .Bind(4, calibration.json)
+      .Bind(5, sources.dump())
+      .Run();
+  return db_->LastInsertId();
+}
+
+SessionReader::SessionReader(const fs::path& dir) : dir_(dir) {
+  if (!fs::exists(dir / kSessionDatabaseName)) {
+    throw IoError(dir.string(), "no session here (no " + std::string(kSessionDatabaseName) + ")");
+  }
+  db_ = OpenDatabase(dir, false);
+  Statement s = db_->Prepare(
+      "SELECT name, latitude_deg, longitude_deg, height_m, rig_config, software_version, clock, created_utc_ns "
+      "FROM session WHERE id = 1");
+  if (!s.Step()) throw IoError(dir.string(), "the session database has no session row (was it created by relume?)");
+  info_.name = s.Text(0);
+  info_.site = Site{DegToRad(s.Double(1)), DegToRad(s.Double(2)), s.Double(3)};
+  info_.rig_config = s.Text(4);
+  info_.software_version = s.Text(5);
+  info_.clock_name = s.Text(6);
+  info_.created_utc = UtcTime(Nanoseconds(s.Int(7)));
+}
+
+std::vector<drivers::DeviceInfo> SessionReader::Devices() const {
+  std::vector<drivers::DeviceInfo> devices;
+  Statement s = db_->Prepare("SELECT backend, full_id, kind, model, serial, address, details_json FROM devices");
+  while (s.Step()) {
+    drivers::DeviceInfo d;
+    d.backend = s.Text(0);
+    d.id = s.Text(1).substr(d.backend.size() + 1);
+    d.kind = s.Text(2) == "rgbd_sensor" ? drivers::DeviceKind::kRgbdSensor : drivers::DeviceKind::kStillCamera;
+    d.model = s.Text(3);
+    d.serial = s.Text(4);
+    d.address = s.Text(5);
+    d.details = nlohmann::json::parse(s.Text(6)).get<std::map<std::string, std::string>>();
+    devices.push_back(d);
+  }
+  return devices;
+}
+
+std::vector<FrameRecord> SessionReader::Frames() const {
+  std::vector<FrameRecord> frames;
+  Statement s = db_->Prepare(
+      "SELECT id, device_id, stream, bracket_id, bracket_index, utc_ns, monotonic_ns, device_timestamp_ns, sequence, "
+      "exposure_time_s, ev_compensation, aperture_f, iso, gain_db, file_path, sha256, file_format, layout, encoding, "
+      "bits_per_sample, black_level, white_level, width, height, sun_azimuth_deg, sun_elevation_deg, sun_algorithm, "
+      "sensor_temperature_c FROM frames ORDER BY id");
+  while (s.Step()) {
+    FrameRecord r;
+    r.id = s.Int(0);
+    r.device_id = s.Text(1);
+    r.stream = s.Text(2);
+    if (!s.IsNull(3)) r.bracket_id = s.Int(3);
+    r.bracket_index = static_cast<int>(s.Int(4));
+    r.utc = UtcTime(Nanoseconds(s.Int(5)));
+    r.monotonic = MonotonicTime(Nanoseconds(s.Int(6)));
+    if (!s.IsNull(7)) r.device_timestamp = Nanoseconds(s.Int(7));
+    r.sequence = static_cast<std::uint64_t>(s.Int(8));
+    r.exposure.exposure_time_s = s.Double(9);
+    r.exposure.ev_compensation = s.IsNull(10) ? 0.0 : s.Double(10);
+    r.exposure.aperture_f = s.Double(11);
+    r.exposure.iso = s.Double(12);
+    r.exposure.gain_db = s.Double(13);
+    r.file_path = s.Text(14);
+    r.sha256 = s.Text(15);
+    r.file_format = s.Text(16);
+    r.layout = ParseLayout(s.Text(17));
+    r.encoding = ParseEncoding(s.Text(18));
+    r.bits_per_sample = static_cast<int>(s.Int(19));
+    r.black_level = static_cast<int>(s.Int(20));
+    r.white_level = static_cast<int>(s.Int(21));
+    r.width = static_cast<int>(s.Int(22));
+    r.height = static_cast<int>(s.Int(23));
+    r.sun_azimuth_deg = s.Double(24);
+    r.sun_elevation_deg = s.Double(25);
+    r.sun_algorithm = s.Text(26);
+    if (!s.IsNull(27)) r.sensor_temperature_c = s.Double(27);
+    frames.push_back(std::move(r));
+  }
+  return frames;
+}
+
+std::vector<BracketRecord> SessionReader::Brackets() const {
+  std::vector<BracketRecord> brackets;
+  Statement s =
+      db_->Prepare("SELECT id, device_id, started_utc_ns, planned_count, status, reason FROM brackets ORDER BY id");
+  while (s.Step()) {
+    brackets.push_back(
+        {s.Int(0), s.Text(1), UtcTime(Nanoseconds(s.Int(2))), static_cast<int>(s.Int(3)), s.Text(4), s.Text(5)});
+  }
+  return brackets;
+}
+
+std::vector<EventRecord> SessionReader::Events() const {
+  std::vector<EventRecord> events;
+  Statement s = db_->Prepare("SELECT id, utc_ns, monotonic_ns, device_id, type, message FROM events ORDER BY id");
+  while (s.Step()) {
+    events.push_back({s.Int(0), UtcTime(Nanoseconds(s.Int(1))), MonotonicTime(Nanoseconds(s.Int(2))), s.Text(3),
+                      s.Text(4), s.Text(5)});
+  }
+  return events;
+}
+
+std::vector<CalibrationRecord> SessionReader::Calibrations() const {
+  std::vector<CalibrationRecord> calibrations;
+  Statement s =
+      db_->Prepare("SELECT id, created_utc_ns, kind, device_id, json, source_frame_ids FROM calibrations ORDER BY id");
+  while (s.Step()) {
+    CalibrationRecord c;
+    c.id = s.Int(0);
+    c.created_utc = UtcTime(Nanoseconds(s.Int(1)));
+    c.kind = s.Text(2);
+    c.device_id = s.Text(3);
+    c.json = s.Text(4);
+    c.source_frame_ids = nlohmann::json::parse(s.Text(5)).get<std::vector<std::int64_t>>();
+    calibrations.push_back(std::move(c));
+  }
+  return calibrations;
+}
+
+namespace {
+cv::Mat DecodeVerified(const fs::path& dir, const FrameRecord& frame, bool verify_checksum) {
+  const fs::path path = dir / frame.file_path;
+  const std::vector<std::uint8_t> bytes = ReadFile(path);
+  if (verify_checksum && Sha256Hex(bytes) != frame.sha256) {
+    throw IoError(path.string(), "checksum mismatch: the file changed after it was recorded");
+  }
+  if (frame.file_format != "png" && frame.file_format != "tiff" && frame.file_format != "jpeg" &&
+      frame.file_format != "jpg") {
+    throw InvalidArgumentError(path.string() + ": '" + frame.file_format +
+                               "' files are camera raw; decode them with the calibration layer's raw loader");
+  }
+  cv::Mat pixels = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  if (pixels.empty()) throw IoError(path.string(), "cannot decode the image file");
+  if (pixels.channels() == 3) cv::cvtColor(pixels, pixels, cv::COLOR_BGR2RGB);
+  return pixels;
+}
+}  // namespace
+
+CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_checksum) const {
+  CameraImage image;
+  image.pixels = DecodeVerified(dir_, frame, verify_checksum);
+  image.layout = frame.layout;
+  image.encoding = frame.encoding;
+  image.bits_per_sample = frame.bits_per_sample;
+  image.black_level = frame.black_level;
+  image.white_level = frame.white_level;
+  return image;
+}
+
+cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {
+  const cv::Mat mm = DecodeVerified(dir_, frame, verify_checksum);
+  if (mm.type() != CV_16UC1) throw IoError((dir_ / frame.file_path).string(), "depth file is not 16-bit mono");
+  cv::Mat depth_m(mm.size(), CV_32FC1);
+  for (int y = 0; y < mm.rows; ++y) {
+    const std::uint16_t* in = mm.ptr<std::uint16_t>(y);
+    float* out = depth_m.ptr<float>(y);
+    for (int x = 0; x < mm.cols; ++x) out[x] = in[x] == 0 ? NAN : static_cast<float>(in[x]) * 0.001f;
+  }
+  return depth_m;
+}
+
+}  // namespace relume::capture

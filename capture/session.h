@@ -1,0 +1,165 @@
+// A capture session on disk: a folder with `session.sqlite` (SQLite, WAL, synchronous=FULL)
+// and image files under `frames/`.
+//
+// Durability rule: a frame is *acknowledged* when SessionWriter::Write*Frame returns. By then
+// its file was written to a temporary name, fsynced, renamed and its folder fsynced, and only
+// then was its row (with the file's SHA-256) committed. A crash at any point leaves either an
+// acknowledged frame that `verify` accepts, or debris that `recover` cleans up (a *.tmp file,
+// or a complete file without a row, which is kept under orphans/, never deleted).
+//
+// Files: still frames keep the camera's own file byte for byte when it has one (raw, JPEG,
+// TIFF); otherwise 8-bit PNG or 16-bit TIFF of the decoded pixels (RGB samples are stored in
+// the file's native BGR order, as OpenCV writes them). Depth: 16-bit PNG in millimetres,
+// 0 = no measurement (range 0.001 .. 65.535 m).
+//
+// Every frame row carries the sun's azimuth/elevation at its UTC time for the session's site
+// (core/sun, algorithm named in the row).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "capture/sqlite.h"
+#include "core/site.h"
+#include "core/sun/sun_track.h"
+#include "core/time.h"
+#include "drivers/device_info.h"
+#include "drivers/frame.h"
+
+namespace relume::capture {
+
+inline constexpr int kSessionSchemaVersion = 1;
+inline constexpr const char* kSessionDatabaseName = "session.sqlite";
+
+struct SessionInfo {
+  std::string name;
+  Site site;
+  std::string rig_config;  // the rig's YAML, copied verbatim
+  std::string software_version;
+  std::string clock_name;  // which clock the frame times came from (core/clock.h)
+  UtcTime created_utc;
+};
+
+struct FrameRecord {
+  std::int64_t id = 0;
+  std::string device_id;  // DeviceInfo::FullId()
+  std::string stream;     // "still", "depth" or "color"
+  std::optional<std::int64_t> bracket_id;
+  int bracket_index = 0;
+  UtcTime utc;
+  MonotonicTime monotonic;
+  std::optional<Nanoseconds> device_timestamp;
+  std::uint64_t sequence = 0;
+  drivers::ExposureRecord exposure;
+  std::string file_path;  // relative to the session folder
+  std::string sha256;
+  std::string file_format;  // "png", "tiff", "jpeg", "nef", ...
+  ColorLayout layout = ColorLayout::kRgb;
+  SampleEncoding encoding = SampleEncoding::kCameraResponse;
+  int bits_per_sample = 8;
+  int black_level = 0;
+  int white_level = 255;
+  int width = 0;
+  int height = 0;
+  double sun_azimuth_deg = 0.0;
+  double sun_elevation_deg = 0.0;
+  std::string sun_algorithm;
+  std::optional<double> sensor_temperature_c;
+};
+
+struct BracketRecord {
+  std::int64_t id = 0;
+  std::string device_id;
+  UtcTime started_utc;
+  int planned_count = 0;
+  std::string status;  // "open", "complete", "partial"
+  std::string reason;
+};
+
+struct EventRecord {
+  std::int64_t id = 0;
+  UtcTime utc;
+  MonotonicTime monotonic;
+  std::string device_id;  // empty for session-wide events
+  std::string type;       // "fault", "retry", "reconnect", "skip", "note", "stop", ...
+  std::string message;
+};
+
+struct CalibrationRecord {
+  std::int64_t id = 0;
+  UtcTime created_utc;
+  std::string kind;  // "response", "chart", "profile"
+  std::string device_id;
+  std::string json;
+  std::vector<std::int64_t> source_frame_ids;
+};
+
+// Writes one session. Not thread-safe: callers serialise (the recorder owns one writer thread).
+class SessionWriter {
+ public:
+  // Creates a new session in `dir` (created if missing; must not already hold a session).
+  static std::unique_ptr<SessionWriter> Create(const std::filesystem::path& dir, const SessionInfo& info);
+  // Appends to an existing session (after `recover`).
+  static std::unique_ptr<SessionWriter> Append(const std::filesystem::path& dir);
+
+  void AddDevice(const drivers::DeviceInfo& device);
+  std::int64_t BeginBracket(const std::string& device_id, UtcTime started_utc, int planned_count);
+  void EndBracket(std::int64_t bracket_id, const std::string& status, const std::string& reason);
+
+  // Store durably, then return the committed row (the frame is then acknowledged).
+  FrameRecord WriteStillFrame(const drivers::StillFrame& frame, std::optional<std::int64_t> bracket_id = std::nullopt,
+                              int bracket_index = 0);
+  // Two rows: depth and colour, committed together.
+  std::pair<FrameRecord, FrameRecord> WriteRgbdFrame(const drivers::RgbdFrame& frame);
+
+  std::int64_t AddEvent(const EventRecord& event);
+  std::int64_t AddCalibration(const CalibrationRecord& calibration);
+
+  const std::filesystem::path& dir() const { return dir_; }
+  const Site& site() const { return site_; }
+  std::uint64_t bytes_written() const { return bytes_written_; }
+
+ private:
+  SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site);
+  FrameRecord StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes);
+  void InsertFrame(FrameRecord& record);
+
+  std::filesystem::path dir_;
+  std::unique_ptr<Database> db_;
+  Site site_;
+  SunTrack sun_;
+  std::uint64_t bytes_written_ = 0;
+  std::int64_t file_counter_ = 0;
+};
+
+// Reads a session (what calibration, processing and the player use).
+class SessionReader {
+ public:
+  // Throws IoError when the folder holds no session, ConfigError for a schema from a newer relume.
+  explicit SessionReader(const std::filesystem::path& dir);
+
+  const SessionInfo& info() const { return info_; }
+  const std::filesystem::path& dir() const { return dir_; }
+  std::vector<drivers::DeviceInfo> Devices() const;
+  std::vector<FrameRecord> Frames() const;  // in id (acknowledgement) order
+  std::vector<BracketRecord> Brackets() const;
+  std::vector<EventRecord> Events() const;
+  std::vector<CalibrationRecord> Calibrations() const;
+
+  // Decodes a still or colour frame's pixels. Throws IoError when the file is missing or its
+  // checksum does not match (when verify_checksum).
+  CameraImage LoadImage(const FrameRecord& frame, bool verify_checksum = true) const;
+  // Depth in metres, NaN where there was no measurement.
+  cv::Mat LoadDepth(const FrameRecord& frame, bool verify_checksum = true) const;
+
+ private:
+  std::filesystem::path dir_;
+  std::unique_ptr<Database> db_;
+  SessionInfo info_;
+};
+
+}  // namespace relume::capture

@@ -1,0 +1,137 @@
+#include "capture/sqlite.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace relume::capture {
+
+Database::Database(const std::string& path, bool create) : path_(path) {
+  const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
+  if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw IoError(path, "cannot open the session database: " + message);
+  }
+  sqlite3_busy_timeout(db_, 5000);
+  sqlite3_extended_result_codes(db_, 1);
+}
+
+Database::~Database() {
+  sqlite3_close(db_);
+}
+
+void Database::Fail(const std::string& what) const {
+  const int code = sqlite3_extended_errcode(db_);
+  std::string message = what + ": " + sqlite3_errmsg(db_);
+  if ((code & 0xff) == SQLITE_FULL) message += " (the disk is full: free space, then run `relume session recover`)";
+  throw IoError(path_, message);
+}
+
+void Database::Exec(const std::string& sql) {
+  char* error = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
+    const std::string message = error ? error : "unknown error";
+    sqlite3_free(error);
+    Fail("SQL failed (" + sql.substr(0, 60) + "): " + message);
+  }
+}
+
+Statement Database::Prepare(const std::string& sql) {
+  return Statement(*this, sql);
+}
+
+std::int64_t Database::LastInsertId() const {
+  return sqlite3_last_insert_rowid(db_);
+}
+
+Statement::Statement(Database& db, const std::string& sql) : db_(&db) {
+  if (sqlite3_prepare_v2(db.db_, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) {
+    db.Fail("cannot prepare SQL (" + sql.substr(0, 60) + ")");
+  }
+}
+
+Statement::~Statement() {
+  sqlite3_finalize(stmt_);
+}
+
+Statement::Statement(Statement&& other) noexcept : db_(other.db_), stmt_(other.stmt_) {
+  other.stmt_ = nullptr;
+}
+
+Statement& Statement::Bind(int index, std::int64_t value) {
+  if (sqlite3_bind_int64(stmt_, index, value) != SQLITE_OK) db_->Fail("bind failed");
+  return *this;
+}
+
+Statement& Statement::Bind(int index, double value) {
+  if (std::isnan(value)) return BindNull(index);
+  if (sqlite3_bind_double(stmt_, index, value) != SQLITE_OK) db_->Fail("bind failed");
+  return *this;
+}
+
+Statement& Statement::Bind(int index, const std::string& value) {
+  if (sqlite3_bind_text(stmt_, index, value.data(), static_cast<int>(value.size()), SQLITE_TRANSIENT) != SQLITE_OK) {
+    db_->Fail("bind failed");
+  }
+  return *this;
+}
+
+Statement& Statement::BindNull(int index) {
+  if (sqlite3_bind_null(stmt_, index) != SQLITE_OK) db_->Fail("bind failed");
+  return *this;
+}
+
+bool Statement::Step() {
+  const int rc = sqlite3_step(stmt_);
+  if (rc == SQLITE_ROW) return true;
+  if (rc == SQLITE_DONE) return false;
+  db_->Fail("SQL step failed");
+}
+
+void Statement::Run() {
+  while (Step()) {
+  }
+  Reset();
+}
+
+void Statement::Reset() {
+  sqlite3_reset(stmt_);
+  sqlite3_clear_bindings(stmt_);
+}
+
+bool Statement::IsNull(int column) const {
+  return sqlite3_column_type(stmt_, column) == SQLITE_NULL;
+}
+std::int64_t Statement::Int(int column) const {
+  return sqlite3_column_int64(stmt_, column);
+}
+double Statement::Double(int column) const {
+  return IsNull(column) ? NAN : sqlite3_column_double(stmt_, column);
+}
+std::string Statement::Text(int column) const {
+  const unsigned char* text = sqlite3_column_text(stmt_, column);
+  return text ? std::string(reinterpret_cast<const char*>(text),
+                            static_cast<std::size_t>(sqlite3_column_bytes(stmt_, column)))
+              : std::string();
+}
+
+Transaction::Transaction(Database& db) : db_(db) {
+  db_.Exec("BEGIN IMMEDIATE");
+}
+
+Transaction::~Transaction() {
+  if (!done_) {
+    char* error = nullptr;
+    sqlite3_exec(db_.db_, "ROLLBACK", nullptr, nullptr, &error);
+    sqlite3_free(error);
+  }
+}
+
+void Transaction::Commit() {
+  db_.Exec("COMMIT");
+  done_ = true;
+}
+
+}  // namespace relume::capture
