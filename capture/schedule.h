@@ -18,7 +18,7 @@ struct ScheduleOptions {
   std::optional<UtcTime> start;                     // no trigger before (default: the first call's now)
   std::optional<UtcTime> end;                       // no trigger after
   double elevation_step_deg = 5.0;                  // kSunElevationStep
-  int count = 0;  // kCount: how many; for the other kinds a cap when > 0 (0 = none)
+  int count = 0;                                    // kCount: how many; for the other kinds a cap when > 0 (0 = none)
   bool IsValid(std::string* why) const;
 };
 const char* ToString(ScheduleOptions::Kind kind);

@@ -1,0 +1,373 @@
+#include "capture/recorder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <sstream>
+#include <thread>
+
+#include "core/error.h"
+
+namespace relume::capture {
+
+struct Recorder::StillDevice {
+  drivers::DeviceInfo info;
+  std::unique_ptr<drivers::StillCamera> camera;  // wrapped: retries inside reconnects
+  drivers::ExposureCapabilities caps;
+  double metering_time_s = 1e-3;  // shutter-list and continuous cameras
+  double metering_ev = 0.0;       // EV-only cameras
+};
+
+struct Recorder::RgbdDevice {
+  drivers::DeviceInfo info;
+  std::unique_ptr<drivers::RgbdSensor> sensor;
+  RgbdSensorOpener reopen;
+  drivers::RgbdStreamConfig config;
+  std::thread reader;
+  std::thread storer;
+  std::mutex queue_mutex;
+  std::condition_variable queue_ready;
+  std::deque<drivers::RgbdFrame> queue;
+  bool reader_done = false;
+};
+
+bool RecorderOptions::IsValid(std::string* why) const {
+  if (!schedule.IsValid(why) || !bracket.IsValid(why) || !retry.IsValid(why)) return false;
+  if (duration && *duration <= Nanoseconds{0}) {
+    if (why) *why = "duration must be positive";
+    return false;
+  }
+  if (max_dark_extensions < 0 || rgbd_queue_frames < 1) {
+    if (why) *why = "max_dark_extensions must be >= 0 and rgbd_queue_frames >= 1";
+    return false;
+  }
+  return true;
+}
+
+Recorder::Recorder(SessionWriter& writer, Clock& clock, const RecorderOptions& options)
+    : writer_(writer), clock_(clock), options_(options) {
+  ThrowIfInvalid(options_, "recorder options");
+}
+
+Recorder::~Recorder() {
+  for (auto& device : rgbds_) {
+    if (device->reader.joinable()) device->reader.join();
+    if (device->storer.joinable()) device->storer.join();
+  }
+}
+
+void Recorder::RecordEvent(const std::string& device_id, const std::string& type, const std::string& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (type == "fault" || type == "retry" || type == "gave_up") ++status_.faults;
+  if (storage_failed_) return;
+  try {
+    writer_.AddEvent({0, clock_.NowUtc(), clock_.NowMonotonic(), device_id, type, message});
+  } catch (const Error& e) {
+    storage_failed_ = true;
+    storage_message_ = e.what();
+  }
+}
+
+void Recorder::StorageFailed(const std::string& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!storage_failed_) storage_message_ = message;
+  storage_failed_ = true;
+}
+
+RecorderStatus Recorder::Snapshot() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  status_.bytes_written = writer_.bytes_written();
+  status_.now = clock_.NowUtc();
+  return status_;
+}
+
+namespace {
+double InitialMeteringTime(const drivers::ExposureCapabilities& caps) {
+  constexpr double kStart = 1.0 / 125;
+  if (caps.control == drivers::ExposureControl::kContinuous) {
+    return std::clamp(kStart, caps.min_exposure_time_s, caps.max_exposure_time_s);
+  }
+  if (caps.control == drivers::ExposureControl::kShutterList && !caps.shutter_speeds_s.empty()) {
+    return *std::min_element(caps.shutter_speeds_s.begin(), caps.shutter_speeds_s.end(), [](double a, double b) {
+      return std::abs(std::log(a / kStart)) < std::abs(std::log(b / kStart));
+    });
+  }
+  return kStart;
+}
+}  // namespace
+
+void Recorder::AddStillCamera(std::unique_ptr<drivers::StillCamera> camera, StillCameraOpener reopen) {
+  RELUME_CHECK(camera != nullptr);
+  auto device = std::make_unique<StillDevice>();
+  device->info = camera->info();
+  device->caps = camera->capabilities();
+  device->metering_time_s = InitialMeteringTime(device->caps);
+  const std::string id = device->info.FullId();
+  drivers::DeviceEventSink sink = [this, id](const drivers::DeviceEvent& event) {
+    RecordEvent(id, drivers::ToString(event.type),
+                std::string(drivers::ToString(event.error)) + " (attempt " + std::to_string(event.attempt) +
+                    "): " + event.message);
+  };
+  auto sleep = [this](Nanoseconds d) { clock_.SleepFor(d); };
+  auto reconnecting = std::make_unique<drivers::ReconnectingStillCamera>(
+      std::move(camera), [reopen]() { return reopen ? reopen() : nullptr; }, options_.retry, sink, sleep);
+  device->camera = std::make_unique<drivers::RetryingStillCamera>(std::move(reconnecting), options_.retry, sink, sleep);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    writer_.AddDevice(device->info);
+  }
+  stills_.push_back(std::move(device));
+}
+
+void Recorder::AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSensorOpener reopen,
+                             const drivers::RgbdStreamConfig& config) {
+  RELUME_CHECK(sensor != nullptr);
+  ThrowIfInvalid(config, "RGB-D stream config");
+  auto device = std::make_unique<RgbdDevice>();
+  device->info = sensor->info();
+  device->sensor = std::move(sensor);
+  device->reopen = std::move(reopen);
+  device->config = config;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    writer_.AddDevice(device->info);
+  }
+  rgbds_.push_back(std::move(device));
+}
+
+void Recorder::CaptureBracket(StillDevice& device) {
+  const std::string id = device.info.FullId();
+  const bool ev_only = device.caps.control == drivers::ExposureControl::kEvOnly;
+  // 1. Meter.
+  drivers::ExposureSettings metering_settings;
+  if (ev_only) {
+    metering_settings.ev_compensation = device.metering_ev;
+  } else {
+    metering_settings.exposure_time_s = device.metering_time_s;
+  }
+  MeteringStats metering;
+  try {
+    device.camera->Apply(metering_settings);
+    const drivers::StillFrame frame = device.camera->Capture();
+    metering = MeasureMeteringFrame(frame.image, 1.0, options_.bracket);
+  } catch (const drivers::DeviceError& e) {
+    RecordEvent(id, "fault", std::string("no metering frame, bracket skipped: ") + e.what());
+    return;
+  }
+  const BracketPlan plan =
+      PlanBracket(metering, device.caps, device.metering_time_s, device.metering_ev, options_.bracket);
+  std::ostringstream planned;
+  planned << plan.exposures.size() << " exposures (" << plan.reason << "):";
+  for (const PlannedExposure& e : plan.exposures) {
+    if (e.exposure_time_s) planned << " " << *e.exposure_time_s << " s";
+    if (e.ev_compensation) planned << " " << *e.ev_compensation << " EV";
+  }
+  RecordEvent(id, "plan", planned.str());
+
+  std::int64_t bracket_id = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    try {
+      bracket_id = writer_.BeginBracket(id, clock_.NowUtc(), static_cast<int>(plan.exposures.size()));
+    } catch (const Error& e) {
+      storage_failed_ = true;
+      storage_message_ = e.what();
+      return;
+    }
+  }
+  int index = 0;
+  std::string partial_reason;
+  auto capture_one = [&](const PlannedExposure& exposure) -> std::optional<drivers::StillFrame> {
+    try {
+      device.camera->Apply(exposure.Settings());
+      drivers::StillFrame frame = device.camera->Capture();
+      std::lock_guard<std::mutex> lock(mutex_);
+      writer_.WriteStillFrame(frame, bracket_id, index++);
+      ++status_.still_frames;
+      return frame;
+    } catch (const drivers::DeviceError& e) {
+      partial_reason = e.what();
+      RecordEvent(id, "fault", std::string("bracket interrupted: ") + e.what());
+    } catch (const IoError& e) {
+      StorageFailed(e.what());
+      partial_reason = std::string("storage failed: ") + e.what();
+    }
+    return std::nullopt;
+  };
+
+  for (std::size_t i = 0; i < plan.exposures.size() && partial_reason.empty(); ++i) {
+    const std::optional<drivers::StillFrame> frame = capture_one(plan.exposures[i]);
+    if (progress_) progress_(Snapshot());
+    if (!frame || i != 0) continue;
+    // Adaptive range: while the darkest frame clips, add darker ones.
+    PlannedExposure darkest = plan.exposures[0];
+    MeteringStats stats = MeasureMeteringFrame(frame->image, darkest.relative_exposure, options_.bracket);
+    for (int extension = 0; extension < options_.max_dark_extensions && partial_reason.empty(); ++extension) {
+      const std::optional<PlannedExposure> extra =
+          ExtendDarker(stats, darkest, device.caps, device.metering_time_s, device.metering_ev, options_.bracket);
+      if (!extra) break;
+      RecordEvent(id, "plan",
+                  "darkest frame clips: one more exposure at relative " + std::to_string(extra->relative_exposure));
+      const std::optional<drivers::StillFrame> extra_frame = capture_one(*extra);
+      if (!extra_frame) break;
+      darkest = *extra;
+      stats = MeasureMeteringFrame(extra_frame->image, darkest.relative_exposure, options_.bracket);
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++status_.brackets;
+    if (!partial_reason.empty()) ++status_.partial_brackets;
+    if (!storage_failed_) {
+      try {
+        writer_.EndBracket(bracket_id, partial_reason.empty() ? "complete" : "partial", partial_reason);
+      } catch (const Error& e) {
+        storage_failed_ = true;
+        storage_message_ = e.what();
+      }
+    }
+  }
+  // Meter the next bracket from the middle of this one.
+  const PlannedExposure& middle = plan.exposures[plan.exposures.size() / 2];
+  if (middle.exposure_time_s) device.metering_time_s = *middle.exposure_time_s;
+  if (middle.ev_compensation) device.metering_ev = *middle.ev_compensation;
+}
+
+void Recorder::RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop) {
+  const std::string id = device.info.FullId();
+  const Nanoseconds timeout = std::chrono::milliseconds(std::max(200, static_cast<int>(4000.0 / device.config.fps)));
+  bool started = false;
+  int reconnect_attempt = 0;
+  while (!stop && !storage_failed_) {
+    try {
+      if (!device.sensor) {
+        if (!device.reopen) break;
+        ++reconnect_attempt;
+        RecordEvent(id, "reconnect_attempt", "attempt " + std::to_string(reconnect_attempt));
+        clock_.SleepFor(options_.retry.BackoffAfter(std::min(reconnect_attempt, 10)));
+        device.sensor = device.reopen();
+        started = false;
+        if (!device.sensor) continue;
+        RecordEvent(id, "reconnected", "after " + std::to_string(reconnect_attempt) + " attempts");
+        reconnect_attempt = 0;
+      }
+      if (!started) {
+        device.sensor->Start(device.config);
+        started = true;
+      }
+      drivers::RgbdFrame frame = device.sensor->WaitForFrame(timeout);
+      std::lock_guard<std::mutex> lock(device.queue_mutex);
+      if (static_cast<int>(device.queue.size()) >= options_.rgbd_queue_frames) {
+        std::lock_guard<std::mutex> status_lock(mutex_);
+        ++status_.rgbd_dropped;
+        continue;
+      }
+      device.queue.push_back(std::move(frame));
+      device.queue_ready.notify_one();
+    } catch (const drivers::DeviceError& e) {
+      RecordEvent(id, "fault", e.what());
+      if (e.kind() == drivers::DeviceErrorKind::kDisconnected || e.kind() == drivers::DeviceErrorKind::kNotFound) {
+        device.sensor.reset();
+      }
+    }
+  }
+  if (device.sensor && started) {
+    try {
+      device.sensor->Stop();
+    } catch (const drivers::DeviceError& e) {
+      RecordEvent(id, "fault", std::string("stop failed: ") + e.what());
+    }
+  }
+  std::lock_guard<std::mutex> lock(device.queue_mutex);
+  device.reader_done = true;
+  device.queue_ready.notify_all();
+}
+
+RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
+                              const std::function<void(const RecorderStatus&)>& progress) {
+  progress_ = progress;
+  RecorderSummary summary;
+  const UtcTime start = clock_.NowUtc();
+  const bool has_end = options_.duration.has_value();
+  const UtcTime end = has_end ? start + *options_.duration : UtcTime::max();
+  RecordEvent("", "start", "recording started");
+
+  std::atomic<bool> stop_streams{false};
+  for (auto& device_ptr : rgbds_) {
+    RgbdDevice& device = *device_ptr;
+    device.reader = std::thread([this, &device, &stop_streams] { RgbdLoop(device, stop_streams); });
+    device.storer = std::thread([this, &device] {
+      while (true) {
+        std::unique_lock<std::mutex> lock(device.queue_mutex);
+        device.queue_ready.wait(lock, [&] { return !device.queue.empty() || device.reader_done; });
+        if (device.queue.empty()) return;
+        drivers::RgbdFrame frame = std::move(device.queue.front());
+        device.queue.pop_front();
+        lock.unlock();
+        if (storage_failed_) continue;  // drain without writing
+        try {
+          std::lock_guard<std::mutex> writer_lock(mutex_);
+          writer_.WriteRgbdFrame(frame);
+          ++status_.rgbd_frames;
+        } catch (const Error& e) {
+          StorageFailed(e.what());
+        }
+      }
+    });
+  }
+
+  const Schedule schedule(options_.schedule, writer_.site());
+  std::optional<UtcTime> previous;
+  int triggers = 0;
+  while (!stop && !storage_failed_) {
+    const UtcTime now = clock_.NowUtc();
+    if (has_end && now >= end) {
+      summary.stop_reason = "the requested duration has passed";
+      break;
+    }
+    std::optional<UtcTime> next = stills_.empty() ? std::nullopt : schedule.Next(now, previous, triggers);
+    if (!next && (rgbds_.empty() || !has_end)) {
+      summary.stop_reason = stills_.empty() ? "nothing to record" : "the schedule is complete";
+      break;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      status_.next_trigger = next;
+    }
+    const UtcTime wake = next ? std::min(*next, end) : end;
+    if (wake > now) {
+      clock_.SleepFor(std::min<Nanoseconds>(wake - now, std::chrono::seconds(10)));
+      if (progress) progress(Snapshot());
+      continue;
+    }
+    if (!next || *next > now) continue;
+    previous = now;
+    ++triggers;
+    for (auto& device : stills_) {
+      if (stop || storage_failed_) break;
+      CaptureBracket(*device);
+    }
+    if (progress) progress(Snapshot());
+  }
+  if (stop && summary.stop_reason.empty()) {
+    summary.stopped_by_user = true;
+    summary.stop_reason = "stopped by the operator";
+  }
+  stop_streams = true;
+  for (auto& device : rgbds_) {
+    if (device->reader.joinable()) device->reader.join();
+    if (device->storer.joinable()) device->storer.join();
+  }
+  if (storage_failed_) {
+    summary.storage_failed = true;
+    summary.stop_reason = "storage failed: " + storage_message_;
+  } else {
+    RecordEvent("", "stop", summary.stop_reason);
+  }
+  summary.status = Snapshot();
+  progress_ = nullptr;
+  return summary;
+}
+
+}  // namespace relume::capture
