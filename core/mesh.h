@@ -1,0 +1,36 @@
+// A triangle mesh in a scene frame (metres; ENU unless a name says otherwise).
+//
+// Conventions: triangles wind counter-clockwise seen from the side their normal points to;
+// per-vertex normals are unit length; albedo (when present) is linear-sRGB Lambertian
+// reflectance per vertex.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace relume {
+
+struct TriangleMesh {
+  std::vector<Eigen::Vector3f> positions;
+  std::vector<Eigen::Vector3i> triangles;
+  std::vector<Eigen::Vector3f> normals;  // per vertex; empty until computed
+  std::vector<Eigen::Vector3f> albedo;   // per vertex; optional
+
+  std::size_t vertex_count() const { return positions.size(); }
+  std::size_t triangle_count() const { return triangles.size(); }
+  // False (with the reason) for out-of-range indices, NaN positions or size mismatches.
+  bool IsValid(std::string* why) const;
+  // Area-weighted vertex normals from the triangles' winding.
+  void ComputeVertexNormals();
+  // Appends another mesh (indices shifted).
+  void Append(const TriangleMesh& other);
+};
+
+// Building blocks for procedural scenes and tests, with outward normals and `subdivisions`
+// splits per edge (so that vertices sample surfaces densely).
+TriangleMesh MakeQuad(const Eigen::Vector3f& origin, const Eigen::Vector3f& edge_u, const Eigen::Vector3f& edge_v,
+                      int subdivisions);
+TriangleMesh MakeBox(const Eigen::Vector3f& min_corner, const Eigen::Vector3f& max_corner, int subdivisions);
+
+}  // namespace relume

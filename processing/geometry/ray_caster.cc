@@ -1,0 +1,180 @@
+#include "processing/geometry/ray_caster.h"
+
+#include <embree3/rtcore.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "core/error.h"
+
+namespace relume {
+
+struct RayCaster::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+RayCaster::RayCaster(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>()), mesh_(mesh) {
+  std::string why;
+  if (!mesh.IsValid(&why)) throw InvalidArgumentError("ray caster: invalid mesh: " + why);
+  impl_->device = rtcNewDevice("threads=1");
+  RELUME_CHECK_MSG(impl_->device != nullptr, "Embree device creation failed");
+  impl_->scene = rtcNewScene(impl_->device);
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  // Shared buffers: Embree reads one float beyond the last vertex, so copy into padded storage.
+  float* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                                3 * sizeof(float), mesh.vertex_count()));
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = -lo;
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    for (int k = 0; k < 3; ++k) vertices[3 * i + static_cast<std::size_t>(k)] = mesh.positions[i][k];
+    lo = lo.cwiseMin(mesh.positions[i]);
+    hi = hi.cwiseMax(mesh.positions[i]);
+  }
+  unsigned* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangle_count()));
+  for (std::size_t i = 0; i < mesh.triangle_count(); ++i) {
+    for (int k = 0; k < 3; ++k)
+      indices[3 * i + static_cast<std::size_t>(k)] = static_cast<unsigned>(mesh.triangles[i][k]);
+  }
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(impl_->scene, geometry);
+  rtcReleaseGeometry(geometry);
+  rtcCommitScene(impl_->scene);
+  if (mesh.vertex_count() > 0) epsilon_ = std::max(1e-6f, 1e-5f * (hi - lo).norm());
+}
+
+RayCaster::~RayCaster() = default;
+
+namespace {
+void FillRay(RTCRay& ray, const Eigen::Vector3f& o, const Eigen::Vector3f& d, float t_near, float t_far) {
+  ray.org_x = o.x();
+  ray.org_y = o.y();
+  ray.org_z = o.z();
+  ray.dir_x = d.x();
+  ray.dir_y = d.y();
+  ray.dir_z = d.z();
+  ray.tnear = t_near;
+  ray.tfar = t_far;
+  ray.time = 0.0f;
+  ray.mask = 0xFFFFFFFFu;
+  ray.id = 0;
+  ray.flags = 0;
+}
+}  // namespace
+
+RayCaster::Hit RayCaster::Intersect(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float t_near,
+                                    float t_far) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rayhit;
+  FillRay(rayhit.ray, origin, direction, t_near, t_far);
+  rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rayhit.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &context, &rayhit);
+  Hit hit;
+  if (rayhit.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+    hit.valid = true;
+    hit.t = rayhit.ray.tfar;
+    hit.triangle = static_cast<int>(rayhit.hit.primID);
+    hit.u = rayhit.hit.u;
+    hit.v = rayhit.hit.v;
+  }
+  return hit;
+}
+
+bool RayCaster::Occluded(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float t_near,
+                         float t_far) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray;
+  FillRay(ray, origin, direction, t_near, t_far);
+  rtcOccluded1(impl_->scene, &context, &ray);
+  return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
+}
+
+void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, int count, std::span<Hit> hits) const {
+  RELUME_CHECK(static_cast<int>(hits.size()) >= count);
+  const Eigen::Matrix3f rotation = camera.world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f eye = camera.world_from_camera.translation().cast<float>();
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  for (int start = 0; start < count; start += 16) {
+    alignas(64) RTCRayHit16 packet;
+    alignas(64) int valid[16];
+    for (int i = 0; i < 16; ++i) {
+      const int x = x0 + start + i;
+      valid[i] = start + i < count ? -1 : 0;
+      const Eigen::Vector3f d = rotation * camera.intrinsics.Unproject({x + 0.5, y + 0.5}).cast<float>().normalized();
+      packet.ray.org_x[i] = eye.x();
+      packet.ray.org_y[i] = eye.y();
+      packet.ray.org_z[i] = eye.z();
+      packet.ray.dir_x[i] = d.x();
+      packet.ray.dir_y[i] = d.y();
+      packet.ray.dir_z[i] = d.z();
+      packet.ray.tnear[i] = 0.0f;
+      packet.ray.tfar[i] = std::numeric_limits<float>::infinity();
+      packet.ray.time[i] = 0.0f;
+      packet.ray.mask[i] = 0xFFFFFFFFu;
+      packet.ray.id[i] = static_cast<unsigned>(i);
+      packet.ray.flags[i] = 0;
+      packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect16(valid, impl_->scene, &context, &packet);
+    for (int i = 0; i < 16 && start + i < count; ++i) {
+      Hit& hit = hits[static_cast<std::size_t>(start + i)];
+      hit = Hit{};
+      if (packet.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID) {
+        hit.valid = true;
+        hit.t = packet.ray.tfar[i];
+        hit.triangle = static_cast<int>(packet.hit.primID[i]);
+        hit.u = packet.hit.u[i];
+        hit.v = packet.hit.v[i];
+      }
+    }
+  }
+}
+
+float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                         const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples) {
+  RELUME_CHECK(samples >= 1);
+  const Eigen::Vector3f origin = point + normal * (2.0f * caster.epsilon());
+  // Orthonormal frame around the sun direction.
+  const Eigen::Vector3f w = sun_dir.normalized();
+  const Eigen::Vector3f helper = std::abs(w.z()) < 0.9f ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
+  const Eigen::Vector3f u = w.cross(helper).normalized();
+  const Eigen::Vector3f v = w.cross(u);
+  const float tan_radius = std::tan(angular_radius_rad);
+  // Stratified samples on the disk: rings of equal area, evenly spread angles (deterministic).
+  const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(samples)))));
+  // Rays start a little off the surface and skip their first few epsilons, so that a point
+  // where two surfaces meet (a wall's foot on the ground) does not shadow itself.
+  const float t_near = 4.0f * caster.epsilon();
+  if (samples == 1) {
+    if (w.dot(normal) <= 0.0f) return 0.0f;
+    return caster.Occluded(origin, w, t_near, std::numeric_limits<float>::infinity()) ? 0.0f : 1.0f;
+  }
+  int visible = 0, total = 0;
+  for (int s = 0; s < samples; ++s) {
+    const int ring = s % rings;
+    const int k = s / rings;
+    const int per_ring = (samples + rings - 1) / rings;
+    const float r = tan_radius * std::sqrt((ring + 0.5f) / rings);
+    const float phi = 2.0f * std::numbers::pi_v<float> * (k + 0.5f * (ring % 2)) / per_ring;
+    const Eigen::Vector3f d = (w + u * (r * std::cos(phi)) + v * (r * std::sin(phi))).normalized();
+    ++total;
+    if (d.dot(normal) <= 0.0f) continue;  // this part of the disk is behind the surface
+    if (!caster.Occluded(origin, d, t_near, std::numeric_limits<float>::infinity())) ++visible;
+  }
+  return static_cast<float>(visible) / static_cast<float>(total);
+}
+
+}  // namespace relume

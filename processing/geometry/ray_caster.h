@@ -1,0 +1,64 @@
+// Ray casting against a triangle mesh with Embree 3: the visibility, shadow and camera rays
+// of the processing stages. Thread-safe after construction (Embree's committed scenes are).
+//
+// Conventions: rays in the mesh's frame, metres; directions need not be normalised for
+// Occluded (t is in units of the direction's length) but Hit::t is a distance when they are.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/pinhole.h"
+
+namespace relume {
+
+class RayCaster {
+ public:
+  // The mesh must outlive the caster (its buffers are shared with Embree).
+  explicit RayCaster(const TriangleMesh& mesh);
+  ~RayCaster();
+  RayCaster(const RayCaster&) = delete;
+  RayCaster& operator=(const RayCaster&) = delete;
+
+  struct Hit {
+    bool valid = false;
+    float t = 0.0f;
+    int triangle = -1;
+    float u = 0.0f;  // barycentric weight of the triangle's vertex 1
+    float v = 0.0f;  // ... of vertex 2 (vertex 0 has 1 - u - v)
+  };
+  Hit Intersect(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float t_near, float t_far) const;
+  bool Occluded(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float t_near, float t_far) const;
+
+  // First hits of the camera rays through the centres of pixels [x0, x0+count) of row y, in
+  // packets of 16 (coherent rays are several times faster than single rays).
+  void IntersectCameraRow(const PinholeCamera& camera, int y, int x0, int count, std::span<Hit> hits) const;
+
+  // Interpolates a per-vertex attribute at a hit.
+  template <typename T>
+  T Interpolate(const std::vector<T>& per_vertex, const Hit& hit) const {
+    const Eigen::Vector3i& tri = mesh_.triangles[static_cast<std::size_t>(hit.triangle)];
+    return per_vertex[static_cast<std::size_t>(tri[0])] * (1.0f - hit.u - hit.v) +
+           per_vertex[static_cast<std::size_t>(tri[1])] * hit.u + per_vertex[static_cast<std::size_t>(tri[2])] * hit.v;
+  }
+  const TriangleMesh& mesh() const { return mesh_; }
+  // A length scale for ray offsets (1e-5 of the mesh's bounding box diagonal).
+  float epsilon() const { return epsilon_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  const TriangleMesh& mesh_;
+  float epsilon_ = 1e-4f;
+};
+
+// Fraction of the sun's disk visible from `point` (offset along `normal` to avoid self-hits):
+// `samples` stratified directions over a disk of `angular_radius_rad` around `sun_dir`.
+// 0 when the sun is behind the surface.
+float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                         const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples);
+
+}  // namespace relume

@@ -1,0 +1,64 @@
+#include "processing/geometry/ray_caster.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace relume {
+namespace {
+
+TEST(RayCasterTest, HitsAndMisses) {
+  const TriangleMesh ground = MakeQuad({-5, -5, 0}, {10, 0, 0}, {0, 10, 0}, 4);
+  const RayCaster caster(ground);
+  const RayCaster::Hit hit = caster.Intersect({1, 2, 3}, {0, 0, -1}, 0, 100);
+  ASSERT_TRUE(hit.valid);
+  EXPECT_NEAR(hit.t, 3.0f, 1e-5f);
+  EXPECT_NEAR(caster.Interpolate(ground.positions, hit).x(), 1.0f, 1e-5f);
+  EXPECT_FALSE(caster.Intersect({1, 2, 3}, {0, 0, 1}, 0, 100).valid);
+  EXPECT_TRUE(caster.Occluded({0, 0, 1}, {0, 0, -1}, 0, 2));
+  EXPECT_FALSE(caster.Occluded({0, 0, 1}, {0, 0, -1}, 0, 0.5f));
+}
+
+TEST(RayCasterTest, CameraRowsMatchSingleRays) {
+  const TriangleMesh box = MakeBox({-1, -1, 0}, {1, 1, 2}, 3);
+  const RayCaster caster(box);
+  const PinholeCamera camera =
+      PinholeCamera::LookAt(PinholeIntrinsics::FromHorizontalFov(37, 20, 1.0), {6, -5, 3}, {0, 0, 1});
+  std::vector<RayCaster::Hit> row(37);
+  caster.IntersectCameraRow(camera, 10, 0, 37, row);
+  int hits = 0;
+  for (int x = 0; x < 37; ++x) {
+    const Eigen::Vector3f d =
+        (camera.world_from_camera.linear() * camera.intrinsics.Unproject({x + 0.5, 10.5})).cast<float>().normalized();
+    const RayCaster::Hit single =
+        caster.Intersect(camera.world_from_camera.translation().cast<float>(), d, 0, INFINITY);
+    ASSERT_EQ(single.valid, row[static_cast<std::size_t>(x)].valid) << x;
+    if (single.valid) {
+      ++hits;
+      EXPECT_NEAR(single.t, row[static_cast<std::size_t>(x)].t, 1e-4f);
+    }
+  }
+  EXPECT_GT(hits, 5);
+}
+
+TEST(RayCasterTest, SunFractionAcrossAShadowEdge) {
+  // A wall 10 m tall casts a shadow; the penumbra at distance d from its top edge is
+  // d * 0.533 deg wide. Fractions go 1 -> 0 across it.
+  TriangleMesh scene = MakeQuad({-50, -50, 0}, {100, 0, 0}, {0, 100, 0}, 2);
+  scene.Append(
+      MakeQuad({-50, 0, 0}, {0, 0, 10}, {100, 0, 0}, 1));  // wall in the plane y = 0 facing -y... both sides cast
+  const RayCaster caster(scene);
+  const float elevation = 45.0f * 3.14159265f / 180.0f;
+  const Eigen::Vector3f sun(0, std::cos(elevation), std::sin(elevation));  // sun due north
+  const float radius = 0.5f * 0.533f * 3.14159265f / 180.0f;
+  // The shadow edge on the ground is at y = -10 (45 deg); the penumbra there is about
+  // 14.1 m * 0.0093 rad / sin(45) = 0.19 m wide.
+  EXPECT_NEAR(SunVisibleFraction(caster, {0, -9.5f, 0}, {0, 0, 1}, sun, radius, 64), 0.0f, 1e-6f);
+  EXPECT_NEAR(SunVisibleFraction(caster, {0, -10.5f, 0}, {0, 0, 1}, sun, radius, 64), 1.0f, 1e-6f);
+  const float middle = SunVisibleFraction(caster, {0, -10.0f, 0}, {0, 0, 1}, sun, radius, 64);
+  EXPECT_GT(middle, 0.3f);
+  EXPECT_LT(middle, 0.7f);
+}
+
+}  // namespace
+}  // namespace relume

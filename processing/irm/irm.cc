@@ -1,0 +1,419 @@
+#include "processing/irm/irm.h"
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace relume::irm {
+
+namespace {
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+float SignNotZero(float v) {
+  return v >= 0.0f ? 1.0f : -1.0f;
+}
+float SkyFactor(const Eigen::Vector3f& n) {
+  return 0.5f * (1.0f + n.z());
+}
+
+enum class State { kLit, kShadow, kPenumbra };
+State Classify(float fraction, const IrmOptions& o) {
+  if (fraction >= o.lit_threshold) return State::kLit;
+  if (fraction <= o.shadow_threshold) return State::kShadow;
+  return State::kPenumbra;
+}
+MapKind KindOf(State source, State target) {
+  if (source == State::kLit) return target == State::kLit ? MapKind::kLitToLit : MapKind::kLitToShadow;
+  return target == State::kLit ? MapKind::kShadowToLit : MapKind::kShadowToShadow;
+}
+bool Finite(const Eigen::Vector3f& v) {
+  return v.allFinite();
+}
+}  // namespace
+
+const char* ToString(MapKind kind) {
+  switch (kind) {
+    case MapKind::kLitToLit: return "lit_to_lit";
+    case MapKind::kShadowToShadow: return "shadow_to_shadow";
+    case MapKind::kLitToShadow: return "lit_to_shadow";
+    case MapKind::kShadowToLit: return "shadow_to_lit";
+  }
+  return "unknown";
+}
+
+const char* ToString(FillMethod method) {
+  switch (method) {
+    case FillMethod::kNone: return "none";
+    case FillMethod::kSmoothing: return "smoothing";
+    case FillMethod::kSunSkyModel: return "sun_sky_model";
+  }
+  return "unknown";
+}
+
+bool IrmOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* reason) {
+    if (why) *why = reason;
+    return false;
+  };
+  if (bins < 2 || bins > 1024) return fail("bins must be within 2..1024");
+  if (!(shadow_threshold >= 0.0f && shadow_threshold < lit_threshold && lit_threshold <= 1.0f)) {
+    return fail("need 0 <= shadow_threshold < lit_threshold <= 1");
+  }
+  if (min_samples_per_bin < 1) return fail("min_samples_per_bin must be >= 1");
+  if (!(trim_fraction >= 0.0f && trim_fraction < 0.5f)) return fail("trim_fraction must be in [0, 0.5)");
+  if (!(min_source_radiance > 0.0f)) return fail("min_source_radiance must be positive");
+  if (!(smoothing_sigma_rad > 0.0f && smoothing_sigma_rad < 3.2f)) return fail("smoothing sigma must be in (0, pi]");
+  return true;
+}
+
+Eigen::Vector2f OctahedralFromDirection(const Eigen::Vector3f& direction) {
+  const Eigen::Vector3f n = direction / direction.cwiseAbs().sum();
+  Eigen::Vector2f p(n.x(), n.y());
+  if (n.z() < 0.0f) {
+    p = Eigen::Vector2f((1.0f - std::abs(n.y())) * SignNotZero(n.x()), (1.0f - std::abs(n.x())) * SignNotZero(n.y()));
+  }
+  return (p + Eigen::Vector2f::Ones()) * 0.5f;
+}
+
+Eigen::Vector3f DirectionFromOctahedral(const Eigen::Vector2f& uv) {
+  const Eigen::Vector2f p = uv * 2.0f - Eigen::Vector2f::Ones();
+  Eigen::Vector3f n(p.x(), p.y(), 1.0f - std::abs(p.x()) - std::abs(p.y()));
+  if (n.z() < 0.0f) {
+    const float x = n.x();
+    n.x() = (1.0f - std::abs(n.y())) * SignNotZero(x);
+    n.y() = (1.0f - std::abs(x)) * SignNotZero(n.y());
+  }
+  return n.normalized();
+}
+
+int RatioMap::BinOf(const Eigen::Vector3f& normal) const {
+  const Eigen::Vector2f uv = OctahedralFromDirection(normal);
+  const int i = std::clamp(static_cast<int>(uv.x() * static_cast<float>(bins)), 0, bins - 1);
+  const int j = std::clamp(static_cast<int>(uv.y() * static_cast<float>(bins)), 0, bins - 1);
+  return j * bins + i;
+}
+
+Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal) const {
+  const Eigen::Vector2f uv =
+      OctahedralFromDirection(normal) * static_cast<float>(bins) - Eigen::Vector2f::Constant(0.5f);
+  const int i0 = static_cast<int>(std::floor(uv.x())), j0 = static_cast<int>(std::floor(uv.y()));
+  const float fx = uv.x() - static_cast<float>(i0), fy = uv.y() - static_cast<float>(j0);
+  // Measured bins first: filled values (smoothing, model) only where no measured neighbour is.
+  for (const bool measured_only : {true, false}) {
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    float weight = 0.0f;
+    for (int dj = 0; dj <= 1; ++dj) {
+      for (int di = 0; di <= 1; ++di) {
+        const int i = std::clamp(i0 + di, 0, bins - 1), j = std::clamp(j0 + dj, 0, bins - 1);
+        const std::size_t b = static_cast<std::size_t>(j * bins + i);
+        if (!ratio[b].allFinite() || (measured_only && source[b] != 1)) continue;
+        const float w = std::max(1e-4f, (di ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy));
+        sum += w * ratio[b];
+        weight += w;
+      }
+    }
+    if (weight > 0.0f) return sum / weight;
+  }
+  return ratio[static_cast<std::size_t>(BinOf(normal))];
+}
+
+int RatioMap::measured_bins() const {
+  return static_cast<int>(std::count(source.begin(), source.end(), std::uint8_t{1}));
+}
+
+Eigen::Vector3f SunSkyModel::Ratio(const Eigen::Vector3f& n, float source_sun, float target_sun) const {
+  if (!valid) return Eigen::Vector3f::Constant(kNaN);
+  const float h = SkyFactor(n);
+  const float a_s = source_sun * std::max(0.0f, n.dot(sun_dir_source));
+  const float a_t = target_sun * std::max(0.0f, n.dot(sun_dir_target));
+  Eigen::Vector3f ratio;
+  for (int c = 0; c < 3; ++c) {
+    const float source = sun_source[c] * a_s + h;
+    const float target = sun_target[c] * a_t + sky_target[c] * h;
+    ratio[c] = source > 1e-6f ? target / source : kNaN;  // a downward normal sees neither sun nor sky
+  }
+  return ratio;
+}
+
+namespace {
+
+Eigen::Vector3f TrimmedMean(std::vector<Eigen::Vector3f>& values, float trim) {
+  Eigen::Vector3f mean;
+  std::vector<float> channel(values.size());
+  for (int c = 0; c < 3; ++c) {
+    for (std::size_t i = 0; i < values.size(); ++i) channel[i] = values[i][c];
+    std::sort(channel.begin(), channel.end());
+    const std::size_t drop = static_cast<std::size_t>(trim * static_cast<float>(channel.size()));
+    double sum = 0.0;
+    for (std::size_t i = drop; i < channel.size() - drop; ++i) sum += channel[i];
+    mean[c] = static_cast<float>(sum / static_cast<double>(channel.size() - 2 * drop));
+  }
+  return mean;
+}
+
+// Fits the model to the measured bins (robust means, so sampling noise is averaged out
+// first), each bin a row weighted by the square root of its sample count.
+SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> counts, const Eigen::Vector3f& sun_s,
+                     const Eigen::Vector3f& sun_t) {
+  SunSkyModel model;
+  model.sun_dir_source = sun_s.normalized();
+  model.sun_dir_target = sun_t.normalized();
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (SkyFactor(samples[i].normal) > 0.05f) rows.push_back(i);
+  }
+  if (rows.size() < 4) {
+    model.reason = "fewer than 4 measured bins";
+    return model;
+  }
+  double squared = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    Eigen::MatrixXd a(static_cast<Eigen::Index>(rows.size()), 3);
+    Eigen::VectorXd b(static_cast<Eigen::Index>(rows.size()));
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const Sample& s = samples[rows[r]];
+      const double ratio = s.target_rgb[c] / s.source_rgb[c];
+      const double h = SkyFactor(s.normal);
+      const double a_s = s.source_sun * std::max(0.0f, s.normal.dot(model.sun_dir_source));
+      const double a_t = s.target_sun * std::max(0.0f, s.normal.dot(model.sun_dir_target));
+      // Unknowns (S_s, S_t, K_t): S_t a_t + K_t h - ratio a_s S_s = ratio h, divided by
+      // ratio * h so that every row weighs its relative error.
+      const double w = std::sqrt(counts[rows[r]]) / (ratio * h);
+      const auto row = static_cast<Eigen::Index>(r);
+      a(row, 0) = -ratio * a_s * w;
+      a(row, 1) = a_t * w;
+      a(row, 2) = h * w;
+      b(row) = std::sqrt(counts[rows[r]]);
+    }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+    qr.setThreshold(1e-8);
+    if (qr.rank() < 3) {
+      model.reason = "the samples cannot separate sun from sky (rank " + std::to_string(qr.rank()) +
+                     "): too few normals facing the sun in one of the photographs";
+      return model;
+    }
+    // Sun and sky separate only when the normals and shadow states vary enough: a badly
+    // conditioned fit extrapolates wildly, so refuse it (the maps and smoothing remain).
+    const Eigen::VectorXd column_norms = a.colwise().norm().transpose().cwiseMax(1e-300);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(a * column_norms.cwiseInverse().asDiagonal());
+    const double condition = svd.singularValues()(0) / std::max(1e-300, svd.singularValues()(2));
+    model.condition_number = std::max(model.condition_number, condition);
+    if (condition > 1e3) {
+      model.reason = "sun and sky are not separable from these samples (condition number " +
+                     std::to_string(condition).substr(0, 8) + "): too few distinct normals or shadow states";
+      return model;
+    }
+    const Eigen::Vector3d x = qr.solve(b);
+    if (!(x.allFinite() && x[0] >= -1e-6 && x[1] >= -1e-6 && x[2] > 0.0)) {
+      model.reason = "the fit is not physical (negative sun or sky)";
+      return model;
+    }
+    model.sun_source[c] = static_cast<float>(std::max(0.0, x[0]));
+    model.sun_target[c] = static_cast<float>(std::max(0.0, x[1]));
+    model.sky_target[c] = static_cast<float>(x[2]);
+    squared += (a * x - b).squaredNorm();
+  }
+  model.valid = true;
+  double total = 0.0;
+  for (std::size_t r : rows) total += counts[r];
+  model.rms_relative_residual = std::sqrt(squared / (3.0 * total));
+  return model;
+}
+
+void FillBySmoothing(RatioMap& map, float sigma) {
+  std::vector<Eigen::Vector3f> centres(map.ratio.size());
+  for (int j = 0; j < map.bins; ++j) {
+    for (int i = 0; i < map.bins; ++i) {
+      centres[static_cast<std::size_t>(j * map.bins + i)] =
+          DirectionFromOctahedral({(i + 0.5f) / map.bins, (j + 0.5f) / map.bins});
+    }
+  }
+  std::vector<Eigen::Vector3f> filled = map.ratio;
+  for (std::size_t e = 0; e < map.ratio.size(); ++e) {
+    if (map.source[e] != 0) continue;
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    float weight = 0.0f;
+    for (std::size_t m = 0; m < map.ratio.size(); ++m) {
+      if (map.source[m] != 1) continue;
+      const float angle = std::acos(std::clamp(centres[e].dot(centres[m]), -1.0f, 1.0f));
+      const float w = static_cast<float>(map.count[m]) * std::exp(-0.5f * angle * angle / (sigma * sigma));
+      sum += w * map.ratio[m];
+      weight += w;
+    }
+    if (weight > 1e-6f) {
+      filled[e] = sum / weight;
+      map.source[e] = 2;
+    }
+  }
+  map.ratio = std::move(filled);
+}
+
+}  // namespace
+
+IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,
+                 const Eigen::Vector3f& sun_dir_target, const IrmOptions& options) {
+  ThrowIfInvalid(options, "IRM options");
+  IrmSet set;
+  set.lit_threshold = options.lit_threshold;
+  set.shadow_threshold = options.shadow_threshold;
+  const std::size_t bin_count = static_cast<std::size_t>(options.bins * options.bins);
+  std::array<std::vector<std::vector<Eigen::Vector3f>>, 4> per_bin;
+  std::array<std::vector<Eigen::Vector3f>, 4> normal_sum;
+  for (int k = 0; k < 4; ++k) {
+    set.maps[static_cast<std::size_t>(k)].bins = options.bins;
+    set.maps[static_cast<std::size_t>(k)].ratio.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
+    set.maps[static_cast<std::size_t>(k)].count.assign(bin_count, 0);
+    set.maps[static_cast<std::size_t>(k)].source.assign(bin_count, 0);
+    per_bin[static_cast<std::size_t>(k)].resize(bin_count);
+    normal_sum[static_cast<std::size_t>(k)].assign(bin_count, Eigen::Vector3f::Zero());
+  }
+  bool any_shadow = false;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const Sample& s = samples[i];
+    if (!Finite(s.normal) || !Finite(s.source_rgb) || !Finite(s.target_rgb) ||
+        s.source_rgb.minCoeff() < options.min_source_radiance || s.target_rgb.minCoeff() < 0.0f) {
+      ++set.samples_too_dark;
+      continue;
+    }
+    const State source = Classify(s.source_sun, options);
+    const State target = Classify(s.target_sun, options);
+    if (source == State::kPenumbra || target == State::kPenumbra) {
+      ++set.samples_in_penumbra;
+      continue;
+    }
+    const MapKind kind = KindOf(source, target);
+    any_shadow = any_shadow || kind != MapKind::kLitToLit;
+    RatioMap& map = set.maps[static_cast<std::size_t>(kind)];
+    const auto bin = static_cast<std::size_t>(map.BinOf(s.normal.normalized()));
+    per_bin[static_cast<std::size_t>(kind)][bin].push_back(s.target_rgb.cwiseQuotient(s.source_rgb));
+    normal_sum[static_cast<std::size_t>(kind)][bin] += s.normal.normalized();
+    ++set.samples_used;
+  }
+  for (int k = 0; k < 4; ++k) {
+    RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    for (std::size_t b = 0; b < bin_count; ++b) {
+      auto& values = per_bin[static_cast<std::size_t>(k)][b];
+      map.count[b] = static_cast<int>(values.size());
+      if (static_cast<int>(values.size()) >= options.min_samples_per_bin) {
+        map.ratio[b] = TrimmedMean(values, options.trim_fraction);
+        map.source[b] = 1;
+      }
+    }
+  }
+  set.single_map = !any_shadow;
+  // One row per measured bin: its mean normal, its robust ratio, its pure sun states.
+  std::vector<Sample> bin_rows;
+  std::vector<double> bin_counts;
+  for (int k = 0; k < 4; ++k) {
+    const RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    const auto kind = static_cast<MapKind>(k);
+    for (std::size_t b = 0; b < bin_count; ++b) {
+      if (map.source[b] != 1) continue;
+      Sample row;
+      row.normal = normal_sum[static_cast<std::size_t>(k)][b].normalized();
+      row.source_rgb = Eigen::Vector3f::Ones();
+      row.target_rgb = map.ratio[b];
+      row.source_sun = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
+      row.target_sun = (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
+      bin_rows.push_back(row);
+      bin_counts.push_back(map.count[b]);
+    }
+  }
+  set.model = FitModel(bin_rows, bin_counts, sun_dir_source, sun_dir_target);
+  if (!set.model.valid || set.model.rms_relative_residual > 0.01) {
+    // Bin means smear the ratio across a bin; with exact data the samples themselves fit
+    // better. Keep whichever explains the data best.
+    std::vector<Sample> usable_samples;
+    for (const Sample& s : samples) {
+      if (Finite(s.normal) && Finite(s.source_rgb) && Finite(s.target_rgb) &&
+          s.source_rgb.minCoeff() >= options.min_source_radiance && s.target_rgb.minCoeff() >= 0.0f &&
+          Classify(s.source_sun, options) != State::kPenumbra && Classify(s.target_sun, options) != State::kPenumbra) {
+        usable_samples.push_back(s);
+      }
+    }
+    const std::vector<double> ones(usable_samples.size(), 1.0);
+    SunSkyModel per_sample = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target);
+    if (per_sample.valid && (!set.model.valid || per_sample.rms_relative_residual < set.model.rms_relative_residual)) {
+      set.model = per_sample;
+    }
+  }
+
+  const int map_count = set.single_map ? 1 : 4;
+  for (int k = 0; k < map_count; ++k) {
+    RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    if (options.fill == FillMethod::kSunSkyModel && set.model.valid) {
+      const auto kind = static_cast<MapKind>(k);
+      const float fs = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
+      const float ft = (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
+      for (std::size_t b = 0; b < bin_count; ++b) {
+        if (map.source[b] != 0) continue;
+        const int i = static_cast<int>(b) % options.bins;
+        const int j = static_cast<int>(b) / options.bins;
+        const Eigen::Vector3f ratio =
+            set.model.Ratio(DirectionFromOctahedral({(i + 0.5f) / options.bins, (j + 0.5f) / options.bins}), fs, ft);
+        if (Finite(ratio)) {
+          map.ratio[b] = ratio;
+          map.source[b] = 3;
+        }
+      }
+    } else if (options.fill != FillMethod::kNone) {
+      FillBySmoothing(map, options.smoothing_sigma_rad);
+    }
+  }
+
+  std::ostringstream summary;
+  if (set.single_map) {
+    summary << "one IRM (lit to lit): no sample is in cast shadow in either photograph";
+  } else {
+    summary << "four IRMs";
+  }
+  summary << "; " << set.samples_used << " samples";
+  for (int k = 0; k < map_count; ++k) {
+    summary << ", " << ToString(static_cast<MapKind>(k)) << " " << set.maps[static_cast<std::size_t>(k)].measured_bins()
+            << " bins";
+  }
+  summary << "; " << set.samples_in_penumbra << " in penumbra, " << set.samples_too_dark << " too dark";
+  summary << "; sun+sky model "
+          << (set.model.valid ? "fitted (rms " + std::to_string(set.model.rms_relative_residual) + ")"
+                              : "not used: " + set.model.reason);
+  set.summary = summary.str();
+  return set;
+}
+
+Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const {
+  auto at = [&](MapKind kind) { return maps[static_cast<std::size_t>(kind)].Interpolate(normal); };
+  if (single_map) {
+    const Eigen::Vector3f r = at(MapKind::kLitToLit);
+    return Finite(r) ? r : model.Ratio(normal, source_sun, target_sun);
+  }
+  // Pure states read their own map; penumbrae blend exactly through the shadow maps (see the
+  // top of irm.h).
+  const bool source_lit = source_sun >= lit_threshold, source_shadow = source_sun <= shadow_threshold;
+  const bool target_lit = target_sun >= lit_threshold, target_shadow = target_sun <= shadow_threshold;
+  if ((source_lit || source_shadow) && (target_lit || target_shadow)) {
+    const MapKind kind = source_lit ? (target_lit ? MapKind::kLitToLit : MapKind::kLitToShadow)
+                                    : (target_lit ? MapKind::kShadowToLit : MapKind::kShadowToShadow);
+    const Eigen::Vector3f r = at(kind);
+    if (Finite(r)) return r;
+  }
+  const Eigen::Vector3f r_ss = at(MapKind::kShadowToShadow);
+  const Eigen::Vector3f r_ls = at(MapKind::kLitToShadow);
+  const Eigen::Vector3f r_sl = at(MapKind::kShadowToLit);
+  if (Finite(r_ss) && Finite(r_ls) && Finite(r_sl) && r_ss.minCoeff() > 0.0f && r_ls.minCoeff() > 0.0f) {
+    const float fs = std::clamp(source_sun, 0.0f, 1.0f);
+    const float ft = std::clamp(target_sun, 0.0f, 1.0f);
+    Eigen::Vector3f r;
+    for (int c = 0; c < 3; ++c) {
+      const float numerator = ft * (r_sl[c] / r_ss[c] - 1.0f) + 1.0f;
+      const float denominator = fs * (1.0f / r_ls[c] - 1.0f / r_ss[c]) + 1.0f / r_ss[c];
+      r[c] = denominator > 1e-6f ? numerator / denominator : kNaN;
+    }
+    if (Finite(r)) return r;
+  }
+  return model.Ratio(normal, source_sun, target_sun);
+}
+
+}  // namespace relume::irm

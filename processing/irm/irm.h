@@ -1,0 +1,110 @@
+// Irradiance ratio maps (Troccoli & Allen, "Relighting Acquired Models of Outdoor Scenes"):
+// relighting a photograph of a diffuse outdoor scene to the illumination of another one,
+// with per-normal ratios of target to source irradiance, R(n) = E_target(n) / E_source(n),
+// learnt where the two photographs overlap.
+//
+// Conventions:
+//  - Normals are unit vectors in the mesh frame (ENU, or a UTM grid frame: the sun directions
+//    given must be in the same frame, see core/frames.h).
+//  - Ratios are target / source, per linear RGB channel: relit = source radiance x R.
+//  - Shadow state is the visible fraction f of the sun's disk (0 = umbra, 1 = fully lit).
+//    A sample with f >= lit_threshold counts as lit, f <= shadow_threshold as shadowed; the
+//    penumbra between is not used for learning, only for relighting.
+//  - Normal bins: the octahedral map of the sphere onto a bins x bins square (Cigolle et al.
+//    2014): continuous, nearly equal-area, every bin used. `bins` is the resolution knob.
+//
+// Beyond the paper:
+//  - The four maps are tied together by a sun + sky model per channel:
+//      E_source(n, f_s) = S_s f_s max(0, n . sun_s) + K_s (1 + n_z) / 2
+//      E_target(n, f_t) = S_t f_t max(0, n . sun_t) + K_t (1 + n_z) / 2
+//    (uniform-sky irradiance on a tilted plane), fitted by linear least squares to every
+//    sample with K_s = 1. It fills bins no sample reached and, in the penumbra, gives
+//    R(n, f_s, f_t) from the four maps exactly:
+//      R = [f_t (R_sl / R_ss - 1) + 1] / [f_s (1 / R_ls - 1 / R_ss) + 1 / R_ss]
+//    where R_xy is the map from source state x to target state y (l = lit, s = shadow).
+//  - Empty bins can instead be filled by a Gaussian kernel over the sphere (Beauchesne & Roy).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace relume::irm {
+
+enum class MapKind { kLitToLit = 0, kShadowToShadow = 1, kLitToShadow = 2, kShadowToLit = 3 };
+const char* ToString(MapKind kind);
+
+enum class FillMethod { kNone, kSmoothing, kSunSkyModel };
+const char* ToString(FillMethod method);
+
+struct IrmOptions {
+  int bins = 32;                      // per side of the octahedral square
+  float lit_threshold = 0.99f;        // sun fraction at or above: lit
+  float shadow_threshold = 0.01f;     // at or below: shadowed
+  int min_samples_per_bin = 2;        // fewer: the bin counts as empty
+  float trim_fraction = 0.2f;         // robust mean: drop this share at each end
+  float min_source_radiance = 1e-6f;  // smaller source radiance gives no ratio (no division by ~0)
+  FillMethod fill = FillMethod::kSunSkyModel;
+  float smoothing_sigma_rad = 0.2f;  // kSmoothing kernel width
+  bool IsValid(std::string* why) const;
+};
+
+// One vertex seen in both photographs.
+struct Sample {
+  Eigen::Vector3f normal;
+  Eigen::Vector3f source_rgb;  // linear radiance
+  Eigen::Vector3f target_rgb;
+  float source_sun = 1.0f;  // visible sun fraction when each photograph was taken
+  float target_sun = 1.0f;
+};
+
+Eigen::Vector2f OctahedralFromDirection(const Eigen::Vector3f& n);  // unit vector -> [0, 1]^2
+Eigen::Vector3f DirectionFromOctahedral(const Eigen::Vector2f& uv);
+
+struct RatioMap {
+  int bins = 0;
+  std::vector<Eigen::Vector3f> ratio;  // bins * bins; NaN where empty
+  std::vector<int> count;              // samples per bin
+  std::vector<std::uint8_t> source;    // 0 empty, 1 measured, 2 smoothing, 3 model
+  int BinOf(const Eigen::Vector3f& normal) const;
+  int measured_bins() const;
+  // Bilinear interpolation between the centres of the four nearest bins that hold a value
+  // (weights renormalised over those); NaN when none does.
+  Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal) const;
+};
+
+// Per-channel sun + sky model of source and target irradiance (see the top of this file).
+struct SunSkyModel {
+  bool valid = false;
+  Eigen::Vector3f sun_source = Eigen::Vector3f::Zero();  // S_s (K_s = 1)
+  Eigen::Vector3f sun_target = Eigen::Vector3f::Zero();  // S_t
+  Eigen::Vector3f sky_target = Eigen::Vector3f::Zero();  // K_t
+  Eigen::Vector3f sun_dir_source = Eigen::Vector3f::UnitZ();
+  Eigen::Vector3f sun_dir_target = Eigen::Vector3f::UnitZ();
+  double rms_relative_residual = 0.0;  // of the fitted ratios
+  double condition_number = 0.0;       // of the weighted least-squares system (worst channel)
+  std::string reason;                  // why invalid, when it is
+  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const;
+};
+
+struct IrmSet {
+  std::array<RatioMap, 4> maps;  // indexed by MapKind
+  SunSkyModel model;
+  bool single_map = false;  // no sample in cast shadow in either photograph
+  int samples_used = 0;
+  int samples_in_penumbra = 0;  // skipped for learning
+  int samples_too_dark = 0;     // source radiance below min_source_radiance
+  std::string summary;          // what was built and why
+  float lit_threshold = 0.99f;  // copied from the options that built the set
+  float shadow_threshold = 0.01f;
+  // The ratio for a normal and the two sun fractions (penumbrae interpolate exactly between
+  // maps). NaN when nothing covers that normal.
+  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const;
+};
+
+IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,
+                 const Eigen::Vector3f& sun_dir_target, const IrmOptions& options);
+
+}  // namespace relume::irm

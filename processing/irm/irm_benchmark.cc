@@ -1,0 +1,90 @@
+// IRM relighting speed: shadow-ray and camera-ray throughput, and the whole relighting of a
+// photograph against its size, bin count and sun samples. Run: build/release/processing/irm_benchmark
+#include <benchmark/benchmark.h>
+
+#include "processing/irm/relight.h"
+#include "processing/irm/testing_scene.h"
+
+namespace relume::irm {
+namespace {
+
+struct Fixture {
+  testing::OutdoorScene scene{16};
+  RayCaster caster{scene.mesh};
+  testing::Light source_light{testing::SunFromAzimuthElevationDeg(95, 25), {900, 850, 780}, {28, 33, 45}};
+  testing::Light target_light{testing::SunFromAzimuthElevationDeg(230, 50), {1000, 980, 950}, {20, 26, 40}};
+  PinholeCamera Camera(int width, int height) const {
+    return PinholeCamera::LookAt(PinholeIntrinsics::FromHorizontalFov(width, height, 1.1), {-14, -30, 10}, {2, 0, 5});
+  }
+};
+Fixture& GetFixture() {
+  static Fixture fixture;
+  return fixture;
+}
+
+void BM_ShadowRays(benchmark::State& state) {
+  Fixture& f = GetFixture();
+  const TriangleMesh& mesh = f.scene.mesh;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t v = i++ % mesh.vertex_count();
+    benchmark::DoNotOptimize(
+        f.caster.Occluded(mesh.positions[v] + mesh.normals[v] * 0.01f, f.source_light.sun_dir, 0, INFINITY));
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.SetLabel("rays/s per core");
+}
+BENCHMARK(BM_ShadowRays);
+
+void BM_CameraRays(benchmark::State& state) {
+  Fixture& f = GetFixture();
+  const PinholeCamera camera = f.Camera(4000, 3000);
+  std::vector<RayCaster::Hit> hits(4000);
+  int y = 0;
+  for (auto _ : state) {
+    f.caster.IntersectCameraRow(camera, y++ % 3000, 0, 4000, hits);
+    benchmark::DoNotOptimize(hits.data());
+  }
+  state.SetItemsProcessed(state.iterations() * 4000);
+  state.SetLabel("packet rays/s per core");
+}
+BENCHMARK(BM_CameraRays);
+
+// Whole relighting; args: width (height = 3/4 width), bins, sun samples. Preprocessing
+// (per-vertex rays) included. 2 threads.
+void BM_Relight(benchmark::State& state) {
+  Fixture& f = GetFixture();
+  const int width = static_cast<int>(state.range(0));
+  const int height = width * 3 / 4;
+  const PinholeCamera camera = f.Camera(width, height);
+  // Radiance content does not change the cost: flat images of the right size.
+  RadianceImage source = MakeRadianceImage(width, height);
+  source.pixels.setTo(cv::Scalar(1, 1, 1));
+  RelightOptions options;
+  options.irm.bins = static_cast<int>(state.range(1));
+  options.sun_samples = static_cast<int>(state.range(2));
+  RelightSummary last;
+  for (auto _ : state) {
+    const RelightResult result = RelightImage(f.caster, {&source, camera, f.source_light.sun_dir},
+                                              {&source, camera, f.target_light.sun_dir}, options);
+    last = result.summary;
+  }
+  state.counters["preprocess_s"] = last.preprocess_s;
+  state.counters["relight_s"] = last.relight_s;
+  state.counters["MP"] = width * height / 1e6;
+}
+BENCHMARK(BM_Relight)
+    ->Args({1000, 32, 16})
+    ->Args({2000, 32, 16})
+    ->Args({2000, 16, 16})
+    ->Args({2000, 64, 16})
+    ->Args({2000, 32, 4})
+    ->Args({2000, 32, 64})
+    ->Args({6000, 32, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+}  // namespace
+}  // namespace relume::irm
+
+BENCHMARK_MAIN();

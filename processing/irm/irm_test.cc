@@ -1,0 +1,191 @@
+#include "processing/irm/irm.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "core/error.h"
+
+namespace relume::irm {
+namespace {
+
+Eigen::Vector3f RandomDirection(std::mt19937& rng) {
+  std::normal_distribution<float> g;
+  return Eigen::Vector3f(g(rng), g(rng), g(rng)).normalized();
+}
+
+TEST(OctahedralTest, RoundTripAndEveryBinUsed) {
+  std::mt19937 rng(1);
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Vector3f n = RandomDirection(rng);
+    const Eigen::Vector2f uv = OctahedralFromDirection(n);
+    ASSERT_TRUE(uv.minCoeff() >= 0.0f && uv.maxCoeff() <= 1.0f);
+    EXPECT_LT((DirectionFromOctahedral(uv) - n).norm(), 1e-5f);
+  }
+  // Poles and the equator's corners.
+  for (const Eigen::Vector3f& n :
+       {Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(0, 0, -1), Eigen::Vector3f(1, 0, 0), Eigen::Vector3f(0, -1, 0)}) {
+    EXPECT_LT((DirectionFromOctahedral(OctahedralFromDirection(n)) - n).norm(), 1e-6f);
+  }
+  RatioMap map;
+  map.bins = 8;
+  std::vector<int> hits(64, 0);
+  for (int i = 0; i < 20000; ++i) ++hits[static_cast<std::size_t>(map.BinOf(RandomDirection(rng)))];
+  for (int h : hits) EXPECT_GT(h, 20000 / 64 / 4);  // nearly equal-area: no bin starves
+}
+
+// Samples made from the sun + sky model itself, with a known truth.
+struct Truth {
+  Eigen::Vector3f sun_s{0.3f, -0.8f, 0.52f}, sun_t{-0.6f, 0.2f, 0.77f};
+  Eigen::Vector3f S_s{9.0f, 8.5f, 8.0f}, K_s{1.0f, 1.1f, 1.4f}, S_t{6.0f, 6.0f, 5.0f}, K_t{1.5f, 1.6f, 2.0f};
+  Truth() {
+    sun_s.normalize();
+    sun_t.normalize();
+  }
+  Eigen::Vector3f Irradiance(const Eigen::Vector3f& n, float f, bool source) const {
+    const Eigen::Vector3f& sun = source ? sun_s : sun_t;
+    const float a = f * std::max(0.0f, n.dot(sun));
+    const float h = 0.5f * (1.0f + n.z());
+    return (source ? S_s : S_t) * a + (source ? K_s : K_t) * h;
+  }
+  Eigen::Vector3f Ratio(const Eigen::Vector3f& n, float fs, float ft) const {
+    return Irradiance(n, ft, false).cwiseQuotient(Irradiance(n, fs, true));
+  }
+};
+
+std::vector<Sample> MakeSamples(const Truth& truth, int count, bool with_shadows, std::mt19937& rng,
+                                bool upper_hemisphere_only = false) {
+  std::vector<Sample> samples;
+  std::uniform_real_distribution<float> albedo(0.1f, 0.8f);
+  std::uniform_int_distribution<int> state(0, 3);
+  for (int i = 0; i < count; ++i) {
+    Sample s;
+    s.normal = RandomDirection(rng);
+    if (s.normal.z() < -0.5f) continue;  // ground-facing normals see nothing
+    if (upper_hemisphere_only && (s.normal.x() < 0.0f)) continue;
+    const int st = with_shadows ? state(rng) : 0;
+    s.source_sun = (st == 0 || st == 2) ? 1.0f : 0.0f;
+    s.target_sun = (st == 0 || st == 3) ? 1.0f : 0.0f;
+    const Eigen::Vector3f rho = Eigen::Vector3f::Constant(albedo(rng));
+    s.source_rgb = rho.cwiseProduct(truth.Irradiance(s.normal, s.source_sun, true)) / 3.14159f;
+    s.target_rgb = rho.cwiseProduct(truth.Irradiance(s.normal, s.target_sun, false)) / 3.14159f;
+    samples.push_back(s);
+  }
+  return samples;
+}
+
+TEST(IrmTest, MapsAndModelRecoverTheTruth) {
+  const Truth truth;
+  std::mt19937 rng(2);
+  const std::vector<Sample> samples = MakeSamples(truth, 60000, true, rng);
+  IrmOptions options;
+  options.bins = 32;
+  const IrmSet set = BuildIrms(samples, truth.sun_s, truth.sun_t, options);
+  EXPECT_FALSE(set.single_map);
+  ASSERT_TRUE(set.model.valid) << set.model.reason;
+  EXPECT_LT(set.model.rms_relative_residual, 1e-4);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(set.model.sun_source[c], truth.S_s[c] / truth.K_s[c], 1e-3f * truth.S_s[c]);
+    EXPECT_NEAR(set.model.sky_target[c], truth.K_t[c] / truth.K_s[c], 1e-3f);
+  }
+  // Every state combination, and the penumbra, through the maps.
+  double worst_pure = 0.0, worst_penumbra = 0.0, sum = 0.0;
+  std::vector<double> errors;
+  for (int i = 0; i < 2000; ++i) {
+    Eigen::Vector3f n = RandomDirection(rng);
+    if (n.z() < -0.3f) continue;
+    for (float fs : {0.0f, 0.37f, 1.0f}) {
+      for (float ft : {0.0f, 0.81f, 1.0f}) {
+        const Eigen::Vector3f expected = truth.Ratio(n, fs, ft);
+        const Eigen::Vector3f got = set.Ratio(n, fs, ft);
+        ASSERT_TRUE(got.allFinite());
+        const double error = (got - expected).cwiseQuotient(expected).cwiseAbs().maxCoeff();
+        const bool pure = (fs == 0.0f || fs == 1.0f) && (ft == 0.0f || ft == 1.0f);
+        errors.push_back(error);
+        sum += error;
+        (pure ? worst_pure : worst_penumbra) = std::max(pure ? worst_pure : worst_penumbra, error);
+      }
+    }
+  }
+  // Bins are 1/32 of the square wide and interpolated; the ratio bends sharply where a
+  // normal turns away from the sun, so the worst cases sit there.
+  std::sort(errors.begin(), errors.end());
+  const double p95 = errors[errors.size() * 95 / 100];
+  std::printf(
+      "32x32 bins: relative ratio error mean %.4f, 95th percentile %.4f, worst %.4f (pure states), "
+      "%.4f (penumbra)\n",
+      sum / static_cast<double>(errors.size()), p95, worst_pure, worst_penumbra);
+  EXPECT_LT(sum / static_cast<double>(errors.size()), 0.02);
+  EXPECT_LT(p95, 0.08);
+}
+
+TEST(IrmTest, OneMapWhenNothingIsInCastShadow) {
+  const Truth truth;
+  std::mt19937 rng(3);
+  const IrmSet set = BuildIrms(MakeSamples(truth, 5000, false, rng), truth.sun_s, truth.sun_t, IrmOptions{});
+  EXPECT_TRUE(set.single_map);
+  EXPECT_NE(set.summary.find("one IRM"), std::string::npos) << set.summary;
+  EXPECT_EQ(set.maps[1].measured_bins(), 0);
+}
+
+TEST(IrmTest, ModelFillExtrapolatesBetterThanSmoothingOnHeldOutNormals) {
+  // Samples only from normals with x >= 0: how well does each fill predict the x < 0 half?
+  const Truth truth;
+  std::mt19937 rng(4);
+  const std::vector<Sample> samples = MakeSamples(truth, 20000, false, rng, true);
+  IrmOptions model_options;
+  model_options.bins = 16;
+  IrmOptions smoothing_options = model_options;
+  smoothing_options.fill = FillMethod::kSmoothing;
+  const IrmSet by_model = BuildIrms(samples, truth.sun_s, truth.sun_t, model_options);
+  const IrmSet by_smoothing = BuildIrms(samples, truth.sun_s, truth.sun_t, smoothing_options);
+  double model_error = 0.0, smoothing_error = 0.0;
+  int count = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Eigen::Vector3f n = RandomDirection(rng);
+    if (n.x() > -0.2f || n.z() < -0.3f) continue;
+    const Eigen::Vector3f expected = truth.Ratio(n, 1, 1);
+    const Eigen::Vector3f a = by_model.Ratio(n, 1, 1), b = by_smoothing.Ratio(n, 1, 1);
+    if (!a.allFinite() || !b.allFinite()) continue;
+    model_error += (a - expected).cwiseQuotient(expected).cwiseAbs().mean();
+    smoothing_error += (b - expected).cwiseQuotient(expected).cwiseAbs().mean();
+    ++count;
+  }
+  ASSERT_GT(count, 100);
+  std::printf("held-out normals: mean relative error, sun+sky model fill %.4f, Gaussian smoothing fill %.4f\n",
+              model_error / count, smoothing_error / count);
+  EXPECT_LT(model_error, smoothing_error);
+}
+
+TEST(IrmTest, DegenerateInputsHaveDefinedOutcomes) {
+  // No samples at all.
+  const IrmSet empty = BuildIrms({}, {0, 0, 1}, {0, 0, 1}, IrmOptions{});
+  EXPECT_FALSE(empty.model.valid);
+  EXPECT_FALSE(empty.Ratio({0, 0, 1}, 1, 1).allFinite());  // flagged, not a made-up ratio
+  // Black source pixels are skipped, never divided by.
+  Sample dark;
+  dark.normal = {0, 0, 1};
+  dark.source_rgb = Eigen::Vector3f::Zero();
+  dark.target_rgb = Eigen::Vector3f::Ones();
+  std::vector<Sample> samples(50, dark);
+  const IrmSet set = BuildIrms(samples, {0, 0, 1}, {0, 0, 1}, IrmOptions{});
+  EXPECT_EQ(set.samples_too_dark, 50);
+  EXPECT_EQ(set.samples_used, 0);
+  // All normals the same: the model cannot separate sun from sky and says so.
+  Sample flat;
+  flat.normal = {0, 0, 1};
+  flat.source_rgb = Eigen::Vector3f::Constant(0.5f);
+  flat.target_rgb = Eigen::Vector3f::Constant(0.6f);
+  const IrmSet one_normal = BuildIrms(std::vector<Sample>(100, flat), {0.3f, 0, 0.95f}, {0, 0.3f, 0.95f}, IrmOptions{});
+  EXPECT_FALSE(one_normal.model.valid);
+  EXPECT_FALSE(one_normal.model.reason.empty());
+  EXPECT_NEAR(one_normal.Ratio({0, 0, 1}, 1, 1)[0], 1.2f, 1e-5f);  // the measured bin still works
+  IrmOptions bad;
+  bad.bins = 1;
+  EXPECT_THROW(BuildIrms({}, {0, 0, 1}, {0, 0, 1}, bad), InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace relume::irm

@@ -1,0 +1,292 @@
+#include "processing/irm/relight.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "core/error.h"
+
+namespace relume::irm {
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+template <typename Fn>
+void ParallelFor(int count, int threads, Fn&& fn) {
+  threads = std::max(1, std::min(threads, count));
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&, t] {
+      for (int i = t; i < count; i += threads) fn(i);
+    });
+  }
+  for (std::thread& w : workers) w.join();
+}
+
+// Bilinear sample of a linear RGB image at a continuous image point; NaN outside.
+Eigen::Vector3f SampleBilinear(const cv::Mat& image, const Eigen::Vector2d& point) {
+  const double x = point.x() - 0.5, y = point.y() - 0.5;  // pixel centres at +0.5
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= image.cols || y0 + 1 >= image.rows) {
+    return Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  }
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  auto at = [&](int yy, int xx) {
+    const cv::Vec3f& v = image.at<cv::Vec3f>(yy, xx);
+    return Eigen::Vector3f(v[0], v[1], v[2]);
+  };
+  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
+         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+}
+
+float SunFractionAt(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                    const Eigen::Vector3f& sun_dir, const RelightOptions& options) {
+  if (normal.dot(sun_dir) <= 0.0f) return 1.0f;  // attached shadow, as VertexSunFractions
+  return SunVisibleFraction(caster, point, normal, sun_dir, options.sun_angular_radius_rad, options.sun_samples);
+}
+
+int StateOf(float fraction, const IrmOptions& o) {
+  return fraction >= o.lit_threshold ? 1 : (fraction <= o.shadow_threshold ? 0 : -1);
+}
+
+// Radiance at a vertex's projection, read only when the four pixels that the bilinear
+// interpolation mixes all see the vertex's own surface (same normal, nearby point) in the same
+// sun state: never across a crease, an occlusion edge or a shadow edge.
+bool ConsistentSample(const RayCaster& caster, const View& view, const Eigen::Isometry3d& camera_from_world,
+                      std::size_t vertex, float vertex_fraction, const RelightOptions& options, Eigen::Vector3f* rgb) {
+  const TriangleMesh& mesh = caster.mesh();
+  const Eigen::Vector3f& p = mesh.positions[vertex];
+  const Eigen::Vector3f& n = mesh.normals[vertex];
+  const int state = StateOf(vertex_fraction, options.irm);
+  if (state < 0) return false;
+  const Eigen::Vector3d in_camera = camera_from_world * p.cast<double>();
+  const Eigen::Vector2d uv = view.camera.intrinsics.Project(in_camera);
+  const int x0 = static_cast<int>(std::floor(uv.x() - 0.5)), y0 = static_cast<int>(std::floor(uv.y() - 0.5));
+  const float footprint = static_cast<float>(in_camera.z() / view.camera.intrinsics.fx);
+  const Eigen::Vector3f eye = view.camera.world_from_camera.translation().cast<float>();
+  for (int dy = 0; dy <= 1; ++dy) {
+    for (int dx = 0; dx <= 1; ++dx) {
+      const Eigen::Vector3f d =
+          (view.camera.world_from_camera.linear() * view.camera.intrinsics.Unproject({x0 + dx + 0.5, y0 + dy + 0.5}))
+              .cast<float>()
+              .normalized();
+      const RayCaster::Hit hit = caster.Intersect(eye, d, 0.0f, std::numeric_limits<float>::infinity());
+      if (!hit.valid) return false;
+      const Eigen::Vector3f hit_normal = caster.Interpolate(mesh.normals, hit).normalized();
+      const Eigen::Vector3f hit_point = eye + d * hit.t;
+      if (hit_normal.dot(n) < 0.999f || (hit_point - p).norm() > 3.0f * footprint) return false;
+      if (StateOf(SunFractionAt(caster, hit_point, hit_normal, view.sun_dir, options), options.irm) != state) {
+        return false;
+      }
+    }
+  }
+  *rgb = SampleBilinear(view.image->pixels, uv);
+  return rgb->allFinite();
+}
+
+}  // namespace
+
+bool RelightOptions::IsValid(std::string* why) const {
+  if (!irm.IsValid(why)) return false;
+  if (sun_samples < 1 || sun_samples > 4096) {
+    if (why) *why = "sun_samples must be within 1..4096";
+    return false;
+  }
+  if (!(sun_angular_radius_rad >= 0.0f && sun_angular_radius_rad < 0.1f)) {
+    if (why) *why = "sun angular radius must be within [0, 0.1) rad";
+    return false;
+  }
+  if (threads < 1 || threads > 256) {
+    if (why) *why = "threads must be within 1..256";
+    return false;
+  }
+  return true;
+}
+
+std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const PinholeCamera& camera) {
+  const TriangleMesh& mesh = caster.mesh();
+  const Eigen::Isometry3d camera_from_world = camera.world_from_camera.inverse();
+  const Eigen::Vector3f eye = camera.world_from_camera.translation().cast<float>();
+  std::vector<std::uint8_t> visible(mesh.vertex_count(), 0);
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    const Eigen::Vector3f& p = mesh.positions[i];
+    const Eigen::Vector3d in_camera = camera_from_world * p.cast<double>();
+    if (in_camera.z() <= 0.0) continue;
+    const Eigen::Vector2d uv = camera.intrinsics.Project(in_camera);
+    if (uv.x() < 1.0 || uv.y() < 1.0 || uv.x() > camera.intrinsics.width - 1.0 ||
+        uv.y() > camera.intrinsics.height - 1.0) {
+      continue;
+    }
+    const Eigen::Vector3f to_eye = eye - p;
+    if (mesh.normals[i].dot(to_eye) <= 0.0f) continue;
+    const Eigen::Vector3f origin = p + mesh.normals[i] * (4.0f * caster.epsilon());
+    visible[i] = caster.Occluded(origin, eye - origin, 0.0f, 0.999f) ? 0 : 1;
+  }
+  return visible;
+}
+
+std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
+                                      float angular_radius_rad, int threads) {
+  const TriangleMesh& mesh = caster.mesh();
+  std::vector<float> fractions(mesh.vertex_count(), 1.0f);
+  const Eigen::Vector3f sun = sun_dir.normalized();
+  ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
+    const Eigen::Vector3f& n = mesh.normals[static_cast<std::size_t>(i)];
+    if (n.dot(sun) <= 0.0f) return;  // attached shadow: reported as 1 (the sun term is zero)
+    fractions[static_cast<std::size_t>(i)] =
+        SunVisibleFraction(caster, mesh.positions[static_cast<std::size_t>(i)], n, sun, angular_radius_rad, samples);
+  });
+  return fractions;
+}
+
+RelightResult RelightImage(const RayCaster& caster, const View& source, const View& target,
+                           const RelightOptions& options) {
+  ThrowIfInvalid(options, "IRM relighting options");
+  const TriangleMesh& mesh = caster.mesh();
+  if (mesh.normals.size() != mesh.vertex_count())
+    throw InvalidArgumentError("IRM relighting: the mesh needs vertex normals");
+  for (const View* view : {&source, &target}) {
+    std::string why;
+    if (!view->image || !view->image->IsValid(&why) || view->image->pixels.type() != CV_32FC3) {
+      throw InvalidArgumentError("IRM relighting: each view needs an RGB float radiance image");
+    }
+    if (!view->camera.intrinsics.IsValid(&why)) throw InvalidArgumentError("IRM relighting: camera: " + why);
+    if (view->image->width() != view->camera.intrinsics.width ||
+        view->image->height() != view->camera.intrinsics.height) {
+      throw InvalidArgumentError("IRM relighting: image size differs from its camera's");
+    }
+    if (!view->sun_dir.allFinite() || view->sun_dir.norm() < 0.5f) {
+      throw InvalidArgumentError("IRM relighting: the sun direction must be a unit vector");
+    }
+  }
+  RelightResult result;
+  RelightSummary& summary = result.summary;
+  summary.vertices = static_cast<int>(mesh.vertex_count());
+
+  // 1. Pre-processing: visibility and sun fractions per vertex, for each photograph.
+  auto start = std::chrono::steady_clock::now();
+  const std::vector<std::uint8_t> seen_source = VertexVisibility(caster, source.camera);
+  const std::vector<std::uint8_t> seen_target = VertexVisibility(caster, target.camera);
+  std::vector<float> sun_source =
+      VertexSunFractions(caster, source.sun_dir, options.sun_samples, options.sun_angular_radius_rad, options.threads);
+  std::vector<float> sun_target =
+      VertexSunFractions(caster, target.sun_dir, options.sun_samples, options.sun_angular_radius_rad, options.threads);
+  if (!options.use_penumbra_fractions) {
+    for (float& f : sun_source) f = f >= 0.5f ? 1.0f : 0.0f;
+    for (float& f : sun_target) f = f >= 0.5f ? 1.0f : 0.0f;
+  }
+  summary.preprocess_s = SecondsSince(start);
+
+  // 2. IRMs from the vertices seen in both photographs.
+  start = std::chrono::steady_clock::now();
+  const Eigen::Isometry3d source_from_world = source.camera.world_from_camera.inverse();
+  const Eigen::Isometry3d target_from_world = target.camera.world_from_camera.inverse();
+  std::vector<std::size_t> both;
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    if (seen_source[i] && seen_target[i]) both.push_back(i);
+  }
+  summary.visible_in_both = static_cast<int>(both.size());
+  std::vector<Sample> candidates(both.size());
+  std::vector<std::uint8_t> keep(both.size(), 0);
+  ParallelFor(static_cast<int>(both.size()), options.threads, [&](int k) {
+    const std::size_t i = both[static_cast<std::size_t>(k)];
+    Sample& s = candidates[static_cast<std::size_t>(k)];
+    s.normal = mesh.normals[i];
+    s.source_sun = sun_source[i];
+    s.target_sun = sun_target[i];
+    keep[static_cast<std::size_t>(k)] =
+        ConsistentSample(caster, source, source_from_world, i, s.source_sun, options, &s.source_rgb) &&
+        ConsistentSample(caster, target, target_from_world, i, s.target_sun, options, &s.target_rgb);
+  });
+  std::vector<Sample> samples;
+  for (std::size_t k = 0; k < both.size(); ++k) {
+    if (keep[k]) samples.push_back(candidates[k]);
+  }
+  summary.consistent_samples = static_cast<int>(samples.size());
+  result.irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm);
+  summary.irm_summary = result.irms.summary;
+  double before = 0.0, after = 0.0;
+  int compared = 0;
+  for (const Sample& s : samples) {
+    if (!s.source_rgb.allFinite() || !s.target_rgb.allFinite() || s.target_rgb.minCoeff() <= 0.0f) continue;
+    const Eigen::Vector3f ratio = result.irms.Ratio(s.normal, s.source_sun, s.target_sun);
+    if (!ratio.allFinite()) continue;
+    before += (s.source_rgb - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
+    after += (s.source_rgb.cwiseProduct(ratio) - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
+    ++compared;
+  }
+  if (compared > 0) {
+    summary.overlap_rms_before = std::sqrt(before / compared);
+    summary.overlap_rms_after = std::sqrt(after / compared);
+  }
+  summary.build_s = SecondsSince(start);
+
+  // 3. Per-pixel relighting of the source photograph.
+  start = std::chrono::steady_clock::now();
+  const int width = source.image->width(), height = source.image->height();
+  result.relit.pixels = source.image->pixels.clone();
+  result.relit.unit = source.image->unit;
+  result.status = cv::Mat(height, width, CV_8UC1, cv::Scalar(kNoGeometry));
+  result.source_sun = cv::Mat(height, width, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  result.target_sun = result.source_sun.clone();
+  std::vector<std::int64_t> relit_rows(static_cast<std::size_t>(height), 0),
+      missing_rows(static_cast<std::size_t>(height), 0);
+  ParallelFor(height, options.threads, [&](int y) {
+    std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(width));
+    caster.IntersectCameraRow(source.camera, y, 0, width, hits);
+    cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
+    std::uint8_t* status = result.status.ptr<std::uint8_t>(y);
+    float* fs_row = result.source_sun.ptr<float>(y);
+    float* ft_row = result.target_sun.ptr<float>(y);
+    for (int x = 0; x < width; ++x) {
+      const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
+      if (!hit.valid) continue;
+      const Eigen::Vector3f normal = caster.Interpolate(mesh.normals, hit).normalized();
+      float fs = caster.Interpolate(sun_source, hit);
+      float ft = caster.Interpolate(sun_target, hit);
+      if (options.exact_shadow_edges) {
+        const Eigen::Vector3i& tri = mesh.triangles[static_cast<std::size_t>(hit.triangle)];
+        auto mixed = [&](const std::vector<float>& f) {
+          const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],
+                      c = f[static_cast<std::size_t>(tri[2])];
+          return std::max({a, b, c}) - std::min({a, b, c}) > 1e-3f;
+        };
+        const bool mixed_source = mixed(sun_source), mixed_target = mixed(sun_target);
+        if (mixed_source || mixed_target) {
+          const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
+          if (mixed_source) fs = SunFractionAt(caster, point, normal, source.sun_dir.normalized(), options);
+          if (mixed_target) ft = SunFractionAt(caster, point, normal, target.sun_dir.normalized(), options);
+          if (!options.use_penumbra_fractions) {
+            fs = fs >= 0.5f ? 1.0f : 0.0f;
+            ft = ft >= 0.5f ? 1.0f : 0.0f;
+          }
+        }
+      }
+      fs_row[x] = fs;
+      ft_row[x] = ft;
+      const Eigen::Vector3f ratio = result.irms.Ratio(normal, fs, ft);
+      if (!ratio.allFinite()) {
+        status[x] = kNoRatio;
+        ++missing_rows[static_cast<std::size_t>(y)];
+        continue;
+      }
+      for (int c = 0; c < 3; ++c) out[x][c] *= ratio[c];
+      status[x] = kRelit;
+      ++relit_rows[static_cast<std::size_t>(y)];
+    }
+  });
+  for (int y = 0; y < height; ++y) {
+    summary.pixels_relit += relit_rows[static_cast<std::size_t>(y)];
+    summary.pixels_without_ratio += missing_rows[static_cast<std::size_t>(y)];
+  }
+  summary.pixels_without_geometry =
+      static_cast<std::int64_t>(width) * height - summary.pixels_relit - summary.pixels_without_ratio;
+  summary.relight_s = SecondsSince(start);
+  return result;
+}
+
+}  // namespace relume::irm

@@ -1,0 +1,87 @@
+// Relighting a photograph with irradiance ratio maps (processing/irm/irm.h): per-vertex
+// visibility and sun fractions for each photograph, IRMs from the vertices seen in both, then
+// every source pixel multiplied by the ratio for its surface normal and sun fractions, found
+// by casting the pixel's ray into the mesh (no OpenGL needed).
+//
+// Sun fractions are per vertex (the fraction of the sun's disk not blocked by other
+// geometry, sampled over the 0.53 deg disk) and interpolated across triangles, as the paper
+// interpolates its shadow bits; where a shadow edge crosses a triangle (its vertices
+// disagree) each pixel casts its own rays instead (`exact_shadow_edges`), since interpolation
+// smears the edge over the whole triangle. `use_penumbra_fractions = false` rounds fractions
+// to the paper's bits. Where the sun is behind a surface (attached shadow) the fraction is reported as 1: the
+// sun term is zero there anyway, and this keeps attached shadows out of the cast-shadow maps.
+//
+// Holes in the mesh: a ray toward the sun that escapes through a hole counts as unblocked
+// (the paper's "sun leaking through holes"), so surfaces behind holes look lit. Close holes
+// or add the missing occluders before relighting; relume does not guess geometry.
+#pragma once
+
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/mesh.h"
+#include "core/pinhole.h"
+#include "processing/geometry/ray_caster.h"
+#include "processing/irm/irm.h"
+
+namespace relume::irm {
+
+struct RelightOptions {
+  IrmOptions irm;
+  int sun_samples = 16;  // rays per vertex over the sun's disk
+  float sun_angular_radius_rad = 0.5f * 0.533f * 3.14159265f / 180.0f;
+  bool use_penumbra_fractions = true;
+  // Pixels on triangles whose vertices disagree about the sun (a shadow edge crosses them)
+  // get their own sun fraction by ray casting instead of the interpolated one.
+  bool exact_shadow_edges = true;
+  int threads = 2;
+  bool IsValid(std::string* why) const;
+};
+
+// One photograph: linear radiance, its camera, and the sun direction (unit, toward the sun)
+// in the mesh's frame at its capture time.
+struct View {
+  const RadianceImage* image = nullptr;
+  PinholeCamera camera;
+  Eigen::Vector3f sun_dir = Eigen::Vector3f::UnitZ();
+};
+
+struct RelightSummary {
+  int vertices = 0;
+  int visible_in_both = 0;
+  int consistent_samples = 0;  // of those, not on a crease, occlusion or shadow edge in either image
+  std::string irm_summary;
+  std::int64_t pixels_relit = 0;
+  std::int64_t pixels_without_geometry = 0;  // sky, background: left untouched
+  std::int64_t pixels_without_ratio = 0;     // geometry but no IRM value or model: left untouched
+  double overlap_rms_before = 0.0;           // relative RMS target vs source at vertices seen in both
+  double overlap_rms_after = 0.0;            // ... vs relit source
+  double preprocess_s = 0.0;
+  double build_s = 0.0;
+  double relight_s = 0.0;
+};
+
+enum PixelStatus : std::uint8_t { kNoGeometry = 0, kRelit = 1, kNoRatio = 2 };
+
+struct RelightResult {
+  RadianceImage relit;  // the source under the target's light; untouched where status != kRelit
+  cv::Mat status;       // CV_8UC1 PixelStatus
+  cv::Mat source_sun;   // CV_32FC1 per-pixel sun fractions (NaN without geometry)
+  cv::Mat target_sun;
+  IrmSet irms;
+  RelightSummary summary;
+};
+
+// Per-vertex: 1 when the vertex is inside the image, faces the camera and nothing blocks it.
+std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const PinholeCamera& camera);
+// Per-vertex sun fractions (see the top of this file).
+std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
+                                      float angular_radius_rad, int threads);
+
+// The mesh needs per-vertex normals. Throws InvalidArgumentError for invalid inputs.
+RelightResult RelightImage(const RayCaster& caster, const View& source, const View& target,
+                           const RelightOptions& options);
+
+}  // namespace relume::irm
