@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "apps/relume/session_command.h"
+#include "apps/relume/sim_command.h"
 #include "apps/relume/sun_command.h"
 #include "core/error.h"
 
@@ -15,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   relume::app::AddSunCommand(app);
   relume::app::AddSessionCommand(app);
+  relume::app::AddSimCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
