@@ -25,7 +25,8 @@ bool DepthModelOptions::IsValid(std::string* why) const {
         std::isfinite(sigma_reference_depth_m)))
     return fail("depth noise coefficients must be >= 0");
   if (!(projector_baseline_m > 0.0)) return fail("projector_baseline_m must be positive");
-  if (!(disparity_step_px >= 0.0 && depth_step_m >= 0.0)) return fail("quantisation steps must be >= 0");
+  if (!(disparity_step_px >= 0.0 && depth_step_m >= 0.0 && disparity_focal_px >= 0.0))
+    return fail("quantisation steps and disparity_focal_px must be >= 0");
   return true;
 }
 
@@ -47,7 +48,8 @@ cv::Mat MeasureDepth(const cv::Mat& truth_depth_m, const cv::Mat& normal_in_worl
   }
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
-  const double focal_baseline = k.fx * options.projector_baseline_m;
+  const double focal_px = options.disparity_focal_px > 0.0 ? options.disparity_focal_px : k.fx;
+  const double focal_baseline = focal_px * options.projector_baseline_m;
   cv::Mat measured(truth_depth_m.size(), CV_32FC1);
   auto truth_at = [&](int x, int y) { return truth_depth_m.at<float>(y, x); };
   for (int y = 0; y < k.height; ++y) {

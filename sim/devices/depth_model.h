@@ -18,7 +18,8 @@
 //     with a = 1.2 mm, b = 1.9 mm/m^2, z0 = 0.4 m, c = 0.1 mm m^0.5: about 1.5 mm at 1 m and
 //     2 cm at 3.5 m facing the sensor, growing steeply towards grazing angles.
 //  5. Disparity quantisation: the sensor measures disparity d = f b / z in steps of
-//     disparity_step_px (1/8 px on a Kinect v1), so depth steps grow as z^2 / (f b).
+//     disparity_step_px (1/8 px on a Kinect v1), so depth steps grow as z^2 / (f b); f is the
+//     native disparity image's focal length.
 //  6. Output quantisation to depth_step_m (OpenNI delivers millimetres).
 #pragma once
 
@@ -43,7 +44,10 @@ struct DepthModelOptions {
   double sigma_angle_coefficient = 0.0001;  // m^1.5
   double projector_baseline_m = 0.075;
   double disparity_step_px = 1.0 / 8;  // 0: no disparity quantisation
-  double depth_step_m = 0.001;         // 0: no output quantisation
+  // Focal length (pixels) of the sensor's native disparity image; 0: the camera's own fx. A
+  // stream scaled down from the native size still has the native disparity steps.
+  double disparity_focal_px = 0.0;
+  double depth_step_m = 0.001;  // 0: no output quantisation
   bool IsValid(std::string* why) const;
 };
 

@@ -136,6 +136,8 @@ void SimRgbdSensor::Start(const RgbdStreamConfig& config) {
                           " colour at " + std::to_string(config.fps) + " fps is not offered (see SupportedConfigs())");
   }
   config_ = config;
+  depth_options_ = options_.depth;
+  if (depth_options_.disparity_focal_px == 0.0) depth_options_.disparity_focal_px = native_depth_camera_.intrinsics.fx;
   depth_camera_.intrinsics = ScaleIntrinsics(native_depth_camera_.intrinsics, config.depth_width, config.depth_height);
   depth_camera_.world_from_camera = native_depth_camera_.world_from_camera;
   color_camera_.intrinsics =
@@ -190,7 +192,7 @@ void SimRgbdSensor::Push(Item item) {
 RgbdFrame SimRgbdSensor::MakeFrame(std::uint64_t frame_number, MonotonicTime exposure_monotonic) {
   const UtcTime depth_utc = start_utc_ + (exposure_monotonic - start_monotonic_);
   const GroundTruth depth_truth = truth_->Render(depth_camera_, depth_utc);
-  cv::Mat depth = MeasureDepth(depth_truth.depth_m, depth_truth.normal_in_world, depth_camera_, options_.depth,
+  cv::Mat depth = MeasureDepth(depth_truth.depth_m, depth_truth.normal_in_world, depth_camera_, depth_options_,
                                StreamSeed(options_.seed, frame_number));
   const Nanoseconds color_delay =
       config_.sync_depth_and_color ? Nanoseconds{0} : Seconds(options_.unsynced_color_delay_s);

@@ -111,6 +111,7 @@ class SimRgbdSensor : public drivers::RgbdSensor {
   std::uint64_t generation_ = 0;
 
   drivers::RgbdStreamConfig config_;
+  DepthModelOptions depth_options_;  // options_.depth with the native disparity focal length
   PinholeCamera depth_camera_, color_camera_;
   MonotonicTime start_monotonic_{};
   UtcTime start_utc_{};
