@@ -15,7 +15,7 @@
 //  4. Axial noise, Gaussian with the standard deviation Nguyen, Izadi and Lovell measured on a
 //     Kinect v1 ("Modeling Kinect Sensor Noise for Improved 3D Reconstruction and Tracking",
 //     3DIMPVT 2012): sigma(z, theta) = a + b (z - z0)^2 + c / sqrt(z) * theta^2 / (pi/2 - theta)^2
-//     with a = 1.2 mm, b = 1.9 mm/m^2, z0 = 0.4 m, c = 0.1 mm m^0.5: about 1.5 mm at 1 m and
+//     with a = 1.2 mm, b = 1.9 mm/m^2, z0 = 0.4 m, c = 0.1 mm m^0.5: about 1.9 mm at 1 m and
 //     2 cm at 3.5 m facing the sensor, growing steeply towards grazing angles.
 //  5. Disparity quantisation: the sensor measures disparity d = f b / z in steps of
 //     disparity_step_px (1/8 px on a Kinect v1), so depth steps grow as z^2 / (f b); f is the
