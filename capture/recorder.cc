@@ -24,6 +24,7 @@ struct Recorder::RgbdDevice {
   std::unique_ptr<drivers::RgbdSensor> sensor;
   RgbdSensorOpener reopen;
   drivers::RgbdStreamConfig config;
+  int burst_frames = 0;
   std::thread reader;
   std::thread storer;
   std::mutex queue_mutex;
@@ -121,7 +122,8 @@ void Recorder::AddStillCamera(std::unique_ptr<drivers::StillCamera> camera, Stil
 }
 
 void Recorder::AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSensorOpener reopen,
-                             const drivers::RgbdStreamConfig& config) {
+                             const drivers::RgbdStreamConfig& config, int burst_frames) {
+  RELUME_CHECK(burst_frames >= 0);
   RELUME_CHECK(sensor != nullptr);
   ThrowIfInvalid(config, "RGB-D stream config");
   auto device = std::make_unique<RgbdDevice>();
@@ -129,6 +131,7 @@ void Recorder::AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSe
   device->sensor = std::move(sensor);
   device->reopen = std::move(reopen);
   device->config = config;
+  device->burst_frames = burst_frames;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     writer_.AddDevice(device->info);
@@ -234,6 +237,54 @@ void Recorder::CaptureBracket(StillDevice& device) {
   if (middle.ev_compensation) device.metering_ev = *middle.ev_compensation;
 }
 
+void Recorder::RecordBurst(RgbdDevice& device) {
+  const std::string id = device.info.FullId();
+  const Nanoseconds timeout = std::chrono::milliseconds(std::max(200, static_cast<int>(4000.0 / device.config.fps)));
+  for (int attempt = 1; !device.sensor && attempt <= options_.retry.max_attempts; ++attempt) {
+    RecordEvent(id, "reconnect_attempt", "attempt " + std::to_string(attempt));
+    clock_.SleepFor(options_.retry.BackoffAfter(attempt));
+    try {
+      if (device.reopen) device.sensor = device.reopen();
+    } catch (const drivers::DeviceError& e) {
+      RecordEvent(id, "fault", std::string("reopen failed: ") + e.what());
+    }
+  }
+  if (!device.sensor) {
+    RecordEvent(id, "skip", "no RGB-D burst: the sensor is not connected");
+    return;
+  }
+  int stored = 0, failures = 0;
+  try {
+    device.sensor->Start(device.config);
+    while (stored < device.burst_frames && failures < options_.retry.max_attempts && !storage_failed_) {
+      try {
+        const drivers::RgbdFrame frame = device.sensor->WaitForFrame(timeout);
+        std::lock_guard<std::mutex> lock(mutex_);
+        writer_.WriteRgbdFrame(frame);
+        ++status_.rgbd_frames;
+        ++stored;
+      } catch (const drivers::DeviceError& e) {
+        RecordEvent(id, "fault", e.what());
+        ++failures;
+        if (e.kind() == drivers::DeviceErrorKind::kDisconnected) break;
+      }
+    }
+    device.sensor->Stop();
+  } catch (const drivers::DeviceError& e) {
+    RecordEvent(id, "fault", e.what());
+    if (e.kind() == drivers::DeviceErrorKind::kDisconnected || e.kind() == drivers::DeviceErrorKind::kNotFound) {
+      device.sensor.reset();
+    }
+  } catch (const IoError& e) {
+    StorageFailed(e.what());
+  }
+  if (stored < device.burst_frames) {
+    RecordEvent(
+        id, "partial",
+        "RGB-D burst stored " + std::to_string(stored) + " of " + std::to_string(device.burst_frames) + " frames");
+  }
+}
+
 void Recorder::RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop) {
   const std::string id = device.info.FullId();
   const Nanoseconds timeout = std::chrono::milliseconds(std::max(200, static_cast<int>(4000.0 / device.config.fps)));
@@ -296,6 +347,7 @@ RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
   std::atomic<bool> stop_streams{false};
   for (auto& device_ptr : rgbds_) {
     RgbdDevice& device = *device_ptr;
+    if (device.burst_frames > 0) continue;  // recorded at the triggers
     device.reader = std::thread([this, &device, &stop_streams] { RgbdLoop(device, stop_streams); });
     device.storer = std::thread([this, &device] {
       while (true) {
@@ -326,9 +378,13 @@ RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
       summary.stop_reason = "the requested duration has passed";
       break;
     }
-    std::optional<UtcTime> next = stills_.empty() ? std::nullopt : schedule.Next(now, previous, triggers);
-    if (!next && (rgbds_.empty() || !has_end)) {
-      summary.stop_reason = stills_.empty() ? "nothing to record" : "the schedule is complete";
+    const bool triggered_devices = !stills_.empty() || std::any_of(rgbds_.begin(), rgbds_.end(),
+                                                                   [](const auto& d) { return d->burst_frames > 0; });
+    std::optional<UtcTime> next = triggered_devices ? schedule.Next(now, previous, triggers) : std::nullopt;
+    const bool streaming =
+        std::any_of(rgbds_.begin(), rgbds_.end(), [](const auto& d) { return d->burst_frames == 0; });
+    if (!next && (!streaming || !has_end)) {
+      summary.stop_reason = triggered_devices || streaming ? "the schedule is complete" : "nothing to record";
       break;
     }
     {
@@ -347,6 +403,10 @@ RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
     for (auto& device : stills_) {
       if (stop || storage_failed_) break;
       CaptureBracket(*device);
+    }
+    for (auto& device : rgbds_) {
+      if (stop || storage_failed_) break;
+      if (device->burst_frames > 0) RecordBurst(*device);
     }
     if (progress) progress(Snapshot());
   }

@@ -65,8 +65,10 @@ class Recorder {
 
   // Registers the device in the session and wraps it in retry/reconnect wrappers.
   void AddStillCamera(std::unique_ptr<drivers::StillCamera> camera, StillCameraOpener reopen);
+  // burst_frames = 0: stream continuously for the whole run; > 0: record that many frames at
+  // every trigger (sessions of hours on a fast simulated clock would otherwise be enormous).
   void AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSensorOpener reopen,
-                     const drivers::RgbdStreamConfig& config);
+                     const drivers::RgbdStreamConfig& config, int burst_frames = 0);
 
   // Runs until the schedule and duration end, `stop` becomes true, or storage fails.
   // `progress` is called after every stored frame and at every trigger (from the calling
@@ -79,6 +81,7 @@ class Recorder {
   void CaptureBracket(StillDevice& device);
   void RecordEvent(const std::string& device_id, const std::string& type, const std::string& message);
   void RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop);
+  void RecordBurst(RgbdDevice& device);
   void StorageFailed(const std::string& message);
   RecorderStatus Snapshot();
 

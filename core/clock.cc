@@ -48,7 +48,7 @@ std::string SimulatedClock::name() const {
   return std::string("simulated x") + speed + " from " + FormatIso8601(start_utc_, std::chrono::seconds{0}, 0);
 }
 
-ManualClock::ManualClock(UtcTime start_utc) : start_utc_(start_utc) {}
+ManualClock::ManualClock(UtcTime start_utc, std::string name) : name_(std::move(name)), start_utc_(start_utc) {}
 
 UtcTime ManualClock::NowUtc() const {
   std::lock_guard<std::mutex> lock(mutex_);

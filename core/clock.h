@@ -49,17 +49,20 @@ class SimulatedClock final : public Clock {
   double speedup_;
 };
 
-// Time that moves only when told: Advance() or SleepFor(). Thread-safe.
+// Time that moves only when told: Advance() or SleepFor(). Thread-safe. Simulated rigs run on
+// it as an event-driven clock: time passes only while devices expose, read out or wait, so a
+// bracket spans its exposures however long the simulator takes to render them.
 class ManualClock final : public Clock {
  public:
-  explicit ManualClock(UtcTime start_utc);
+  explicit ManualClock(UtcTime start_utc, std::string name = "manual");
   UtcTime NowUtc() const override;
   MonotonicTime NowMonotonic() const override;
   void SleepFor(Nanoseconds duration) override { Advance(duration); }
   void Advance(Nanoseconds duration);
-  std::string name() const override { return "manual"; }
+  std::string name() const override { return name_; }
 
  private:
+  std::string name_;
   mutable std::mutex mutex_;
   UtcTime start_utc_;
   Nanoseconds elapsed_{0};

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "apps/relume/capture_command.h"
 #include "apps/relume/session_command.h"
 #include "apps/relume/sim_command.h"
 #include "apps/relume/sun_command.h"
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   relume::app::AddSunCommand(app);
   relume::app::AddSessionCommand(app);
+  relume::app::AddCaptureCommand(app);
   relume::app::AddSimCommand(app);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,127 @@
+#include "apps/relume/capture_command.h"
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+
+#include "apps/relume/rig_config.h"
+#include "capture/session.h"
+#include "core/clock.h"
+#include "core/error.h"
+
+namespace relume::app {
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void OnSignal(int) {
+  g_stop = true;
+}
+
+std::string HumanBytes(std::uint64_t bytes) {
+  char text[32];
+  if (bytes >= (1ull << 30)) {
+    std::snprintf(text, sizeof(text), "%.2f GiB", static_cast<double>(bytes) / (1ull << 30));
+  } else {
+    std::snprintf(text, sizeof(text), "%.1f MiB", static_cast<double>(bytes) / (1ull << 20));
+  }
+  return text;
+}
+
+}  // namespace
+
+int RunCapture(const CaptureRequest& request) {
+  RigConfig rig = LoadRigConfig(request.rig_path);
+  if (request.duration_minutes > 0.0) {
+    rig.recorder.duration = std::chrono::duration_cast<Nanoseconds>(
+        std::chrono::duration<double, std::ratio<60>>(request.duration_minutes));
+  }
+  if (request.speedup > 0.0) rig.clock_speedup = request.speedup;
+  std::shared_ptr<Clock> clock;
+  if (rig.clock_speedup > 0.0) {
+    clock = std::make_shared<SimulatedClock>(rig.clock_start, rig.clock_speedup);
+  } else {
+    clock = std::make_shared<ManualClock>(
+        rig.clock_start, "simulated, event-driven, from " + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0));
+  }
+
+  auto backend = std::make_shared<sim::SimBackend>(rig.devices, rig.world, clock);
+  auto registry = std::make_shared<drivers::DeviceRegistry>();
+  registry->Add(backend);
+
+  capture::SessionInfo info;
+  info.name = rig.name;
+  info.site = rig.site;
+  info.rig_config = rig.yaml_text;
+  info.software_version = std::string("relume ") + RELUME_VERSION;
+  info.clock_name = clock->name();
+  info.created_utc = clock->NowUtc();
+  std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info);
+
+  capture::Recorder recorder(*writer, *clock, rig.recorder);
+  for (const drivers::DeviceInfo& device : registry->Enumerate()) {
+    const std::string id = device.FullId();
+    if (device.kind == drivers::DeviceKind::kStillCamera) {
+      recorder.AddStillCamera(registry->OpenStillCamera(device),
+                              [registry, id]() { return registry->OpenStillCamera(registry->Find(id)); });
+    } else {
+      auto sensor = registry->OpenRgbdSensor(device);
+      drivers::RgbdStreamConfig config = sensor->SupportedConfigs().front();
+      recorder.AddRgbdSensor(
+          std::move(sensor), [registry, id]() { return registry->OpenRgbdSensor(registry->Find(id)); }, config,
+          rig.rgbd_burst_frames);
+    }
+  }
+
+  g_stop = false;
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  const bool tty = request.progress && isatty(STDERR_FILENO);
+  auto progress = [&](const capture::RecorderStatus& s) {
+    if (!request.progress) return;
+    std::fprintf(
+        stderr, "%s%s  frames %lld still + %lld rgbd  brackets %lld (%lld partial)  faults %lld  disk %s  next %s%s",
+        tty ? "\r" : "", FormatIso8601(s.now, std::chrono::seconds{0}, 0).c_str(),
+        static_cast<long long>(s.still_frames), static_cast<long long>(s.rgbd_frames),
+        static_cast<long long>(s.brackets), static_cast<long long>(s.partial_brackets),
+        static_cast<long long>(s.faults), HumanBytes(s.bytes_written).c_str(),
+        s.next_trigger ? FormatIso8601(*s.next_trigger, std::chrono::seconds{0}, 0).c_str() : "-", tty ? "   " : "\n");
+  };
+  std::cerr << "relume capture: " << rig.name << " -> " << request.out_dir << " (clock " << clock->name() << ")\n";
+  const capture::RecorderSummary summary = recorder.Run(g_stop, progress);
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (tty) std::cerr << "\n";
+  const capture::RecorderStatus& s = summary.status;
+  std::cout << "captured " << s.still_frames << " still frames in " << s.brackets << " brackets (" << s.partial_brackets
+            << " partial), " << s.rgbd_frames << " RGB-D frames, " << s.faults << " faults, "
+            << HumanBytes(s.bytes_written) << " -> " << request.out_dir << "\n"
+            << "stopped: " << summary.stop_reason << "\n";
+  if (summary.storage_failed) {
+    std::cerr << "relume: error: " << summary.stop_reason
+              << "\nEvery frame acknowledged before the failure is intact; run `relume session verify "
+              << request.out_dir << "`.\n";
+    return 3;
+  }
+  return 0;
+}
+
+void AddCaptureCommand(CLI::App& app) {
+  auto request = std::make_shared<CaptureRequest>();
+  CLI::App* capture = app.add_subcommand("capture", "Record a session with a rig (Ctrl-C stops cleanly)");
+  capture->add_option("--rig", request->rig_path, "Rig file (config/rigs/*.yaml)")->required();
+  capture->add_option("--out", request->out_dir, "New session folder")->required();
+  capture->add_option("--duration", request->duration_minutes, "Stop after this many (clock) minutes");
+  capture->add_option("--speedup", request->speedup, "Simulated clock speed-up (simulated rigs)");
+  capture->add_flag("!--no-progress", request->progress, "No live progress line");
+  capture->callback([request]() {
+    const int code = RunCapture(*request);
+    if (code != 0) throw CLI::RuntimeError(code);
+  });
+}
+
+}  // namespace relume::app
