@@ -98,15 +98,16 @@ void BM_EncodedOutputOnly(benchmark::State& state) {
   SetRate(state, input);
 }
 
-BENCHMARK(BM_ExpectedElectrons)->Args({1920, 1080})->Args({6000, 4000})->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_AddSensorNoise)->Args({1920, 1080})->Args({6000, 4000})->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_RawOutputOnly)->Args({1920, 1080})->Args({6000, 4000})->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_EncodedOutputOnly)->Args({1920, 1080})->Args({6000, 4000})->Unit(benchmark::kMillisecond);
+// Stages alone at 1920x1080 (add ->Args({6000, 4000}) to see them at 24 MP; the CTest smoke run
+// executes every registered case once, so the large ones are kept to the whole-frame paths).
+BENCHMARK(BM_ExpectedElectrons)->Args({1920, 1080})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AddSensorNoise)->Args({1920, 1080})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RawOutputOnly)->Args({1920, 1080})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EncodedOutputOnly)->Args({1920, 1080})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_RawFrame)
     ->Args({1920, 1080, 0})
     ->Args({1920, 1080, 1})
     ->Args({6000, 4000, 0})
-    ->Args({6000, 4000, 1})
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_EncodedFrame)->Args({1920, 1080})->Args({6000, 4000})->Unit(benchmark::kMillisecond);
 

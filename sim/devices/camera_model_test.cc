@@ -22,7 +22,7 @@ std::vector<ResponseCurve> AllResponses() {
           ResponseCurve::Filmic(1.0, 3.0), ResponseCurve::FromTable(table)};
 }
 
-TEST(ResponseCurveTest, DecodeInvertsEncodeForEveryShape) {
+TEST(SimResponseCurveTest, DecodeInvertsEncodeForEveryShape) {
   for (const ResponseCurve& curve : AllResponses()) {
     ASSERT_TRUE(curve.IsValid(nullptr)) << ToString(curve.shape);
     EXPECT_DOUBLE_EQ(curve.Encode(0.0), curve.shape == ResponseCurve::Shape::kTable ? curve.table.front() : 0.0);
@@ -35,7 +35,7 @@ TEST(ResponseCurveTest, DecodeInvertsEncodeForEveryShape) {
   }
 }
 
-TEST(ResponseCurveTest, FilmicIsSShaped) {
+TEST(SimResponseCurveTest, FilmicIsSShaped) {
   const ResponseCurve curve = ResponseCurve::Filmic(1.0, 2.0);
   // Slope below 1 near the ends, equal to the contrast in the middle.
   EXPECT_LT(curve.Encode(0.05), 0.05);
@@ -43,7 +43,7 @@ TEST(ResponseCurveTest, FilmicIsSShaped) {
   EXPECT_NEAR((curve.Encode(0.501) - curve.Encode(0.499)) / 0.002, 2.0, 1e-4);
 }
 
-TEST(ResponseCurveTest, RejectsNonMonotonicTable) {
+TEST(SimResponseCurveTest, RejectsNonMonotonicTable) {
   std::string why;
   EXPECT_FALSE(ResponseCurve::FromTable({0.0, 0.5, 0.5, 1.0}).IsValid(&why));
   EXPECT_NE(why.find("strictly increasing"), std::string::npos) << why;
@@ -51,7 +51,7 @@ TEST(ResponseCurveTest, RejectsNonMonotonicTable) {
   EXPECT_FALSE(ResponseCurve::FromTable({0.0, 1.2}).IsValid(&why));
 }
 
-TEST(CameraModelTest, IrradianceFollowsTheFNumberLaw) {
+TEST(SimCameraModelTest, IrradianceFollowsTheFNumberLaw) {
   CameraModelOptions options;
   const PinholeIntrinsics camera = SmallCamera();
   ExposureParams exposure;
@@ -63,7 +63,7 @@ TEST(CameraModelTest, IrradianceFollowsTheFNumberLaw) {
   EXPECT_NEAR(ElectronsPerRadiance(camera, camera.cx, camera.cy, exposure, options), at_f4 / 4, 1e-9 * at_f4);
 }
 
-TEST(CameraModelTest, Cos4VignettingMatchesTheOffAxisAngle) {
+TEST(SimCameraModelTest, Cos4VignettingMatchesTheOffAxisAngle) {
   Vignetting vignetting;
   vignetting.model = Vignetting::Model::kCos4;
   const PinholeIntrinsics camera = SmallCamera();
@@ -81,7 +81,7 @@ TEST(CameraModelTest, Cos4VignettingMatchesTheOffAxisAngle) {
 
 // Radiance -> pixel -> radiance over the whole unsaturated range, for every response shape
 // and bit depth: the inverse lands within the quantisation cell the true radiance fell in.
-TEST(CameraModelTest, EncodedRoundTripIsWithinQuantisationForAllResponses) {
+TEST(SimCameraModelTest, EncodedRoundTripIsWithinQuantisationForAllResponses) {
   const PinholeIntrinsics camera = SmallCamera(256, 4);
   for (const ResponseCurve& response : AllResponses()) {
     CameraModelOptions options;
@@ -123,7 +123,7 @@ TEST(CameraModelTest, EncodedRoundTripIsWithinQuantisationForAllResponses) {
   }
 }
 
-TEST(CameraModelTest, RawRoundTripIsWithinHalfACountForAllBitDepths) {
+TEST(SimCameraModelTest, RawRoundTripIsWithinHalfACountForAllBitDepths) {
   const PinholeIntrinsics camera = SmallCamera(128, 8);
   for (int bits : {8, 12, 14}) {
     for (ColorLayout layout : {ColorLayout::kRgb, ColorLayout::kBayerRggb}) {
@@ -168,7 +168,7 @@ TEST(CameraModelTest, RawRoundTripIsWithinHalfACountForAllBitDepths) {
   }
 }
 
-TEST(CameraModelTest, BayerMosaicKeepsTheRightChannel) {
+TEST(SimCameraModelTest, BayerMosaicKeepsTheRightChannel) {
   CameraModelOptions options;
   options.raw_layout = ColorLayout::kBayerRggb;
   ExposureParams exposure;
@@ -184,7 +184,7 @@ TEST(CameraModelTest, BayerMosaicKeepsTheRightChannel) {
   (void)camera;
 }
 
-TEST(CameraModelTest, SaturatedSamplesClipAndInvertToNaN) {
+TEST(SimCameraModelTest, SaturatedSamplesClipAndInvertToNaN) {
   CameraModelOptions options;
   ExposureParams exposure;
   exposure.iso = 400;  // gain 4: the ADC clips at a quarter of the full well
@@ -205,7 +205,7 @@ TEST(CameraModelTest, SaturatedSamplesClipAndInvertToNaN) {
   EXPECT_EQ(back.pixels.at<cv::Vec3f>(0, 2)[0], 0.0f);
 }
 
-TEST(CameraModelTest, NoiseIsSeededAndHasTheModelledVariance) {
+TEST(SimCameraModelTest, NoiseIsSeededAndHasTheModelledVariance) {
   CameraModelOptions options;
   options.read_noise_e = 5.0;
   const double mean_e = 2500.0;
@@ -227,7 +227,7 @@ TEST(CameraModelTest, NoiseIsSeededAndHasTheModelledVariance) {
   EXPECT_NEAR(stddev[0], 5.0, 0.05);
 }
 
-TEST(CameraModelTest, InvalidOptionsAreRejectedWithTheReason) {
+TEST(SimCameraModelTest, InvalidOptionsAreRejectedWithTheReason) {
   CameraModelOptions options;
   options.raw_bits = 13;
   std::string why;
@@ -242,7 +242,7 @@ TEST(CameraModelTest, InvalidOptionsAreRejectedWithTheReason) {
   EXPECT_THROW(ExpectedElectrons(MakeRadianceImage(5, 4), camera, exposure, options), InvalidArgumentError);
 }
 
-TEST(CameraModelTest, NonFiniteRadianceReadsAsBlack) {
+TEST(SimCameraModelTest, NonFiniteRadianceReadsAsBlack) {
   CameraModelOptions options;
   const PinholeIntrinsics camera = SmallCamera(2, 1);
   RadianceImage radiance = MakeRadianceImage(2, 1);

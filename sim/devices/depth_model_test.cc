@@ -48,7 +48,7 @@ int CountFinite(const cv::Mat& depth) {
   return n;
 }
 
-TEST(DepthModelTest, SigmaFollowsTheKinectModel) {
+TEST(SimDepthModelTest, SigmaFollowsTheKinectModel) {
   const DepthModelOptions options;
   EXPECT_NEAR(DepthSigma(1.0, 0.0, options), 0.0012 + 0.0019 * 0.36, 1e-12);
   EXPECT_NEAR(DepthSigma(3.5, 0.0, options), 0.0012 + 0.0019 * 3.1 * 3.1, 1e-12);
@@ -57,7 +57,7 @@ TEST(DepthModelTest, SigmaFollowsTheKinectModel) {
               0.0001 * theta * theta / std::pow(std::numbers::pi / 2 - theta, 2), 1e-12);
 }
 
-TEST(DepthModelTest, NoiseHasTheModelledSpreadAndNoBias) {
+TEST(SimDepthModelTest, NoiseHasTheModelledSpreadAndNoBias) {
   DepthModelOptions options = Exact();
   options.noise = true;
   const PinholeCamera camera = LookingAtWall(80, 60, 8.0);  // narrow: incidence below 4 degrees
@@ -80,7 +80,7 @@ TEST(DepthModelTest, NoiseHasTheModelledSpreadAndNoBias) {
   EXPECT_NEAR(mean, 0.0, 4 * sigma / std::sqrt(n));
 }
 
-TEST(DepthModelTest, DisparityQuantisationStepsGrowWithDepthSquared) {
+TEST(SimDepthModelTest, DisparityQuantisationStepsGrowWithDepthSquared) {
   DepthModelOptions options = Exact();
   options.disparity_step_px = 1.0 / 8;
   options.depth_step_m = 0.001;
@@ -103,7 +103,7 @@ TEST(DepthModelTest, DisparityQuantisationStepsGrowWithDepthSquared) {
   }
 }
 
-TEST(DepthModelTest, HolesAtGrazingAnglesOutOfRangeAndAtDepthEdges) {
+TEST(SimDepthModelTest, HolesAtGrazingAnglesOutOfRangeAndAtDepthEdges) {
   const DepthModelOptions options = Exact();
   const PinholeCamera narrow = LookingAtWall(32, 24, 5.0);
   EXPECT_EQ(CountFinite(Measure(WallAt(2.0, 1.22), narrow, options)), 32 * 24);  // 70 degrees: measured
@@ -138,7 +138,7 @@ TEST(DepthModelTest, HolesAtGrazingAnglesOutOfRangeAndAtDepthEdges) {
   EXPECT_TRUE(std::isfinite(measured.at<float>(2, 2))) << "the wall";
 }
 
-TEST(DepthModelTest, RegistrationMatchesTheColourCamerasOwnDepth) {
+TEST(SimDepthModelTest, RegistrationMatchesTheColourCamerasOwnDepth) {
   AnalyticScene scene = testing::WallAndSphereScene();
   const PinholeCamera depth_camera = LookingAtWall(96, 72, 50.0);
   const Eigen::Isometry3d color_from_depth(Eigen::Translation3d(-0.05, 0.0, 0.0));
@@ -186,7 +186,7 @@ TEST(DepthModelTest, RegistrationMatchesTheColourCamerasOwnDepth) {
   EXPECT_NEAR(sphere_column(registered) - column_before, expected_shift, 0.5);
 }
 
-TEST(DepthModelTest, InvalidOptionsAndSizesAreRejected) {
+TEST(SimDepthModelTest, InvalidOptionsAndSizesAreRejected) {
   DepthModelOptions options;
   options.max_range_m = 0.1;
   EXPECT_FALSE(options.IsValid(nullptr));

@@ -51,7 +51,7 @@ CaptureOutcome Try(drivers::StillCamera& camera) {
   }
 }
 
-TEST(FaultsTest, EachStillCameraFaultSurfacesAsItsTypedError) {
+TEST(SimFaultsTest, EachStillCameraFaultSurfacesAsItsTypedError) {
   FaultPlan plan;
   plan.timeout_frames = {2};
   plan.busy_frames = {3};
@@ -97,7 +97,7 @@ TEST(FaultsTest, EachStillCameraFaultSurfacesAsItsTypedError) {
   EXPECT_EQ(frame.timing.sequence, 7u);
 }
 
-TEST(FaultsTest, ClockJumpShowsInTheDeviceTimestamp) {
+TEST(SimFaultsTest, ClockJumpShowsInTheDeviceTimestamp) {
   FaultPlan plan;
   plan.clock_jumps_s[3] = 0.75;
   FaultyRig rig(plan);
@@ -115,7 +115,7 @@ TEST(FaultsTest, ClockJumpShowsInTheDeviceTimestamp) {
   EXPECT_NEAR(device_minus_host[3] - device_minus_host[2], 0.0, 1e-9);
 }
 
-TEST(FaultsTest, RandomFaultsRepeatWithTheSeedAndFollowTheirRates) {
+TEST(SimFaultsTest, RandomFaultsRepeatWithTheSeedAndFollowTheirRates) {
   FaultPlan plan;
   plan.seed = 17;
   plan.busy_probability = 0.2;
@@ -137,7 +137,7 @@ TEST(FaultsTest, RandomFaultsRepeatWithTheSeedAndFollowTheirRates) {
   EXPECT_GT(differ, 1000);
 }
 
-TEST(FaultsTest, RetryingCameraRecoversThroughTransientFaults) {
+TEST(SimFaultsTest, RetryingCameraRecoversThroughTransientFaults) {
   FaultPlan plan;
   plan.busy_frames = {1, 2};
   plan.timeout_frames = {3};
@@ -162,7 +162,7 @@ TEST(FaultsTest, RetryingCameraRecoversThroughTransientFaults) {
   }
 }
 
-TEST(FaultsTest, ReconnectingCameraWaitsForTheDeviceToComeBack) {
+TEST(SimFaultsTest, ReconnectingCameraWaitsForTheDeviceToComeBack) {
   FaultPlan plan;
   plan.disconnect_at_frame = 2;
   plan.reconnect_after_s = 2.5;
@@ -190,7 +190,7 @@ TEST(FaultsTest, ReconnectingCameraWaitsForTheDeviceToComeBack) {
   EXPECT_EQ(events.back().attempt, 2);
 }
 
-TEST(FaultsTest, PlanFromYamlWithErrorsNamingTheKey) {
+TEST(SimFaultsTest, PlanFromYamlWithErrorsNamingTheKey) {
   const std::string path = ::testing::TempDir() + "/faults_test.yaml";
   {
     std::ofstream out(path);

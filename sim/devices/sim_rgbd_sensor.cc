@@ -151,11 +151,28 @@ void SimRgbdSensor::Start(const RgbdStreamConfig& config) {
   start_monotonic_ = clock_->NowMonotonic();
   start_utc_ = clock_->NowUtc();
   running_ = true;
-  producer_ = std::thread([this] { Produce(); });
+  producer_ = std::thread([this] {
+    try {
+      Produce();
+    } catch (const std::exception& e) {
+      // A failure inside the simulation (e.g. the truth source threw) ends the stream; the
+      // consumer sees it as an I/O error instead of the process terminating.
+      const MonotonicTime now = clock_->NowMonotonic();
+      std::lock_guard<std::mutex> lock(mutex_);
+      running_ = false;  // before the error is visible, so a consumer that sees it sees this too
+      queue_.push_back(
+          {DeviceError(DeviceErrorKind::kIo, info_.FullId(), std::string("stream failed: ") + e.what()), now});
+      changed_.notify_all();
+    }
+  });
 }
 
 void SimRgbdSensor::Stop() {
-  running_ = false;
+  {
+    // Under the lock, so that a producer about to wait for queue space cannot miss the wake-up.
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_ = false;
+  }
   changed_.notify_all();
   if (producer_.joinable()) producer_.join();
 }

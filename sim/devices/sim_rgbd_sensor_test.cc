@@ -277,5 +277,29 @@ TEST(SimRgbdSensorTest, FullQueueDropsTheOldestFrames) {
   EXPECT_GT(first, 1u) << "the oldest frames were dropped";
 }
 
+// A truth source that fails: the stream ends with a typed error instead of terminating.
+class FailingTruth : public TruthSource {
+ public:
+  GroundTruth Render(const PinholeCamera&, UtcTime) const override { throw Error("scene file vanished"); }
+};
+
+TEST(SimRgbdSensorTest, AFailingTruthSourceEndsTheStreamWithAnIoError) {
+  TestRig rig;
+  drivers::DeviceInfo info;
+  info.backend = "sim";
+  info.id = "kinect0";
+  SimRgbdSensor sensor(info, SmallOptions(SimRgbdOptions::Pacing::kFollowClock), LookingAtWall(48, 36),
+                       std::make_shared<FailingTruth>(), rig.clock);
+  sensor.Start(SmallConfig());
+  try {
+    sensor.WaitForFrame(kGenerous);
+    FAIL() << "expected a DeviceError";
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.kind(), DeviceErrorKind::kIo);
+    EXPECT_NE(std::string(e.what()).find("scene file vanished"), std::string::npos);
+  }
+  EXPECT_FALSE(sensor.streaming());
+}
+
 }  // namespace
 }  // namespace relume::sim
