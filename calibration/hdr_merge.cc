@@ -23,43 +23,79 @@ struct FrameTables {
   std::vector<float> value;  // X(z) / t, for the fallbacks
 };
 
+// Accumulates one frame's row into the running sums: a linear pass with two table lookups
+// per sample, which pipelines better than looping over frames inside each pixel.
+template <typename Sample>
+void AccumulateRow(const Sample* row, const float* const* weighted, const float* const* weight, int cols, int channels,
+                   int frame, float* num, float* den, std::uint16_t* mask) {
+  if (channels == 3) {
+    const float *v0 = weighted[0], *v1 = weighted[1], *v2 = weighted[2];
+    const float *w0 = weight[0], *w1 = weight[1], *w2 = weight[2];
+    for (int x = 0; x < cols; ++x) {
+      const Sample* p = row + 3 * x;
+      const float a = w0[p[0]], b = w1[p[1]], c = w2[p[2]];
+      num[3 * x] += v0[p[0]];
+      num[3 * x + 1] += v1[p[1]];
+      num[3 * x + 2] += v2[p[2]];
+      den[3 * x] += a;
+      den[3 * x + 1] += b;
+      den[3 * x + 2] += c;
+      mask[x] =
+          static_cast<std::uint16_t>(mask[x] | (static_cast<unsigned>((a > 0.0f) | (b > 0.0f) | (c > 0.0f)) << frame));
+    }
+  } else {
+    const float* v = weighted[0];
+    const float* w = weight[0];
+    for (int x = 0; x < cols; ++x) {
+      const float a = w[row[x]];
+      num[x] += v[row[x]];
+      den[x] += a;
+      mask[x] = static_cast<std::uint16_t>(mask[x] | (static_cast<unsigned>(a > 0.0f) << frame));
+    }
+  }
+}
+
 template <typename Sample>
 void MergeRows(const std::vector<const cv::Mat*>& frames, const std::vector<FrameTables>& tables, int levels,
                int channels, int shortest, int longest, int mid_code, int row_begin, int row_end, HdrMergeResult* out) {
   const int n = static_cast<int>(frames.size());
-  std::vector<const Sample*> rows(n);
+  // Raw table pointers per (frame, channel), hoisted out of the pixel loop.
+  std::vector<const float*> weighted(static_cast<std::size_t>(n) * channels), weight(weighted.size());
+  for (int j = 0; j < n; ++j) {
+    for (int c = 0; c < channels; ++c) {
+      weighted[j * channels + c] = tables[j].weighted.data() + static_cast<std::size_t>(c) * levels;
+      weight[j * channels + c] = tables[j].weight.data() + static_cast<std::size_t>(c) * levels;
+    }
+  }
+  const int cols = frames[0]->cols;
+  std::vector<float> den(static_cast<std::size_t>(cols) * channels);
   for (int y = row_begin; y < row_end; ++y) {
-    for (int j = 0; j < n; ++j) rows[j] = frames[j]->ptr<Sample>(y);
-    float* radiance = out->radiance.pixels.ptr<float>(y);
+    float* num = out->radiance.pixels.ptr<float>(y);  // sums in place, divided below
     std::uint16_t* bits = out->contributors.ptr<std::uint16_t>(y);
     std::uint8_t* status = out->status.ptr<std::uint8_t>(y);
-    const int cols = frames[0]->cols;
+    std::fill(num, num + den.size(), 0.0f);
+    std::fill(den.begin(), den.end(), 0.0f);
+    std::fill(bits, bits + cols, std::uint16_t{0});
+    for (int j = 0; j < n; ++j) {
+      AccumulateRow(frames[j]->ptr<Sample>(y), &weighted[j * channels], &weight[j * channels], cols, channels, j, num,
+                    den.data(), bits);
+    }
+    const Sample* short_row = frames[shortest]->ptr<Sample>(y);
+    const Sample* long_row = frames[longest]->ptr<Sample>(y);
     for (int x = 0; x < cols; ++x) {
-      std::uint16_t mask = 0;
       std::uint8_t st = kHdrGood;
       for (int c = 0; c < channels; ++c) {
         const std::size_t i = static_cast<std::size_t>(x) * channels + c;
-        const std::size_t base = static_cast<std::size_t>(c) * levels;
-        float num = 0.0f, den = 0.0f;
-        for (int j = 0; j < n; ++j) {
-          const std::size_t k = base + rows[j][i];
-          const float w = tables[j].weight[k];
-          num += tables[j].weighted[k];
-          den += w;
-          if (w > 0.0f) mask = static_cast<std::uint16_t>(mask | (1u << j));
-        }
-        if (den > 0.0f) {
-          radiance[i] = num / den;
+        if (den[i] > 0.0f) {
+          num[i] /= den[i];
         } else {
-          // No well-exposed sample: decide from the longest frame whether it is dark or bright.
-          const int z_long = rows[longest][i];
-          const bool dark = z_long < mid_code;
+          // No well-exposed sample: the longest frame tells whether it is dark or bright.
+          const bool dark = long_row[i] < mid_code;
           const int j = dark ? longest : shortest;
-          radiance[i] = tables[j].value[base + rows[j][i]];
+          num[i] = tables[j].value[static_cast<std::size_t>(c) * levels + (dark ? long_row[i] : short_row[i])];
           st = static_cast<std::uint8_t>(st | (dark ? kHdrBlackUpperBound : kHdrSaturatedLowerBound));
         }
       }
-      bits[x] = mask;
       status[x] = st;
     }
   }
