@@ -5,6 +5,8 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "apps/relume/calibrate_command.h"
+#include "apps/relume/hdr_command.h"
 #include "apps/relume/sun_command.h"
 #include "core/error.h"
 
@@ -13,6 +15,8 @@ int main(int argc, char** argv) {
   CLI::App app{"relume: capture rig control, radiometric calibration and relighting"};
   app.require_subcommand(1);
   relume::app::AddSunCommand(app);
+  relume::app::AddCalibrateCommand(app);
+  relume::app::AddHdrCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
