@@ -8,6 +8,8 @@
 #include "apps/relume/capture_command.h"
 #include "apps/relume/session_command.h"
 #include "apps/relume/sim_command.h"
+#include "apps/relume/calibrate_command.h"
+#include "apps/relume/hdr_command.h"
 #include "apps/relume/sun_command.h"
 #include "core/error.h"
 
@@ -19,6 +21,8 @@ int main(int argc, char** argv) {
   relume::app::AddSessionCommand(app);
   relume::app::AddCaptureCommand(app);
   relume::app::AddSimCommand(app);
+  relume::app::AddCalibrateCommand(app);
+  relume::app::AddHdrCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,266 @@
+#include "apps/relume/calibrate_command.h"
+
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "calibration/calibration_profile.h"
+#include "calibration/colorchecker_detect.h"
+#include "calibration/colorchecker_fit.h"
+#include "calibration/image_file.h"
+#include "calibration/report_plots.h"
+#include "calibration/response.h"
+#include "core/error.h"
+#include "core/yaml_file.h"
+
+namespace relume::app {
+namespace {
+
+using namespace relume::calibration;
+
+std::string WithoutJson(const std::string& path) {
+  std::filesystem::path p(path);
+  if (p.extension() == ".json") p.replace_extension();
+  return p.string();
+}
+
+std::vector<cv::Point2f> CornersFromYaml(const std::string& path) {
+  const YamlFile file(path);
+  const YAML::Node corners = file.root()["corners"];
+  if (!corners || !corners.IsSequence() || corners.size() != 4) {
+    file.Fail(corners ? corners : file.root(), "corners", "expected a list of 4 [x, y] pairs");
+  }
+  std::vector<cv::Point2f> points;
+  for (const auto& c : corners) {
+    if (!c.IsSequence() || c.size() != 2) file.Fail(c, "corners", "each corner must be [x, y]");
+    try {
+      points.emplace_back(c[0].as<float>(), c[1].as<float>());
+    } catch (const YAML::Exception&) {
+      file.Fail(c, "corners", "corner coordinates must be numbers");
+    }
+  }
+  return points;
+}
+
+}  // namespace
+
+std::vector<double> ResolveExposures(const ExposureArgs& args, std::size_t count,
+                                     const std::vector<double>& from_metadata) {
+  if (!args.exposures_s.empty() && !args.ev.empty()) {
+    throw InvalidArgumentError("give either --exposures or --ev, not both");
+  }
+  std::vector<double> times;
+  std::string flag;
+  if (!args.exposures_s.empty()) {
+    times = args.exposures_s;
+    flag = "--exposures";
+  } else if (!args.ev.empty()) {
+    times = ExposureTimesFromEv(args.ev);
+    flag = "--ev";
+  } else if (from_metadata.size() == count &&
+             std::all_of(from_metadata.begin(), from_metadata.end(), [](double t) { return t > 0.0; })) {
+    return from_metadata;
+  } else {
+    throw InvalidArgumentError("exposures unknown: give --exposures (seconds) or --ev (stops), one per file");
+  }
+  if (times.size() != count) {
+    throw InvalidArgumentError(flag + ": " + std::to_string(times.size()) + " value(s) for " + std::to_string(count) +
+                               " file(s); give one per file, in the same order");
+  }
+  for (double t : times) {
+    if (!(t > 0.0) || !std::isfinite(t)) throw InvalidArgumentError(flag + ": exposure times must be positive");
+  }
+  return times;
+}
+
+void RunCalibrateResponse(const CalibrateResponseArgs& args, std::ostream& out) {
+  if (args.files.size() < 2) throw InvalidArgumentError("calibrate response: give at least 2 image files");
+  std::vector<CameraImage> frames;
+  for (const auto& f : args.files) frames.push_back(LoadFrame(f).image);
+  ResponseOptions options;
+  options.method = ResponseMethodFromString(args.method);
+  options.sample_count = args.samples;
+  options.lambda = args.lambda;
+  ResponseResult result;
+  std::vector<double> times;
+  if (!args.exposure.ev.empty() && args.exposure.exposures_s.empty()) {
+    if (args.exposure.ev.size() != frames.size()) {
+      throw InvalidArgumentError("--ev: " + std::to_string(args.exposure.ev.size()) + " value(s) for " +
+                                 std::to_string(frames.size()) + " file(s)");
+    }
+    EvCalibration ev = RecoverResponseFromEv(frames, args.exposure.ev, options);
+    result = ev.result;
+    times = ev.exposure_times_s;
+  } else {
+    times = ResolveExposures(args.exposure, frames.size());
+    result = RecoverResponse(frames, times, options);
+  }
+  out << "response: " << result.summary.BriefReport() << "\n";
+  if (!result.summary.usable) {
+    throw InvalidArgumentError("the response could not be recovered: " + result.summary.reason);
+  }
+  CalibrationProfile profile;
+  profile.camera = std::filesystem::path(args.files.front()).stem().string();
+  profile.response = result.response;
+  SaveProfile(profile, args.out);
+  const std::string plot = args.plot.empty() ? WithoutJson(args.out) + ".png" : args.plot;
+  SaveImage(PlotResponse(result.response), plot);
+  const std::string report = WithoutJson(args.out) + "_report.json";
+  nlohmann::json j = {{"method", ToString(result.summary.method)},
+                      {"usable", result.summary.usable},
+                      {"converged", result.summary.converged},
+                      {"iterations", result.summary.iterations},
+                      {"residual", result.summary.residual},
+                      {"condition", result.summary.condition},
+                      {"samples_used", result.summary.samples_used},
+                      {"frames", result.summary.frames_used},
+                      {"reason", result.summary.reason},
+                      {"exposure_times_s", times},
+                      {"files", args.files}};
+  std::ofstream(report) << j.dump(1) << "\n";
+  out << "wrote " << args.out << ", " << plot << ", " << report << "\n";
+}
+
+void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
+  if (!args.corners.empty() && args.corners.size() != 8) {
+    throw InvalidArgumentError("--corners: give 8 numbers x0,y0,x1,y1,x2,y2,x3,y3");
+  }
+  const ColorCheckerReference reference = LoadColorCheckerReference(args.reference);
+  std::optional<CalibrationProfile> base;
+  if (!args.profile.empty()) base = LoadProfile(args.profile);
+  // What the patches are measured on, and an 8-bit preview to detect and draw on.
+  ChartImage chart;
+  cv::Mat preview;
+  std::string gain_input = "radiance";
+  const std::string ext = std::filesystem::path(args.image).extension().string();
+  if (ext == ".exr" || ext == ".EXR") {
+    const RadianceImage radiance = LoadRadianceExr(args.image);
+    if (radiance.pixels.channels() != 3) throw InvalidArgumentError(args.image + ": the chart image must be RGB");
+    chart.values = radiance.pixels;
+    preview = PreviewLinear(radiance.pixels);
+  } else {
+    const CameraImage image = LoadFrame(args.image).image;
+    if (image.layout != ColorLayout::kRgb) throw InvalidArgumentError(args.image + ": the chart image must be RGB");
+    chart = ChartImageFromCamera(image);
+    if (base && base->response) {
+      CalibrationProfile linearise;
+      linearise.response = base->response;
+      chart.values = ApplyProfile(linearise, image, args.exposure_s).pixels;
+    } else if (image.encoding == SampleEncoding::kSensorLinear) {
+      chart.values = chart.values / args.exposure_s;
+    } else {
+      gain_input = "normalized_code";
+    }
+    if (image.pixels.depth() == CV_8U) {
+      preview = image.pixels;
+    } else {
+      image.pixels.convertTo(preview, CV_8U, 255.0 / image.white_level);
+    }
+  }
+  ChartLocation location;
+  std::vector<cv::Point2f> corners;
+  if (!args.corners.empty()) {
+    if (args.corners.size() != 8) throw InvalidArgumentError("--corners: give 8 numbers x0,y0,x1,y1,x2,y2,x3,y3");
+    for (int k = 0; k < 4; ++k) {
+      corners.emplace_back(static_cast<float>(args.corners[2 * k]), static_cast<float>(args.corners[2 * k + 1]));
+    }
+  } else if (!args.corners_file.empty()) {
+    corners = CornersFromYaml(args.corners_file);
+  }
+  if (!corners.empty()) {
+    location = ChartFromCorners(corners, preview, reference);
+  } else {
+    ChartDetectOptions options;
+    options.detector = ChartDetectorFromString(args.detector);
+    location = DetectColorChecker(preview, reference, options);
+    if (!location.found) {
+      throw InvalidArgumentError("no ColorChecker found in " + args.image + " (" + location.reason +
+                                 "); give its corners with --corners x0,y0,...");
+    }
+  }
+  out << "chart: found by " << location.method << ", orientation score " << location.orientation_score << "\n";
+  const std::vector<PatchSample> patches = SamplePatches(chart, location);
+  ColorFitOptions fit_options;
+  fit_options.white_preserving = args.white_preserving;
+  const ColorFit fit = FitColorChecker(patches, reference, fit_options);
+  out << "fit: " << fit.summary.BriefReport() << "\n";
+  if (!fit.summary.usable) throw InvalidArgumentError("the chart fit failed: " + fit.summary.reason);
+
+  CalibrationProfile profile = base.value_or(CalibrationProfile{});
+  if (profile.camera.empty()) profile.camera = std::filesystem::path(args.image).stem().string();
+  profile.gain_input = gain_input;
+  profile.gain = fit.gain;
+  profile.ccm = fit.ccm;
+  profile.fit = fit.summary;
+  SaveProfile(profile, args.out);
+
+  const std::string dir = args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
+  std::filesystem::create_directories(dir);
+  SaveImage(DrawChart(preview, location, patches), dir + "/chart_detected.png");
+  SaveImage(DrawSwatches(fit, reference), dir + "/swatches.png");
+  nlohmann::json j;
+  j["image"] = args.image;
+  j["detection"] = {
+      {"method", location.method}, {"orientation_score", location.orientation_score}, {"reason", location.reason}};
+  for (const auto& c : location.corners) j["detection"]["corners"].push_back({c.x, c.y});
+  j["fit"] = {{"usable", fit.summary.usable},
+              {"low_confidence", fit.summary.low_confidence},
+              {"patches_used", fit.summary.patches_used},
+              {"condition", fit.summary.condition},
+              {"residual_rms", fit.summary.residual_rms},
+              {"mean_delta_e_2000", fit.summary.mean_delta_e},
+              {"max_delta_e_2000", fit.summary.max_delta_e},
+              {"reason", fit.summary.reason}};
+  for (int k = 0; k < 24; ++k) {
+    const PatchFit& p = fit.patches[k];
+    j["patches"].push_back(
+        {{"name", reference.patches[k].name},
+         {"status", ToString(p.status)},
+         {"used", p.used},
+         {"measured", {p.measured[0], p.measured[1], p.measured[2]}},
+         {"corrected_lab", {p.corrected_lab[0], p.corrected_lab[1], p.corrected_lab[2]}},
+         {"reference_lab",
+          {reference.patches[k].lab_d50[0], reference.patches[k].lab_d50[1], reference.patches[k].lab_d50[2]}},
+         {"delta_e_2000", p.delta_e}});
+  }
+  std::ofstream(dir + "/chart_report.json") << j.dump(1) << "\n";
+  out << "wrote " << args.out << " and " << dir << "/{chart_detected.png, swatches.png, chart_report.json}\n";
+}
+
+void AddCalibrateCommand(CLI::App& app) {
+  CLI::App* calibrate = app.add_subcommand("calibrate", "Radiometric calibration: camera response and ColorChecker");
+  calibrate->require_subcommand(1);
+
+  auto r = std::make_shared<CalibrateResponseArgs>();
+  CLI::App* response = calibrate->add_subcommand("response", "Recover the camera response from an exposure bracket");
+  response->add_option("files", r->files, "Bracket images of a static scene (8-bit, same size)")->required();
+  response->add_option("--exposures", r->exposure.exposures_s, "Exposure times in seconds, one per file")
+      ->delimiter(',');
+  response->add_option("--ev", r->exposure.ev, "EV values (EV-only cameras), one per file")->delimiter(',');
+  response->add_option("--method", r->method, "debevec or robertson")->capture_default_str();
+  response->add_option("--samples", r->samples, "Pixels sampled (Debevec; Robertson uses 20x)")->capture_default_str();
+  response->add_option("--lambda", r->lambda, "Debevec smoothness weight")->capture_default_str();
+  response->add_option("--out", r->out, "Profile JSON to write")->capture_default_str();
+  response->add_option("--plot", r->plot, "PNG plot of the curves (default: beside --out)");
+  response->callback([r]() { RunCalibrateResponse(*r, std::cout); });
+
+  auto c = std::make_shared<CalibrateChartArgs>();
+  CLI::App* chart = calibrate->add_subcommand("chart", "Find a ColorChecker, fit gain and colour matrix");
+  chart->add_option("image", c->image, "Image of the chart (PNG/TIFF camera output, raw, or EXR radiance)")->required();
+  chart->add_option("--corners", c->corners, "Chart corners x0,y0,...,x3,y3 (pixels), instead of detection")
+      ->delimiter(',');
+  chart->add_option("--corners-file", c->corners_file, "YAML with corners: [[x, y], ...]");
+  chart->add_option("--detector", c->detector, "auto, mcc or lattice")->capture_default_str();
+  chart->add_option("--profile", c->profile, "Profile with a response to linearise the image first");
+  chart->add_option("--exposure", c->exposure_s, "Exposure time of the image in seconds")->capture_default_str();
+  chart->add_option("--reference", c->reference, "Chart reference data (YAML)")->capture_default_str();
+  chart->add_flag("!--no-white-preserving", c->white_preserving, "Fit the colour matrix without the white constraint");
+  chart->add_option("--out", c->out, "Profile JSON to write")->capture_default_str();
+  chart->add_option("--report-dir", c->report_dir, "Folder for the report (default: beside --out)");
+  chart->callback([c]() { RunCalibrateChart(*c, std::cout); });
+}
+
+}  // namespace relume::app

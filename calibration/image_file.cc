@@ -1,0 +1,89 @@
+#include "calibration/image_file.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calibration/raw_loader.h"
+#include "core/error.h"
+
+namespace relume::calibration {
+
+bool IsRawFileName(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const char* raw : {".dng", ".nef", ".cr2", ".cr3", ".arw", ".raf", ".orf", ".rw2", ".pef", ".srw", ".raw"}) {
+    if (ext == raw) return true;
+  }
+  return false;
+}
+
+LoadedFrame LoadFrame(const std::string& path) {
+  LoadedFrame out;
+  if (IsRawFileName(path)) {
+    RawFile raw = LoadRawFile(path);
+    out.image = raw.image.layout == ColorLayout::kMono ? raw.image : DemosaicBilinear(raw.image);
+    out.exposure_time_s = raw.exposure_time_s;
+    return out;
+  }
+  if (!std::filesystem::exists(path)) throw IoError(path, "does not exist");
+  cv::Mat pixels = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  if (pixels.empty()) throw IoError(path, "is not an image OpenCV can read");
+  if (pixels.depth() != CV_8U && pixels.depth() != CV_16U) {
+    throw IoError(path, "holds float samples: a radiance image, not camera output");
+  }
+  if (pixels.channels() == 4) cv::cvtColor(pixels, pixels, cv::COLOR_BGRA2BGR);
+  if (pixels.channels() == 3) cv::cvtColor(pixels, pixels, cv::COLOR_BGR2RGB);
+  CameraImage& image = out.image;
+  image.pixels = pixels;
+  image.layout = pixels.channels() == 3 ? ColorLayout::kRgb : ColorLayout::kMono;
+  image.encoding = SampleEncoding::kCameraResponse;
+  image.bits_per_sample = pixels.depth() == CV_8U ? 8 : 16;
+  image.black_level = 0;
+  image.white_level = (1 << image.bits_per_sample) - 1;
+  return out;
+}
+
+RadianceImage LoadRadianceExr(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw IoError(path, "does not exist");
+  cv::Mat pixels = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (pixels.empty() || pixels.depth() != CV_32F) throw IoError(path, "is not a float (EXR) image");
+  if (pixels.channels() == 4) cv::cvtColor(pixels, pixels, cv::COLOR_BGRA2BGR);
+  if (pixels.channels() == 3) cv::cvtColor(pixels, pixels, cv::COLOR_BGR2RGB);
+  RadianceImage out;
+  out.pixels = pixels;
+  return out;
+}
+
+void SaveRadianceExr(const RadianceImage& radiance, const std::string& path) {
+  cv::Mat bgr;
+  if (radiance.pixels.channels() == 3) {
+    cv::cvtColor(radiance.pixels, bgr, cv::COLOR_RGB2BGR);
+  } else {
+    bgr = radiance.pixels;
+  }
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path, bgr);
+  } catch (const cv::Exception& e) {
+    throw IoError(path, std::string("cannot be written: ") + e.what());
+  }
+  if (!ok) throw IoError(path, "cannot be written");
+}
+
+void SaveImage(const cv::Mat& image, const std::string& path) {
+  cv::Mat out = image;
+  if (image.channels() == 3) cv::cvtColor(image, out, cv::COLOR_RGB2BGR);
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path, out);
+  } catch (const cv::Exception& e) {
+    throw IoError(path, std::string("cannot be written: ") + e.what());
+  }
+  if (!ok) throw IoError(path, "cannot be written");
+}
+
+}  // namespace relume::calibration

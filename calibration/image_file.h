@@ -1,0 +1,30 @@
+// Reading camera frames and writing radiance images at the file edge (OpenCV imgcodecs,
+// LibRaw for raw files). Files hold BGR; relume's images hold RGB (core/image.h).
+#pragma once
+
+#include <string>
+
+#include "core/image.h"
+
+namespace relume::calibration {
+
+// True for extensions LibRaw reads (dng, nef, cr2, cr3, arw, raf, orf, rw2, pef, srw, raw).
+bool IsRawFileName(const std::string& path);
+
+struct LoadedFrame {
+  CameraImage image;             // RGB (raw files demosaiced, sensor linear)
+  double exposure_time_s = 0.0;  // from raw metadata; 0 when unknown
+};
+
+// PNG/TIFF/JPEG (8 or 16 bit, grey or colour; camera-encoded, white level 2^bits - 1) or a
+// raw file. Throws IoError naming the file when it cannot be read.
+LoadedFrame LoadFrame(const std::string& path);
+
+// OpenEXR (float RGB) read/write. Throws IoError.
+RadianceImage LoadRadianceExr(const std::string& path);
+void SaveRadianceExr(const RadianceImage& radiance, const std::string& path);
+
+// Writes an RGB 8-bit image (PNG) or a CV_16UC1 / CV_8UC1 image. Throws IoError.
+void SaveImage(const cv::Mat& image_rgb_or_gray, const std::string& path);
+
+}  // namespace relume::calibration

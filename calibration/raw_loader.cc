@@ -1,0 +1,88 @@
+#include "calibration/raw_loader.h"
+
+#include <libraw/libraw.h>
+
+#include <algorithm>
+#include <memory>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+
+namespace relume::calibration {
+namespace {
+
+ColorLayout LayoutFromPattern(int c00, int c01, int c10, int c11) {
+  // LibRaw colours: 0 red, 1 green, 2 blue, 3 second green.
+  auto g = [](int c) { return c == 1 || c == 3; };
+  if (c00 == 0 && g(c01) && g(c10) && c11 == 2) return ColorLayout::kBayerRggb;
+  if (c00 == 2 && g(c01) && g(c10) && c11 == 0) return ColorLayout::kBayerBggr;
+  if (g(c00) && c01 == 0 && c10 == 2 && g(c11)) return ColorLayout::kBayerGrbg;
+  if (g(c00) && c01 == 2 && c10 == 0 && g(c11)) return ColorLayout::kBayerGbrg;
+  return ColorLayout::kMono;
+}
+
+}  // namespace
+
+RawFile LoadRawFile(const std::string& path) {
+  auto raw = std::make_unique<LibRaw>();
+  int rc = raw->open_file(path.c_str());
+  if (rc != LIBRAW_SUCCESS) throw IoError(path, std::string("LibRaw cannot open it: ") + libraw_strerror(rc));
+  rc = raw->unpack();
+  if (rc != LIBRAW_SUCCESS) throw IoError(path, std::string("LibRaw cannot decode it: ") + libraw_strerror(rc));
+  const auto& sizes = raw->imgdata.sizes;
+  const auto& idata = raw->imgdata.idata;
+  if (raw->imgdata.rawdata.raw_image == nullptr) {
+    throw InvalidArgumentError(path +
+                               ": not a single-plane raw (linear RGB or Foveon); relume reads Bayer and mono raw");
+  }
+  if (idata.filters == 9) throw InvalidArgumentError(path + ": X-Trans sensors are not supported");
+  RawFile out;
+  out.make = idata.make;
+  out.model = idata.model;
+  out.exposure_time_s = raw->imgdata.other.shutter;
+  out.aperture_f = raw->imgdata.other.aperture;
+  out.iso = raw->imgdata.other.iso_speed;
+  const int width = sizes.width, height = sizes.height;
+  CameraImage& image = out.image;
+  image.pixels = cv::Mat(height, width, CV_16UC1);
+  const std::size_t pitch = sizes.raw_pitch / 2;
+  const unsigned short* src = raw->imgdata.rawdata.raw_image;
+  for (int y = 0; y < height; ++y) {
+    const unsigned short* row = src + (y + sizes.top_margin) * pitch + sizes.left_margin;
+    std::copy(row, row + width, image.pixels.ptr<std::uint16_t>(y));
+  }
+  image.layout = idata.filters == 0
+                     ? ColorLayout::kMono
+                     : LayoutFromPattern(raw->COLOR(0, 0), raw->COLOR(0, 1), raw->COLOR(1, 0), raw->COLOR(1, 1));
+  image.encoding = SampleEncoding::kSensorLinear;
+  const auto& color = raw->imgdata.color;
+  const unsigned extra_black = std::min({color.cblack[0], color.cblack[1], color.cblack[2], color.cblack[3]});
+  image.black_level = static_cast<int>(color.black + extra_black);
+  image.white_level = static_cast<int>(std::min(color.maximum, 65535u));
+  int bits = 8;
+  while (bits < 16 && (1 << bits) - 1 < image.white_level) ++bits;
+  image.bits_per_sample = bits;
+  std::string why;
+  if (!image.IsValid(&why)) throw IoError(path, "LibRaw's levels are inconsistent: " + why);
+  return out;
+}
+
+CameraImage DemosaicBilinear(const CameraImage& bayer) {
+  std::string why;
+  if (!bayer.IsValid(&why)) throw InvalidArgumentError("raw frame: " + why);
+  int code = -1;
+  // OpenCV names Bayer patterns by the second row's first two pixels.
+  switch (bayer.layout) {
+    case ColorLayout::kBayerRggb: code = cv::COLOR_BayerBG2RGB; break;
+    case ColorLayout::kBayerBggr: code = cv::COLOR_BayerRG2RGB; break;
+    case ColorLayout::kBayerGrbg: code = cv::COLOR_BayerGB2RGB; break;
+    case ColorLayout::kBayerGbrg: code = cv::COLOR_BayerGR2RGB; break;
+    default: throw InvalidArgumentError("demosaicing needs a Bayer layout, got " + std::string(ToString(bayer.layout)));
+  }
+  CameraImage rgb = bayer;
+  cv::cvtColor(bayer.pixels, rgb.pixels, code);
+  rgb.layout = ColorLayout::kRgb;
+  return rgb;
+}
+
+}  // namespace relume::calibration

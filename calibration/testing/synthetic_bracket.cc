@@ -1,0 +1,222 @@
+#include "calibration/testing/synthetic_bracket.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <random>
+
+#include "core/error.h"
+
+namespace relume::calibration::testing {
+
+const char* ToString(ResponseShape shape) {
+  switch (shape) {
+    case ResponseShape::kGamma: return "gamma";
+    case ResponseShape::kSCurve: return "s-curve";
+    case ResponseShape::kTable: return "table";
+  }
+  return "unknown";
+}
+
+double SyntheticResponse::Forward(int channel, double x) const {
+  x = std::clamp(x, 0.0, 1.0);
+  switch (shape) {
+    case ResponseShape::kGamma: return std::pow(x, 1.0 / 2.2);
+    case ResponseShape::kSCurve: {
+      const std::array<double, 3> s = {1.5, 1.7, 1.9};
+      const double m = 0.3;
+      const double k = s[channel % 3];
+      const double xm = std::pow(m, k);
+      return std::pow(x, k) / (std::pow(x, k) + xm) * (1.0 + xm);
+    }
+    case ResponseShape::kTable: {
+      // Knots (x, y); the y values differ slightly per channel.
+      static const std::array<double, 7> kx = {0.0, 0.01, 0.05, 0.15, 0.35, 0.65, 1.0};
+      static const std::array<std::array<double, 7>, 3> ky = {{{0.0, 0.08, 0.25, 0.46, 0.68, 0.87, 1.0},
+                                                               {0.0, 0.10, 0.28, 0.48, 0.70, 0.88, 1.0},
+                                                               {0.0, 0.06, 0.22, 0.43, 0.66, 0.86, 1.0}}};
+      const auto& y = ky[channel % 3];
+      for (std::size_t i = 1; i < kx.size(); ++i) {
+        if (x <= kx[i]) return y[i - 1] + (y[i] - y[i - 1]) * (x - kx[i - 1]) / (kx[i] - kx[i - 1]);
+      }
+      return 1.0;
+    }
+  }
+  return x;
+}
+
+double SyntheticResponse::Inverse(int channel, double y) const {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (Forward(channel, mid) < y ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+cv::Mat MakeHdrRadiance(const SceneOptions& options) {
+  RELUME_CHECK(options.width > 0 && options.height > 0 && options.dynamic_range > 1.0);
+  cv::Mat radiance(options.height, options.width, CV_32FC3);
+  std::mt19937_64 rng(options.seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  // Patches of 24 x 24 pixels: log-uniform brightness, random colour (chroma kept moderate so
+  // no channel is far darker than the others), each with a smooth 2x diagonal gradient so that
+  // every patch covers a range of codes.
+  const int patch = 24;
+  const int px = (options.width + patch - 1) / patch, py = (options.height + patch - 1) / patch;
+  std::vector<cv::Vec3f> colours(static_cast<std::size_t>(px) * py);
+  const double log_range = std::log(options.dynamic_range);
+  for (auto& c : colours) {
+    const double level = std::exp(-log_range * unit(rng));  // (1/range, 1]
+    for (int k = 0; k < 3; ++k) c[k] = static_cast<float>(level * (0.55 + 0.45 * unit(rng)));
+  }
+  for (int y = 0; y < options.height; ++y) {
+    auto* row = radiance.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < options.width; ++x) {
+      const double u = ((x % patch) + (y % patch)) / (2.0 * patch);  // [0, 1) across the patch
+      const float ramp = static_cast<float>(std::exp2(u - 1.0));     // [0.5, 1)
+      row[x] = colours[static_cast<std::size_t>(y / patch) * px + x / patch] * ramp;
+    }
+  }
+  return radiance;
+}
+
+std::vector<double> BracketExposures(int count, double stops, double middle_s) {
+  std::vector<double> t;
+  for (int i = 0; i < count; ++i) t.push_back(middle_s * std::exp2(stops * (i - (count - 1) / 2.0)));
+  return t;
+}
+
+cv::Mat IdealExposure(const cv::Mat& radiance, double exposure_time_s) {
+  return radiance * exposure_time_s;
+}
+
+cv::Mat AddSensorNoise(const cv::Mat& exposure, const NoiseOptions& noise, std::uint64_t frame_index) {
+  cv::Mat out = exposure.clone();
+  if (noise.shot_noise <= 0.0 && noise.read_noise <= 0.0) return out;
+  cv::Mat gauss(exposure.size(), exposure.type());
+  cv::RNG rng(noise.seed * 1000003ULL + frame_index);
+  rng.fill(gauss, cv::RNG::NORMAL, 0.0, 1.0);
+  const int n = static_cast<int>(exposure.total() * exposure.channels());
+  float* o = out.ptr<float>();
+  const float* g = gauss.ptr<float>();
+  for (int i = 0; i < n; ++i) {
+    const double x = std::max(0.0f, o[i]);
+    const double sigma = std::sqrt(noise.shot_noise * x + noise.read_noise * noise.read_noise);
+    o[i] = static_cast<float>(x + sigma * g[i]);
+  }
+  return out;
+}
+
+CameraImage EncodeFrame(const cv::Mat& exposure, const SyntheticResponse& response) {
+  RELUME_CHECK(exposure.type() == CV_32FC3);
+  // A 4096-entry table of the forward response per channel keeps encoding fast.
+  constexpr int kTable = 4096;
+  std::array<std::vector<std::uint8_t>, 3> table;
+  for (int c = 0; c < 3; ++c) {
+    table[c].resize(kTable + 1);
+    for (int i = 0; i <= kTable; ++i) {
+      table[c][i] = static_cast<std::uint8_t>(std::lround(255.0 * response.Forward(c, (i + 0.0) / kTable)));
+    }
+  }
+  CameraImage image;
+  image.pixels = cv::Mat(exposure.size(), CV_8UC3);
+  image.layout = ColorLayout::kRgb;
+  image.encoding = SampleEncoding::kCameraResponse;
+  image.bits_per_sample = 8;
+  image.black_level = 0;
+  image.white_level = 255;
+  for (int y = 0; y < exposure.rows; ++y) {
+    const float* in = exposure.ptr<float>(y);
+    std::uint8_t* out = image.pixels.ptr<std::uint8_t>(y);
+    for (int i = 0; i < exposure.cols * 3; ++i) {
+      const int c = i % 3;
+      const double x = std::clamp(static_cast<double>(in[i]), 0.0, 1.0);
+      // Exact forward response for dark values (the table is coarse where gamma is steep).
+      out[i] = x < 0.05 ? static_cast<std::uint8_t>(std::lround(255.0 * response.Forward(c, x)))
+                        : table[c][static_cast<int>(std::lround(x * kTable))];
+    }
+  }
+  return image;
+}
+
+std::vector<CameraImage> RenderBracket(const cv::Mat& radiance, const std::vector<double>& exposure_times_s,
+                                       const SyntheticResponse& response, const NoiseOptions& noise) {
+  std::vector<CameraImage> frames;
+  for (std::size_t i = 0; i < exposure_times_s.size(); ++i) {
+    frames.push_back(EncodeFrame(AddSensorNoise(IdealExposure(radiance, exposure_times_s[i]), noise, i), response));
+  }
+  return frames;
+}
+
+CameraResponse TrueInverseResponse(const SyntheticResponse& response) {
+  CameraResponse r;
+  r.levels = 256;
+  r.inverse.assign(3, std::vector<double>(256));
+  for (int c = 0; c < 3; ++c) {
+    const double mid = response.Inverse(c, 128.0 / 255.0);
+    for (int z = 0; z < 256; ++z) r.inverse[c][z] = response.Inverse(c, z / 255.0) / mid;
+    r.inverse[c][0] = 0.0;
+  }
+  return r;
+}
+
+cv::Mat WellExposedMask(const cv::Mat& radiance, const std::vector<double>& exposure_times_s,
+                        const SyntheticResponse& response, int low_code, int high_code) {
+  cv::Mat mask = cv::Mat::zeros(radiance.size(), CV_8UC1);
+  for (double t : exposure_times_s) {
+    const CameraImage frame = EncodeFrame(IdealExposure(radiance, t), response);
+    for (int y = 0; y < radiance.rows; ++y) {
+      const std::uint8_t* p = frame.pixels.ptr<std::uint8_t>(y);
+      std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+      for (int x = 0; x < radiance.cols; ++x) {
+        bool good = true;
+        for (int c = 0; c < 3; ++c) good = good && p[3 * x + c] >= low_code && p[3 * x + c] <= high_code;
+        if (good) m[x] = 255;
+      }
+    }
+  }
+  return mask;
+}
+
+RadianceError CompareRadiance(const cv::Mat& estimate, const cv::Mat& truth, const cv::Mat& mask) {
+  RELUME_CHECK(estimate.size() == truth.size() && estimate.type() == CV_32FC3 && truth.type() == CV_32FC3);
+  RadianceError error;
+  // Per-channel scale: median of truth / estimate over the mask (robust to outliers).
+  std::array<double, 3> scale{1.0, 1.0, 1.0};
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> ratios;
+    for (int y = 0; y < truth.rows; ++y) {
+      for (int x = 0; x < truth.cols; ++x) {
+        if (!mask.at<std::uint8_t>(y, x)) continue;
+        const double e = estimate.at<cv::Vec3f>(y, x)[c];
+        if (e > 0.0 && std::isfinite(e)) ratios.push_back(truth.at<cv::Vec3f>(y, x)[c] / e);
+      }
+    }
+    if (ratios.empty()) return error;
+    std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+    scale[c] = ratios[ratios.size() / 2];
+  }
+  std::vector<double> errors;
+  for (int y = 0; y < truth.rows; ++y) {
+    for (int x = 0; x < truth.cols; ++x) {
+      if (!mask.at<std::uint8_t>(y, x)) continue;
+      ++error.pixels;
+      for (int c = 0; c < 3; ++c) {
+        const double t = truth.at<cv::Vec3f>(y, x)[c];
+        const double e = estimate.at<cv::Vec3f>(y, x)[c];
+        errors.push_back(std::isfinite(e) ? std::abs(scale[c] * e - t) / t : 1.0);
+      }
+    }
+  }
+  if (errors.empty()) return error;
+  double sum = 0.0;
+  for (double e : errors) sum += e;
+  error.mean_relative = sum / errors.size();
+  std::nth_element(errors.begin(), errors.begin() + errors.size() * 95 / 100, errors.end());
+  error.p95_relative = errors[errors.size() * 95 / 100];
+  return error;
+}
+
+}  // namespace relume::calibration::testing
