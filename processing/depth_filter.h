@@ -17,8 +17,8 @@
 namespace relume::processing {
 
 struct BilateralDepthOptions {
-  int radius_px = 2;                   // window (2 r + 1)^2
-  double spatial_sigma_px = 1.5;       // spatial Gaussian
+  int radius_px = 1;                   // window (2 r + 1)^2; r = 1 relit best in sh_benchmark
+  double spatial_sigma_px = 1.0;       // spatial Gaussian
   double range_sigma_at_1m_m = 0.005;  // range Gaussian at 1 m; scales with z^2
   double edge_cut_sigmas = 3.0;        // hard cut: neighbours beyond this many range sigmas
   bool IsValid(std::string* why) const;

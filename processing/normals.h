@@ -28,7 +28,7 @@ namespace relume::processing {
 enum class NormalMethod : unsigned char { kInvalid = 0, kIntegralImage = 1, kNeighbourCross = 2 };
 
 struct NormalOptions {
-  int window_radius_px = 6;          // r: boxes are (2 r + 1) x r pixels; 0 = cross product only
+  int window_radius_px = 3;          // r: boxes are (2 r + 1) x r pixels; 0 = cross product only
   double depth_change_ratio = 0.02;  // |dz| / z above which neighbours are on different surfaces
   double min_valid_fraction = 0.5;   // of each half box, for the smooth estimate
   bool IsValid(std::string* why) const;

@@ -7,6 +7,18 @@
 #include "core/error.h"
 
 namespace relume::processing {
+namespace {
+
+// ShBasis (processing/sh.h) in single precision, for the per-pixel loop.
+Eigen::Matrix<float, kShCount, 1> BasisF(const Eigen::Vector3f& d) {
+  const float x = d.x(), y = d.y(), z = d.z();
+  Eigen::Matrix<float, kShCount, 1> b;
+  b << 0.28209479f, 0.48860251f * y, 0.48860251f * z, 0.48860251f * x, 1.09254843f * x * y, 1.09254843f * y * z,
+      0.31539157f * (3.0f * z * z - 1.0f), 1.09254843f * x * z, 0.54627422f * (x * x - y * y);
+  return b;
+}
+
+}  // namespace
 
 bool RelightOptions::IsValid(std::string* why) const {
   if (!(min_irradiance_fraction > 0.0) || min_irradiance_fraction >= 1.0) {
@@ -64,9 +76,8 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
         ++summary.invalid_input_count;
         continue;
       }
-      const Eigen::Map<const Eigen::Vector3f> normal(&n[x][0]);
-      const Eigen::Vector3f nf = normal.normalized();
-      Eigen::Matrix<float, kShCount, 1> y_basis = ShBasis(nf.cast<double>()).cast<float>();
+      const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
+      const Eigen::Matrix<float, kShCount, 1> y_basis = BasisF(nf);
       const Eigen::Vector3f e_src = src_k * y_basis;
       if (!light_ok || (e_src - floor_f).minCoeff() < 0.0f) {
         ++summary.guarded_pixel_count;

@@ -75,8 +75,8 @@ void Print(const char* name, const Errors& e, const ShFitSummary& summary) {
               e.irradiance_rel_rms, e.relit_rel_rms, e.baseline_rel_rms, e.coverage, summary.BriefReport().c_str());
 }
 
-// The scene is 320 x 240, so the normal window is halved from the default (made for
-// 640 x 480) to keep the same footprint on the objects.
+// The chain's defaults, with the normal window stated (3 px, the default) because the
+// numbers below depend on it.
 ShEstimatorOptions Options(int segment_count = 4) {
   ShEstimatorOptions options;
   options.normals.window_radius_px = 3;

@@ -86,6 +86,9 @@ BENCHMARK(BM_Chain)
     ->Args({2000, 2, 3, 2})
     ->Args({2000, 2, 10, 2})
     ->Args({2000, 2, 6, 1})
+    ->Args({2000, 1, 3, 2})
+    ->Args({2000, 1, 4, 2})
+    ->Args({2000, 0, 4, 2})
     ->Unit(benchmark::kMillisecond);
 
 void BM_BilateralFilter(benchmark::State& state) {

@@ -10,6 +10,11 @@
 //    frames and re-selected where they left the segment.
 //  - EstimateUnknownAlbedo (the ISVC paper): k-means segments; samples from every segment;
 //    alternating light/albedo fit with the scale fixed by ShAlbedoFitOptions.
+//
+// Region of interest: filtering and normals run only on the bounding rectangle of the mask,
+// grown by the bilateral radius + the normal window + 2 pixels (the intrinsics are shifted
+// to the crop). Outside it the filtered depth is NaN and there are no normals: only the
+// object is relit, so nothing else is needed, and the chain costs in proportion to the object.
 #pragma once
 
 #include <Eigen/Core>
@@ -38,7 +43,8 @@ struct ShEstimatorOptions {
 };
 
 struct ShFrameEstimate {
-  cv::Mat depth_m;  // after denoising (or the input when filter_depth is false)
+  cv::Mat depth_m;  // after denoising (or the input when filter_depth is false); NaN outside roi
+  cv::Rect roi;     // where depth was filtered and normals estimated
   NormalMap normals;
   Segmentation segmentation;  // empty for EstimateKnownAlbedo
   std::vector<cv::Point> samples;
@@ -69,7 +75,7 @@ class ShLightEstimator {
   void Sample(const cv::Mat& allowed, ShFrameEstimate* estimate);
 
   ShEstimatorOptions options_;
-  DepthDenoiser denoiser_;
+  cv::Mat previous_bilateral_m_;  // D_b(t-1) for the temporal filter, full frame
   SamplePointSelector selector_;
 };
 
