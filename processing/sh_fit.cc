@@ -230,7 +230,11 @@ ShAlbedoFitResult FitShUnknownAlbedo(const std::vector<ShObservation>& observati
 
   // Segments with enough observations take part; the rest are left out.
   int segments = 0;
-  for (const ShObservation& o : observations) segments = std::max(segments, o.segment + 1);
+  for (const ShObservation& o : observations) {
+    if (o.segment < 0)
+      throw InvalidArgumentError("SH fit with unknown albedo: observation with a negative segment label");
+    segments = std::max(segments, o.segment + 1);
+  }
   std::vector<int> counts(segments, 0);
   for (const ShObservation& o : observations) ++counts[o.segment];
   result.segment_used.assign(segments, false);

@@ -170,6 +170,11 @@ TEST(ShFitTest, InvalidOptionsThrow) {
   ShAlbedoFitOptions albedo_options;
   albedo_options.reference_albedo = Eigen::Vector3d(0.5, 0.0, 0.5);
   EXPECT_THROW(FitShUnknownAlbedo({}, albedo_options), InvalidArgumentError);
+  ShObservation unlabelled;
+  unlabelled.normal = Eigen::Vector3d::UnitZ();
+  unlabelled.radiance = Eigen::Vector3d::Ones();
+  unlabelled.segment = -1;
+  EXPECT_THROW(FitShUnknownAlbedo({unlabelled}), InvalidArgumentError);
 }
 
 }  // namespace
