@@ -1,0 +1,61 @@
+// Depth denoising before normals (Ogura & Saito 2015, eqs. 1 and 2): an edge-preserving
+// bilateral filter, then a two-frame temporal filter.
+//
+// Conventions:
+//  - Depth maps are CV_32FC1 in metres along the camera's optical axis (z); NaN (or any
+//    value <= 0 or infinite) is a hole. Holes stay holes: no pixel is ever filled.
+//  - The range sigma grows with the square of depth, like structured-light noise:
+//    sigma_r(z) = range_sigma_at_1m_m * z^2 (metres), evaluated at the centre pixel.
+//  - A neighbour whose depth differs from the centre by more than edge_cut_sigmas * sigma_r(z)
+//    gets weight 0, so no pixel averages across a depth discontinuity (the Gaussian alone
+//    would still leak a little).
+#pragma once
+
+#include <opencv2/core/mat.hpp>
+#include <string>
+
+namespace relume::processing {
+
+struct BilateralDepthOptions {
+  int radius_px = 1;                   // window (2 r + 1)^2; r = 1 relit best in sh_benchmark
+  double spatial_sigma_px = 1.0;       // spatial Gaussian
+  double range_sigma_at_1m_m = 0.005;  // range Gaussian at 1 m; scales with z^2
+  double edge_cut_sigmas = 3.0;        // hard cut: neighbours beyond this many range sigmas
+  bool IsValid(std::string* why) const;
+};
+
+struct TemporalDepthOptions {
+  double weight = 1.0;  // w in D = (D_t (w + 1) + D_{t-1} w) / (2 w + 1); 0 disables
+  // Frames are blended only where both are valid and differ by at most this many range
+  // sigmas (BilateralDepthOptions::range_sigma_at_1m_m * z^2); elsewhere D_t is kept.
+  double max_difference_sigmas = 3.0;
+  double range_sigma_at_1m_m = 0.005;
+  bool IsValid(std::string* why) const;
+};
+
+// Bilateral filter of one depth map. Throws InvalidArgumentError for bad options or a
+// depth map that is not CV_32FC1.
+cv::Mat BilateralFilterDepth(const cv::Mat& depth_m, const BilateralDepthOptions& options = {});
+
+// Eq. 2: blends the current and previous (bilaterally filtered) frames where both are valid
+// and close; elsewhere returns the current value. previous may be empty (first frame).
+cv::Mat TemporalFilterDepth(const cv::Mat& current_m, const cv::Mat& previous_m, const TemporalDepthOptions& options,
+                            int* blended_pixel_count = nullptr);
+
+// The two filters over a stream: keeps the previous bilateral output (D_b(t-1), as in the
+// paper, not the previous blended output, so errors do not accumulate).
+class DepthDenoiser {
+ public:
+  DepthDenoiser(const BilateralDepthOptions& bilateral, const TemporalDepthOptions& temporal);
+  cv::Mat Process(const cv::Mat& depth_m);
+  void Reset() { previous_.release(); }
+  int last_blended_pixel_count() const { return last_blended_; }
+
+ private:
+  BilateralDepthOptions bilateral_;
+  TemporalDepthOptions temporal_;
+  cv::Mat previous_;
+  int last_blended_ = 0;
+};
+
+}  // namespace relume::processing

@@ -1,0 +1,95 @@
+#include "processing/depth_filter.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "core/error.h"
+#include "processing/testing/synthetic_scene.h"
+
+namespace relume::processing {
+namespace {
+
+// A step: left half at 1.0 m, right half at 1.1 m, plus holes.
+cv::Mat StepDepth() {
+  cv::Mat depth(20, 20, CV_32FC1);
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 20; ++x) depth.at<float>(y, x) = x < 10 ? 1.0f : 1.1f;
+  }
+  depth.at<float>(5, 5) = NAN;
+  depth.at<float>(6, 5) = 0.0f;
+  return depth;
+}
+
+TEST(DepthFilterTest, KeepsHolesAndDoesNotFillThem) {
+  const cv::Mat out = BilateralFilterDepth(StepDepth());
+  EXPECT_TRUE(std::isnan(out.at<float>(5, 5)));
+  EXPECT_TRUE(std::isnan(out.at<float>(6, 5)));  // 0 is a hole too: it stays a hole (NaN)
+  EXPECT_FLOAT_EQ(out.at<float>(5, 4), 1.0f);    // neighbour of a hole: unaffected by it
+}
+
+TEST(DepthFilterTest, DoesNotAverageAcrossADepthStep) {
+  BilateralDepthOptions options;
+  options.radius_px = 3;
+  options.range_sigma_at_1m_m = 0.05;  // 10 cm step = 2 sigma: the Gaussian alone would leak
+  options.edge_cut_sigmas = 1.5;
+  const cv::Mat out = BilateralFilterDepth(StepDepth(), options);
+  for (int y = 0; y < 20; ++y) {
+    EXPECT_FLOAT_EQ(out.at<float>(y, 9), 1.0f) << y;
+    EXPECT_FLOAT_EQ(out.at<float>(y, 10), 1.1f) << y;
+  }
+}
+
+TEST(DepthFilterTest, ReducesKinectNoiseOnAPlane) {
+  cv::Mat truth(60, 80, CV_32FC1, cv::Scalar(1.2f));
+  const cv::Mat noisy = testing::AddKinectDepthNoise(truth, 3);
+  const cv::Mat out = BilateralFilterDepth(noisy);
+  const double sigma = testing::KinectDepthSigmaM(1.2);
+  const double before = cv::norm(noisy, truth) / std::sqrt(truth.total());
+  const double after = cv::norm(out, truth) / std::sqrt(truth.total());
+  EXPECT_NEAR(before, sigma, 0.1 * sigma);
+  EXPECT_LT(after, 0.45 * before);
+}
+
+TEST(DepthFilterTest, TemporalBlendFollowsEquationTwoWhereClose) {
+  cv::Mat current(2, 2, CV_32FC1, cv::Scalar(1.0f)), previous(2, 2, CV_32FC1, cv::Scalar(1.003f));
+  previous.at<float>(0, 1) = 1.5f;  // moved: not blended
+  previous.at<float>(1, 0) = NAN;   // hole in the previous frame
+  current.at<float>(1, 1) = NAN;    // hole now: stays a hole
+  TemporalDepthOptions options;
+  options.weight = 2.0;
+  int blended = 0;
+  const cv::Mat out = TemporalFilterDepth(current, previous, options, &blended);
+  EXPECT_EQ(blended, 1);
+  EXPECT_NEAR(out.at<float>(0, 0), (1.0 * 3 + 1.003 * 2) / 5, 1e-6);
+  EXPECT_FLOAT_EQ(out.at<float>(0, 1), 1.0f);
+  EXPECT_FLOAT_EQ(out.at<float>(1, 0), 1.0f);
+  EXPECT_TRUE(std::isnan(out.at<float>(1, 1)));
+}
+
+TEST(DepthFilterTest, DenoiserBlendsFromTheSecondFrame) {
+  DepthDenoiser denoiser({}, {});
+  cv::Mat truth(30, 30, CV_32FC1, cv::Scalar(1.0f));
+  denoiser.Process(testing::AddKinectDepthNoise(truth, 1));
+  EXPECT_EQ(denoiser.last_blended_pixel_count(), 0);
+  const cv::Mat second = denoiser.Process(testing::AddKinectDepthNoise(truth, 2));
+  EXPECT_GT(denoiser.last_blended_pixel_count(), 850);
+  const cv::Mat single = BilateralFilterDepth(testing::AddKinectDepthNoise(truth, 2));
+  EXPECT_LT(cv::norm(second, truth), cv::norm(single, truth));
+}
+
+TEST(DepthFilterTest, RejectsBadOptionsAndTypes) {
+  BilateralDepthOptions bad;
+  bad.radius_px = -1;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_THROW(BilateralFilterDepth(StepDepth(), bad), InvalidArgumentError);
+  EXPECT_THROW(BilateralFilterDepth(cv::Mat::zeros(4, 4, CV_16UC1)), InvalidArgumentError);
+  TemporalDepthOptions temporal;
+  EXPECT_THROW(TemporalFilterDepth(StepDepth(), cv::Mat(3, 3, CV_32FC1, cv::Scalar(1.0f)), temporal),
+               InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace relume::processing

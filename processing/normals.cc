@@ -1,0 +1,206 @@
+#include "processing/normals.h"
+
+#include <cmath>
+#include <limits>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/error.h"
+
+namespace relume::processing {
+namespace {
+
+inline bool IsDepthValid(float z) {
+  return std::isfinite(z) && z > 0.0f;
+}
+
+// Summed-area tables (one row and column of zeros in front) of x, y, z, valid count and
+// discontinuity count, packed per pixel for locality.
+struct Integrals {
+  int stride = 0;
+  std::vector<double> xyzn;  // 4 per entry
+  std::vector<int> edges;    // 1 per entry
+
+  void Build(const cv::Mat& vertices, const cv::Mat& edge_map) {
+    const int rows = vertices.rows, cols = vertices.cols;
+    stride = cols + 1;
+    xyzn.assign(4 * static_cast<size_t>(rows + 1) * stride, 0.0);
+    edges.assign(static_cast<size_t>(rows + 1) * stride, 0);
+    for (int y = 0; y < rows; ++y) {
+      const cv::Vec3f* v = vertices.ptr<cv::Vec3f>(y);
+      const unsigned char* e = edge_map.ptr<unsigned char>(y);
+      double row_sum[4] = {0, 0, 0, 0};
+      int row_edges = 0;
+      for (int x = 0; x < cols; ++x) {
+        if (std::isfinite(v[x][2])) {
+          row_sum[0] += v[x][0];
+          row_sum[1] += v[x][1];
+          row_sum[2] += v[x][2];
+          row_sum[3] += 1.0;
+        }
+        row_edges += e[x];
+        const size_t i = static_cast<size_t>(y + 1) * stride + x + 1;
+        const size_t above = i - stride;
+        for (int c = 0; c < 4; ++c) xyzn[4 * i + c] = xyzn[4 * above + c] + row_sum[c];
+        edges[i] = edges[above] + row_edges;
+      }
+    }
+  }
+  // Sums over rows [y0, y1) and columns [x0, x1).
+  void Box(int x0, int y0, int x1, int y1, double out[4]) const {
+    const size_t a = static_cast<size_t>(y0) * stride + x0, b = static_cast<size_t>(y0) * stride + x1;
+    const size_t c = static_cast<size_t>(y1) * stride + x0, d = static_cast<size_t>(y1) * stride + x1;
+    for (int k = 0; k < 4; ++k) out[k] = xyzn[4 * d + k] - xyzn[4 * b + k] - xyzn[4 * c + k] + xyzn[4 * a + k];
+  }
+  int EdgeCount(int x0, int y0, int x1, int y1) const {
+    return edges[static_cast<size_t>(y1) * stride + x1] - edges[static_cast<size_t>(y0) * stride + x1] -
+           edges[static_cast<size_t>(y1) * stride + x0] + edges[static_cast<size_t>(y0) * stride + x0];
+  }
+};
+
+// Unit normal facing the camera from two tangents, or false when they are degenerate.
+bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3f& point, cv::Vec3f* normal) {
+  cv::Vec3d n = tx.cross(ty);
+  const double norm = cv::norm(n);
+  if (!(norm > 1e-12)) return false;
+  n /= norm;
+  if (n.dot(cv::Vec3d(point)) > 0.0) n = -n;
+  *normal = cv::Vec3f(n);
+  return true;
+}
+
+}  // namespace
+
+bool NormalOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* reason) {
+    if (why) *why = reason;
+    return false;
+  };
+  if (window_radius_px < 0 || window_radius_px > 50) return fail("window_radius_px must be in [0, 50]");
+  if (!(depth_change_ratio > 0.0) || depth_change_ratio > 1.0) return fail("depth_change_ratio must be in (0, 1]");
+  if (!(min_valid_fraction > 0.0) || min_valid_fraction > 1.0) return fail("min_valid_fraction must be in (0, 1]");
+  return true;
+}
+
+cv::Mat VertexMap(const cv::Mat& depth_m, const PinholeIntrinsics& k) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat vertices(depth_m.size(), CV_32FC3);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    cv::Vec3f* v = vertices.ptr<cv::Vec3f>(y);
+    const double ry = (y + 0.5 - k.cy) / k.fy;
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (!IsDepthValid(z[x])) {
+        v[x] = cv::Vec3f(nan, nan, nan);
+        continue;
+      }
+      const double rx = (x + 0.5 - k.cx) / k.fx;
+      v[x] = cv::Vec3f(static_cast<float>(rx * z[x]), static_cast<float>(ry * z[x]), z[x]);
+    }
+  }
+  return vertices;
+}
+
+NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsics, const NormalOptions& options) {
+  ThrowIfInvalid(options, "normal estimation");
+  ThrowIfInvalid(intrinsics, "normal estimation intrinsics");
+  if (depth_m.empty() || depth_m.type() != CV_32FC1) {
+    throw InvalidArgumentError("normal estimation: depth must be a non-empty CV_32FC1 image in metres");
+  }
+  if (depth_m.cols != intrinsics.width || depth_m.rows != intrinsics.height) {
+    throw InvalidArgumentError("normal estimation: depth is " + std::to_string(depth_m.cols) + "x" +
+                               std::to_string(depth_m.rows) + " but the intrinsics are for " +
+                               std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+  }
+  const int rows = depth_m.rows, cols = depth_m.cols, r = options.window_radius_px;
+  const float ratio = static_cast<float>(options.depth_change_ratio);
+  const cv::Mat vertices = VertexMap(depth_m, intrinsics);
+
+  // Discontinuity map: a pixel is an edge when it is a hole, or its right or lower
+  // neighbour is on another surface.
+  cv::Mat edge_map(rows, cols, CV_8UC1, cv::Scalar(0));
+  auto jump = [ratio](float a, float b) { return !IsDepthValid(b) || std::abs(a - b) > ratio * a; };
+  for (int y = 0; y < rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    const float* z_below = y + 1 < rows ? depth_m.ptr<float>(y + 1) : nullptr;
+    unsigned char* e = edge_map.ptr<unsigned char>(y);
+    for (int x = 0; x < cols; ++x) {
+      if (!IsDepthValid(z[x])) {
+        e[x] = 1;
+        continue;
+      }
+      e[x] = (x + 1 < cols && jump(z[x], z[x + 1])) || (z_below && jump(z[x], z_below[x]));
+    }
+  }
+
+  Integrals integrals;
+  if (r > 0) integrals.Build(vertices, edge_map);
+  const double min_count = options.min_valid_fraction * (2 * r + 1) * r;
+
+  NormalMap result;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  result.normal_in_camera.create(rows, cols, CV_32FC3);
+  result.normal_in_camera.setTo(cv::Scalar(nan, nan, nan));
+  result.valid = cv::Mat::zeros(rows, cols, CV_8UC1);
+  result.method = cv::Mat::zeros(rows, cols, CV_8UC1);
+
+  for (int y = 0; y < rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    const cv::Vec3f* v = vertices.ptr<cv::Vec3f>(y);
+    cv::Vec3f* n_out = result.normal_in_camera.ptr<cv::Vec3f>(y);
+    unsigned char* valid = result.valid.ptr<unsigned char>(y);
+    unsigned char* method = result.method.ptr<unsigned char>(y);
+    for (int x = 0; x < cols; ++x) {
+      if (!IsDepthValid(z[x])) continue;
+      // Smooth estimate: the full box must lie inside the image and hold no discontinuity.
+      if (r > 0 && x - r >= 0 && x + r < cols && y - r >= 0 && y + r < rows &&
+          integrals.EdgeCount(x - r, y - r, x + r + 1, y + r + 1) == 0) {
+        // (Counting the box's last row and column too also checks their neighbours just outside
+        // the box: slightly conservative, never blind to a jump inside it.)
+        double left[4], right[4], up[4], down[4];
+        integrals.Box(x - r, y - r, x, y + r + 1, left);
+        integrals.Box(x + 1, y - r, x + r + 1, y + r + 1, right);
+        integrals.Box(x - r, y - r, x + r + 1, y, up);
+        integrals.Box(x - r, y + 1, x + r + 1, y + r + 1, down);
+        if (left[3] >= min_count && right[3] >= min_count && up[3] >= min_count && down[3] >= min_count) {
+          const cv::Vec3d tx(right[0] / right[3] - left[0] / left[3], right[1] / right[3] - left[1] / left[3],
+                             right[2] / right[3] - left[2] / left[3]);
+          const cv::Vec3d ty(down[0] / down[3] - up[0] / up[3], down[1] / down[3] - up[1] / up[3],
+                             down[2] / down[3] - up[2] / up[3]);
+          if (NormalFromTangents(tx, ty, v[x], &n_out[x])) {
+            valid[x] = 255;
+            method[x] = static_cast<unsigned char>(NormalMethod::kIntegralImage);
+            ++result.integral_count;
+            continue;
+          }
+        }
+      }
+      // Fallback (eq. 3): neighbour differences, the closer-in-depth neighbour per axis.
+      auto pick = [&](int dx, int dy, cv::Vec3d* tangent) {
+        double best = std::numeric_limits<double>::infinity();
+        for (int s : {1, -1}) {
+          const int xx = x + s * dx, yy = y + s * dy;
+          if (xx < 0 || xx >= cols || yy < 0 || yy >= rows) continue;
+          const float zz = depth_m.at<float>(yy, xx);
+          if (!IsDepthValid(zz) || std::abs(zz - z[x]) > ratio * z[x]) continue;
+          if (std::abs(zz - z[x]) < best) {
+            best = std::abs(zz - z[x]);
+            *tangent = s * (cv::Vec3d(vertices.at<cv::Vec3f>(yy, xx)) - cv::Vec3d(v[x]));
+          }
+        }
+        return std::isfinite(best);
+      };
+      cv::Vec3d tx, ty;
+      if (pick(1, 0, &tx) && pick(0, 1, &ty) && NormalFromTangents(tx, ty, v[x], &n_out[x])) {
+        valid[x] = 255;
+        method[x] = static_cast<unsigned char>(NormalMethod::kNeighbourCross);
+        ++result.cross_count;
+        continue;
+      }
+      ++result.invalid_count;
+    }
+  }
+  return result;
+}
+
+}  // namespace relume::processing

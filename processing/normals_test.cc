@@ -1,0 +1,184 @@
+#include "processing/normals.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "core/error.h"
+#include "processing/depth_filter.h"
+#include "processing/testing/synthetic_scene.h"
+
+namespace relume::processing {
+namespace {
+
+const PinholeIntrinsics kIntrinsics = PinholeIntrinsics::FromHorizontalFov(320, 240, 60.0 * std::numbers::pi / 180.0);
+
+struct Analytic {
+  cv::Mat depth_m;
+  cv::Mat normal;  // truth, CV_32FC3, facing the camera
+};
+
+// A plane through (0, 0, 1.2) with a normal tilted 40 deg about x and 25 deg about y.
+Analytic TiltedPlane() {
+  Analytic a;
+  a.depth_m.create(kIntrinsics.height, kIntrinsics.width, CV_32FC1);
+  a.normal.create(kIntrinsics.height, kIntrinsics.width, CV_32FC3);
+  const double ax = 40.0 * std::numbers::pi / 180.0, ay = 25.0 * std::numbers::pi / 180.0;
+  const Eigen::Vector3d n = Eigen::Vector3d(std::sin(ay), std::sin(ax) * std::cos(ay), -std::cos(ax) * std::cos(ay));
+  const double d = n.dot(Eigen::Vector3d(0, 0, 1.2));
+  for (int v = 0; v < kIntrinsics.height; ++v) {
+    for (int u = 0; u < kIntrinsics.width; ++u) {
+      const Eigen::Vector3d r = kIntrinsics.Unproject({u + 0.5, v + 0.5});
+      a.depth_m.at<float>(v, u) = static_cast<float>(d / n.dot(r));
+      a.normal.at<cv::Vec3f>(v, u) = cv::Vec3f(n.x(), n.y(), n.z());
+    }
+  }
+  return a;
+}
+
+// A sphere of radius 0.3 m at 1 m in front of the camera, empty (NaN) around it.
+Analytic Sphere() {
+  Analytic a;
+  a.depth_m = cv::Mat(kIntrinsics.height, kIntrinsics.width, CV_32FC1, cv::Scalar(NAN));
+  a.normal = cv::Mat(kIntrinsics.height, kIntrinsics.width, CV_32FC3, cv::Scalar(NAN, NAN, NAN));
+  const Eigen::Vector3d c(0.0, 0.0, 1.0);
+  const double radius = 0.3;
+  for (int v = 0; v < kIntrinsics.height; ++v) {
+    for (int u = 0; u < kIntrinsics.width; ++u) {
+      const Eigen::Vector3d r = kIntrinsics.Unproject({u + 0.5, v + 0.5});
+      const double b = r.dot(c), disc = b * b - r.squaredNorm() * (c.squaredNorm() - radius * radius);
+      if (disc < 0) continue;
+      const double t = (b - std::sqrt(disc)) / r.squaredNorm();
+      const Eigen::Vector3d n = (t * r - c) / radius;
+      a.depth_m.at<float>(v, u) = static_cast<float>(t);
+      a.normal.at<cv::Vec3f>(v, u) = cv::Vec3f(n.x(), n.y(), n.z());
+    }
+  }
+  return a;
+}
+
+struct AngularError {
+  double mean_deg = 0, median_deg = 0, p95_deg = 0;
+  double coverage = 0;  // valid normals / pixels with depth
+};
+
+AngularError Compare(const NormalMap& estimate, const Analytic& truth) {
+  std::vector<double> errors;
+  int with_depth = 0;
+  for (int v = 0; v < truth.depth_m.rows; ++v) {
+    for (int u = 0; u < truth.depth_m.cols; ++u) {
+      if (!std::isfinite(truth.depth_m.at<float>(v, u))) continue;
+      ++with_depth;
+      if (!estimate.valid.at<unsigned char>(v, u)) continue;
+      const cv::Vec3f a = estimate.normal_in_camera.at<cv::Vec3f>(v, u), b = truth.normal.at<cv::Vec3f>(v, u);
+      errors.push_back(std::acos(std::clamp(static_cast<double>(a.dot(b)), -1.0, 1.0)) * 180.0 / std::numbers::pi);
+    }
+  }
+  AngularError e;
+  if (errors.empty()) return e;
+  std::sort(errors.begin(), errors.end());
+  for (double x : errors) e.mean_deg += x / errors.size();
+  e.median_deg = errors[errors.size() / 2];
+  e.p95_deg = errors[errors.size() * 95 / 100];
+  e.coverage = static_cast<double>(errors.size()) / with_depth;
+  return e;
+}
+
+void Print(const char* name, const AngularError& e) {
+  std::printf("normals %-34s mean %6.3f deg, median %6.3f, p95 %6.3f, coverage %.3f\n", name, e.mean_deg, e.median_deg,
+              e.p95_deg, e.coverage);
+}
+
+TEST(NormalsTest, TiltedPlaneIsExactWithoutNoise) {
+  const Analytic plane = TiltedPlane();
+  const NormalMap normals = EstimateNormals(plane.depth_m, kIntrinsics);
+  const AngularError e = Compare(normals, plane);
+  Print("tilted plane, no noise", e);
+  EXPECT_LT(e.p95_deg, 0.05);  // float depth over a 1-3 px baseline
+  EXPECT_EQ(normals.invalid_count, 0);
+  EXPECT_GT(normals.integral_count, normals.cross_count);  // fallback only at the image border
+}
+
+TEST(NormalsTest, SphereWithoutNoise) {
+  const Analytic sphere = Sphere();
+  const NormalMap normals = EstimateNormals(sphere.depth_m, kIntrinsics);
+  const AngularError e = Compare(normals, sphere);
+  Print("sphere, no noise", e);
+  EXPECT_LT(e.median_deg, 0.5);
+  EXPECT_LT(e.mean_deg, 1.5);
+  EXPECT_GT(e.coverage, 0.98);        // grazing silhouette pixels have no normal
+  EXPECT_GT(normals.cross_count, 0);  // the silhouette falls back to neighbour differences
+}
+
+TEST(NormalsTest, KinectNoiseWithAndWithoutTheFilters) {
+  for (const auto& [name, truth] : {std::pair{"tilted plane", TiltedPlane()}, std::pair{"sphere", Sphere()}}) {
+    const cv::Mat noisy = testing::AddKinectDepthNoise(truth.depth_m, 17);
+    NormalOptions cross_only;
+    cross_only.window_radius_px = 0;
+    const AngularError raw_cross = Compare(EstimateNormals(noisy, kIntrinsics, cross_only), truth);
+    const AngularError raw = Compare(EstimateNormals(noisy, kIntrinsics), truth);
+    const cv::Mat filtered = BilateralFilterDepth(noisy);
+    const AngularError smooth = Compare(EstimateNormals(filtered, kIntrinsics), truth);
+    Print((std::string(name) + ", noise, cross product only").c_str(), raw_cross);
+    Print((std::string(name) + ", noise, integral").c_str(), raw);
+    Print((std::string(name) + ", noise, bilateral + integral").c_str(), smooth);
+    EXPECT_GT(raw_cross.median_deg, 10.0) << name;  // why the smooth method exists
+    EXPECT_LT(smooth.median_deg, raw.median_deg) << name;
+    EXPECT_LT(smooth.median_deg, 3.0) << name;
+  }
+}
+
+TEST(NormalsTest, NormalsFaceTheCameraAndHolesStayInvalid) {
+  Analytic sphere = Sphere();
+  sphere.depth_m.at<float>(120, 160) = NAN;  // a hole at the sphere's centre
+  const NormalMap normals = EstimateNormals(sphere.depth_m, kIntrinsics);
+  EXPECT_EQ(normals.valid.at<unsigned char>(120, 160), 0);
+  EXPECT_TRUE(std::isnan(normals.normal_in_camera.at<cv::Vec3f>(120, 160)[0]));
+  const cv::Mat vertices = VertexMap(sphere.depth_m, kIntrinsics);
+  for (int v = 0; v < 240; v += 7) {
+    for (int u = 0; u < 320; u += 7) {
+      if (!normals.valid.at<unsigned char>(v, u)) continue;
+      EXPECT_LT(normals.normal_in_camera.at<cv::Vec3f>(v, u).dot(vertices.at<cv::Vec3f>(v, u)), 0.0f);
+      EXPECT_NEAR(cv::norm(normals.normal_in_camera.at<cv::Vec3f>(v, u)), 1.0, 1e-5);
+    }
+  }
+  // Next to the hole the smooth method still works (the hole is an edge: the cross
+  // product takes over there, with a valid result).
+  EXPECT_TRUE(normals.valid.at<unsigned char>(120, 161));
+}
+
+TEST(NormalsTest, DepthStepUsesTheNearSideOnly) {
+  // Two fronto-parallel planes at 1.0 and 1.4 m: every normal must be (0, 0, -1).
+  cv::Mat depth(40, 40, CV_32FC1);
+  for (int y = 0; y < 40; ++y) {
+    for (int x = 0; x < 40; ++x) depth.at<float>(y, x) = x < 20 ? 1.0f : 1.4f;
+  }
+  PinholeIntrinsics k = PinholeIntrinsics::FromHorizontalFov(40, 40, 1.0);
+  const NormalMap normals = EstimateNormals(depth, k);
+  EXPECT_EQ(normals.invalid_count, 0);
+  for (int x : {18, 19, 20, 21}) {
+    const cv::Vec3f n = normals.normal_in_camera.at<cv::Vec3f>(20, x);
+    EXPECT_NEAR(n[2], -1.0f, 1e-5) << x;
+  }
+}
+
+TEST(NormalsTest, IsolatedPixelHasNoNormal) {
+  cv::Mat depth(9, 9, CV_32FC1, cv::Scalar(NAN));
+  depth.at<float>(4, 4) = 1.0f;
+  const NormalMap normals = EstimateNormals(depth, PinholeIntrinsics::FromHorizontalFov(9, 9, 1.0));
+  EXPECT_EQ(normals.invalid_count, 1);
+  EXPECT_EQ(normals.valid.at<unsigned char>(4, 4), 0);
+}
+
+TEST(NormalsTest, RejectsSizeMismatch) {
+  EXPECT_THROW(EstimateNormals(cv::Mat(10, 10, CV_32FC1, cv::Scalar(1.0f)), kIntrinsics), InvalidArgumentError);
+  NormalOptions bad;
+  bad.depth_change_ratio = 0.0;
+  EXPECT_THROW(EstimateNormals(TiltedPlane().depth_m, kIntrinsics, bad), InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace relume::processing

@@ -1,0 +1,123 @@
+#include "processing/relight.h"
+
+#include <cmath>
+#include <limits>
+#include <opencv2/core.hpp>
+
+#include "core/error.h"
+
+namespace relume::processing {
+namespace {
+
+// ShBasis (processing/sh.h) in single precision, for the per-pixel loop.
+Eigen::Matrix<float, kShCount, 1> BasisF(const Eigen::Vector3f& d) {
+  const float x = d.x(), y = d.y(), z = d.z();
+  Eigen::Matrix<float, kShCount, 1> b;
+  b << 0.28209479f, 0.48860251f * y, 0.48860251f * z, 0.48860251f * x, 1.09254843f * x * y, 1.09254843f * y * z,
+      0.31539157f * (3.0f * z * z - 1.0f), 1.09254843f * x * z, 0.54627422f * (x * x - y * y);
+  return b;
+}
+
+}  // namespace
+
+bool RelightOptions::IsValid(std::string* why) const {
+  if (!(min_irradiance_fraction > 0.0) || min_irradiance_fraction >= 1.0) {
+    if (why) *why = "min_irradiance_fraction must be in (0, 1)";
+    return false;
+  }
+  return true;
+}
+
+RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
+                        const ShRgb& src_light, const ShRgb& dst_light, const RelightOptions& options) {
+  ThrowIfInvalid(options, "relighting");
+  if (src.pixels.type() != CV_32FC3) throw InvalidArgumentError("relighting: source must be an RGB radiance image");
+  const cv::Size size = src.pixels.size();
+  if (normal_in_camera.type() != CV_32FC3 || normal_in_camera.size() != size) {
+    throw InvalidArgumentError("relighting: normals must be CV_32FC3 of the source image's size");
+  }
+  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != size)) {
+    throw InvalidArgumentError("relighting: mask must be CV_8UC1 of the source image's size");
+  }
+  if (!src_light.allFinite() || !dst_light.allFinite()) {
+    throw InvalidArgumentError("relighting: SH coefficients must be finite");
+  }
+  RelightResult result;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  result.relit.unit = src.unit;
+  result.relit.pixels = cv::Mat(size, CV_32FC3, cv::Scalar(nan, nan, nan));
+  result.valid = cv::Mat::zeros(size, CV_8UC1);
+  RelightSummary& summary = result.summary;
+
+  // Per-channel floor: a fraction of the source light's mean irradiance. A light whose mean
+  // is not positive cannot be divided by anywhere.
+  const Eigen::Vector3d mean = ShMeanIrradiance(src_light);
+  const Eigen::Vector3d floor = mean * options.min_irradiance_fraction;
+  const bool light_ok = mean.minCoeff() > 0.0;
+  // Single-precision kernels for speed: 9 x 3 coefficients, pre-multiplied by A_l.
+  Eigen::Matrix<float, 3, kShCount> src_k, dst_k;
+  for (int k = 0; k < kShCount; ++k) {
+    const int l = k == 0 ? 0 : k < 4 ? 1 : 2;
+    src_k.col(k) = (src_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
+    dst_k.col(k) = (dst_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
+  }
+  const Eigen::Vector3f floor_f = floor.cast<float>();
+
+  for (int y = 0; y < size.height; ++y) {
+    const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
+    const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
+    const cv::Vec3f* in = src.pixels.ptr<cv::Vec3f>(y);
+    cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
+    unsigned char* valid = result.valid.ptr<unsigned char>(y);
+    for (int x = 0; x < size.width; ++x) {
+      if (m && !m[x]) continue;
+      ++summary.requested_pixel_count;
+      if (!std::isfinite(n[x][0] + n[x][1] + n[x][2] + in[x][0] + in[x][1] + in[x][2])) {
+        ++summary.invalid_input_count;
+        continue;
+      }
+      const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
+      const Eigen::Matrix<float, kShCount, 1> y_basis = BasisF(nf);
+      const Eigen::Vector3f e_src = src_k * y_basis;
+      if (!light_ok || (e_src - floor_f).minCoeff() < 0.0f) {
+        ++summary.guarded_pixel_count;
+        continue;
+      }
+      const Eigen::Vector3f e_dst = dst_k * y_basis;
+      for (int c = 0; c < 3; ++c) out[x][c] = in[x][c] * e_dst(c) / e_src(c);
+      valid[x] = 255;
+      ++summary.relit_pixel_count;
+    }
+  }
+  if (!light_ok)
+    summary.message = "source light has no positive mean irradiance in some channel: nothing relit";
+  else if (summary.guarded_pixel_count > 0) {
+    summary.message = std::to_string(summary.guarded_pixel_count) +
+                      " pixel(s) not relit: source irradiance below the guard (min_irradiance_fraction)";
+  }
+  return result;
+}
+
+RadianceImage Composite(const RadianceImage& foreground, const cv::Mat& mask, const RadianceImage& background) {
+  if (foreground.pixels.type() != CV_32FC3 || background.pixels.type() != CV_32FC3 ||
+      foreground.pixels.size() != background.pixels.size()) {
+    throw InvalidArgumentError("composite: foreground and background must be RGB radiance images of one size");
+  }
+  if (mask.type() != CV_8UC1 || mask.size() != foreground.pixels.size()) {
+    throw InvalidArgumentError("composite: mask must be CV_8UC1 of the images' size");
+  }
+  RadianceImage out;
+  out.unit = background.unit;
+  out.pixels = background.pixels.clone();
+  for (int y = 0; y < mask.rows; ++y) {
+    const unsigned char* m = mask.ptr<unsigned char>(y);
+    const cv::Vec3f* f = foreground.pixels.ptr<cv::Vec3f>(y);
+    cv::Vec3f* o = out.pixels.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (m[x] && std::isfinite(f[x][0] + f[x][1] + f[x][2])) o[x] = f[x];
+    }
+  }
+  return out;
+}
+
+}  // namespace relume::processing

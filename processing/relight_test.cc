@@ -1,0 +1,92 @@
+#include "processing/relight.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "core/error.h"
+#include "processing/testing/synthetic_scene.h"
+
+namespace relume::processing {
+namespace {
+
+ShRgb Light(const Eigen::Vector3d& sun_dir_in_map) {
+  testing::SkySunOptions sky;
+  sky.sun_dir_in_map = sun_dir_in_map.normalized();
+  return ProjectEnvironmentMap(testing::MakeSkySunMap(64, 32, sky), testing::CameraFromMap());
+}
+
+TEST(RelightTest, ExactLightsAndNormalsReproduceTheDestinationRendering) {
+  const ShRgb src = Light({0.6, -0.4, 0.7}), dst = Light({-0.7, -0.2, 0.4});
+  const testing::SyntheticFrame a = testing::RenderScene({}, src);
+  const testing::SyntheticFrame b = testing::RenderScene({}, dst);
+  const RelightResult result = RelightSh(a.radiance, a.normal_in_camera, a.object_mask, src, dst);
+  ASSERT_GT(result.summary.relit_pixel_count, 5000);
+  EXPECT_EQ(result.summary.invalid_input_count, 0);
+  double max_rel = 0.0;
+  for (int y = 0; y < a.object_mask.rows; ++y) {
+    for (int x = 0; x < a.object_mask.cols; ++x) {
+      if (!result.valid.at<unsigned char>(y, x)) continue;
+      const cv::Vec3f got = result.relit.pixels.at<cv::Vec3f>(y, x), want = b.radiance.pixels.at<cv::Vec3f>(y, x);
+      max_rel = std::max(max_rel, cv::norm(got - want) / cv::norm(want));
+    }
+  }
+  EXPECT_LT(max_rel, 1e-4);
+  // Pixels outside the mask are untouched (NaN, not valid).
+  EXPECT_EQ(result.valid.at<unsigned char>(0, 0), 0);
+  EXPECT_TRUE(std::isnan(result.relit.pixels.at<cv::Vec3f>(0, 0)[0]));
+}
+
+TEST(RelightTest, NearZeroSourceIrradianceIsGuardedNotDivided) {
+  // A light that is dark (even negative) for normals facing +x: E = pi L00 Y00 + ... with a
+  // strong linear term.
+  ShRgb src = ShRgb::Zero();
+  src.row(0).setConstant(1.0);
+  src.row(ShIndex(1, 1)).setConstant(-1.2);  // x term: E < 0 for normals toward +x
+  const ShRgb dst = Light({0, 0, 1});
+  cv::Mat normals(1, 3, CV_32FC3);
+  normals.at<cv::Vec3f>(0, 0) = cv::Vec3f(1, 0, 0);   // E_src < 0: guarded
+  normals.at<cv::Vec3f>(0, 1) = cv::Vec3f(-1, 0, 0);  // bright: relit
+  normals.at<cv::Vec3f>(0, 2) = cv::Vec3f(NAN, NAN, NAN);
+  RadianceImage src_image = MakeRadianceImage(3, 1);
+  src_image.pixels.setTo(cv::Scalar(0.3, 0.3, 0.3));
+  const RelightResult r = RelightSh(src_image, normals, {}, src, dst);
+  EXPECT_EQ(r.summary.guarded_pixel_count, 1);
+  EXPECT_EQ(r.summary.relit_pixel_count, 1);
+  EXPECT_EQ(r.summary.invalid_input_count, 1);
+  EXPECT_EQ(r.valid.at<unsigned char>(0, 0), 0);
+  EXPECT_EQ(r.valid.at<unsigned char>(0, 1), 255);
+  EXPECT_TRUE(std::isfinite(r.relit.pixels.at<cv::Vec3f>(0, 1)[0]));
+  EXPECT_FALSE(r.summary.message.empty());
+  // A source light with no positive mean relights nothing, with a message.
+  const RelightResult none = RelightSh(src_image, normals, {}, ShRgb::Zero(), dst);
+  EXPECT_EQ(none.summary.relit_pixel_count, 0);
+  EXPECT_NE(none.summary.message.find("no positive mean"), std::string::npos);
+}
+
+TEST(RelightTest, CompositeTakesTheForegroundInsideTheMaskOnly) {
+  RadianceImage fg = MakeRadianceImage(3, 1), bg = MakeRadianceImage(3, 1);
+  fg.pixels.setTo(cv::Scalar(1, 1, 1));
+  fg.pixels.at<cv::Vec3f>(0, 1) = cv::Vec3f(NAN, NAN, NAN);  // not relit: background shows
+  bg.pixels.setTo(cv::Scalar(0.5, 0.5, 0.5));
+  cv::Mat mask(1, 3, CV_8UC1, cv::Scalar(255));
+  mask.at<unsigned char>(0, 2) = 0;
+  const RadianceImage out = Composite(fg, mask, bg);
+  EXPECT_EQ(out.pixels.at<cv::Vec3f>(0, 0), cv::Vec3f(1, 1, 1));
+  EXPECT_EQ(out.pixels.at<cv::Vec3f>(0, 1), cv::Vec3f(0.5, 0.5, 0.5));
+  EXPECT_EQ(out.pixels.at<cv::Vec3f>(0, 2), cv::Vec3f(0.5, 0.5, 0.5));
+  EXPECT_THROW(Composite(fg, cv::Mat::zeros(2, 2, CV_8UC1), bg), InvalidArgumentError);
+}
+
+TEST(RelightTest, RejectsMismatchedInputs) {
+  RadianceImage image = MakeRadianceImage(4, 4);
+  EXPECT_THROW(RelightSh(image, cv::Mat::zeros(3, 3, CV_32FC3), {}, ShRgb::Zero(), ShRgb::Zero()),
+               InvalidArgumentError);
+  ShRgb nan_light = ShRgb::Zero();
+  nan_light(0, 0) = NAN;
+  EXPECT_THROW(RelightSh(image, cv::Mat::zeros(4, 4, CV_32FC3), {}, nan_light, ShRgb::Zero()), InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace relume::processing
