@@ -353,11 +353,16 @@ RadiositySummary RadiositySolver::Solve(const std::vector<Rgb>& albedo, const st
       summary.contraction = previous > 0.0 ? residual / previous : 0.0;
       summary.residual = residual;
       previous = residual;
-      if (residual <= options_.residual_tolerance && it > 0) {
+      // Converged when both the residual and the error it implies for the remaining sweeps
+      // (residual * q / (1 - q), q the residual ratio) are within tolerance: with albedo near
+      // 1 a small relative residual alone would stop far from the solution.
+      const double q = summary.contraction;
+      const double remaining = q < 1.0 ? residual * q / (1.0 - q) : INFINITY;
+      if (it > 1 && residual <= options_.residual_tolerance && remaining <= options_.residual_tolerance) {
         summary.termination = RadiosityTermination::kConverged;
         break;
       }
-      flat_count = summary.contraction >= 0.9999 && it > 2 ? flat_count + 1 : 0;
+      flat_count = summary.contraction >= 0.999 && it > 2 ? flat_count + 1 : 0;
       if (flat_count >= 5) {
         summary.termination = RadiosityTermination::kNotContracting;
         break;
@@ -381,7 +386,7 @@ RadiositySummary RadiositySolver::Solve(const std::vector<Rgb>& albedo, const st
     const double a = h_.leaf(p).area_m2;
     const Rgb h = direct_irradiance[p] + gathered[p];
     summary.power_absorbed += a * Scalar((Rgb::Ones() - albedo[p]).cwiseProduct(h));
-    summary.power_escaped += a * Scalar(leaf_b[p]) * std::max(0.0, 1.0 - f);
+    summary.power_escaped += a * Scalar(leaf_b[p]) * (1.0 - f);  // negative where sum_j F_ij > 1
   }
   summary.balance_error = (summary.power_in - summary.power_absorbed - summary.power_escaped) / summary.power_in;
   summary.converged = summary.termination == RadiosityTermination::kConverged;
@@ -395,12 +400,13 @@ RadiositySummary RadiositySolver::Solve(const std::vector<Rgb>& albedo, const st
   std::ostringstream reason;
   switch (summary.termination) {
     case RadiosityTermination::kConverged:
-      reason << "residual " << summary.residual << " <= tolerance " << options_.residual_tolerance;
+      reason << "residual " << summary.residual << " and estimated error " << summary.estimated_error
+             << " <= tolerance " << options_.residual_tolerance;
       break;
     case RadiosityTermination::kMaxIterations:
       reason << "stopped at max_iterations " << options_.max_iterations << " with residual " << summary.residual
-             << " shrinking by " << summary.contraction
-             << " per sweep (albedo near 1 converges slowly); raise max_iterations or the tolerance";
+             << " shrinking by " << summary.contraction << " per sweep, estimated error " << summary.estimated_error
+             << " (albedo near 1 converges slowly); raise max_iterations or the tolerance";
       break;
     case RadiosityTermination::kNotContracting:
       reason << "residual no longer shrinks (ratio " << summary.contraction

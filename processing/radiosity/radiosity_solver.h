@@ -11,7 +11,9 @@
 //
 // Solver: block Gauss-Seidel over mesh triangles (gather over links, push irradiance down to
 // the patches, pull radiosity up), stopped when the relative residual (area-weighted L1 change
-// of B in one sweep over area-weighted L1 of B) is at most residual_tolerance. Links persist
+// of B in one sweep over area-weighted L1 of B) and the error it implies for the remaining
+// sweeps (residual * q / (1 - q), q the observed residual ratio) are both at most
+// residual_tolerance. Links persist
 // between Solve() calls and are refined further when a new lighting needs it.
 #pragma once
 
@@ -57,7 +59,7 @@ struct RadiositySummary {
   // Energy balance (scalar = mean of R, G, B; W, or relative units times m^2):
   double power_in = 0.0;        // direct irradiance + self-emission, integrated over area
   double power_absorbed = 0.0;  // sum of area * (1 - albedo) * total irradiance
-  double power_escaped = 0.0;   // leaving the scene: area * B * (1 - sum_j F_ij)
+  double power_escaped = 0.0;   // net, leaving the scene: area * B * (1 - sum_j F_ij)
   double balance_error = 0.0;   // (in - absorbed - escaped) / in
   double refine_time_s = 0.0;
   double solve_time_s = 0.0;
