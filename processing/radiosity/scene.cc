@@ -1,0 +1,124 @@
+#include "processing/radiosity/scene.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace relume::radiosity {
+namespace {
+
+bool Finite(const Eigen::Vector3d& v) {
+  return v.allFinite();
+}
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+}  // namespace
+
+int Mesh::AddMaterial(const Material& material) {
+  materials.push_back(material);
+  return static_cast<int>(materials.size()) - 1;
+}
+
+void Mesh::AddQuad(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                   const Eigen::Vector3d& d, int material) {
+  const int base = static_cast<int>(positions_m.size());
+  positions_m.insert(positions_m.end(), {a, b, c, d});
+  triangles.push_back({base, base + 1, base + 2});
+  triangles.push_back({base, base + 2, base + 3});
+  triangle_material.insert(triangle_material.end(), {material, material});
+}
+
+void Mesh::AddBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int material, bool skip_bottom) {
+  const auto p = [&](int x, int y, int z) {
+    return Eigen::Vector3d(x ? hi.x() : lo.x(), y ? hi.y() : lo.y(), z ? hi.z() : lo.z());
+  };
+  AddQuad(p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1), material);  // top, +z
+  if (!skip_bottom) AddQuad(p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0), material);
+  AddQuad(p(0, 0, 0), p(1, 0, 0), p(1, 0, 1), p(0, 0, 1), material);  // -y
+  AddQuad(p(1, 1, 0), p(0, 1, 0), p(0, 1, 1), p(1, 1, 1), material);  // +y
+  AddQuad(p(0, 1, 0), p(0, 0, 0), p(0, 0, 1), p(0, 1, 1), material);  // -x
+  AddQuad(p(1, 0, 0), p(1, 1, 0), p(1, 1, 1), p(1, 0, 1), material);  // +x
+}
+
+void Mesh::AddRoom(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int floor, int ceiling, int walls) {
+  const auto p = [&](int x, int y, int z) {
+    return Eigen::Vector3d(x ? hi.x() : lo.x(), y ? hi.y() : lo.y(), z ? hi.z() : lo.z());
+  };
+  AddQuad(p(0, 0, 0), p(1, 0, 0), p(1, 1, 0), p(0, 1, 0), floor);    // normal +z
+  AddQuad(p(0, 0, 1), p(0, 1, 1), p(1, 1, 1), p(1, 0, 1), ceiling);  // normal -z
+  AddQuad(p(0, 0, 0), p(0, 0, 1), p(1, 0, 1), p(1, 0, 0), walls);    // y = lo, normal +y
+  AddQuad(p(1, 1, 0), p(1, 1, 1), p(0, 1, 1), p(0, 1, 0), walls);    // y = hi, normal -y
+  AddQuad(p(0, 1, 0), p(0, 1, 1), p(0, 0, 1), p(0, 0, 0), walls);    // x = lo, normal +x
+  AddQuad(p(1, 0, 0), p(1, 0, 1), p(1, 1, 1), p(1, 1, 0), walls);    // x = hi, normal -x
+}
+
+bool Mesh::IsValid(std::string* why) const {
+  if (triangles.empty()) return Fail(why, "mesh has no triangles");
+  if (triangle_material.size() != triangles.size()) {
+    return Fail(why, "triangle_material must have one entry per triangle");
+  }
+  for (const auto& p : positions_m) {
+    if (!Finite(p)) return Fail(why, "mesh has a non-finite vertex position");
+  }
+  for (size_t m = 0; m < materials.size(); ++m) {
+    const Material& mat = materials[m];
+    if (!mat.albedo.allFinite() || mat.albedo.minCoeff() < 0.0 || mat.albedo.maxCoeff() > 1.0) {
+      return Fail(why, "material '" + mat.name + "': albedo must be in [0, 1] per channel");
+    }
+    if (!mat.emitted_radiosity.allFinite() || mat.emitted_radiosity.minCoeff() < 0.0) {
+      return Fail(why, "material '" + mat.name + "': emitted_radiosity must be finite and >= 0");
+    }
+  }
+  const int n_pos = static_cast<int>(positions_m.size());
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    for (int i : triangles[t]) {
+      if (i < 0 || i >= n_pos) return Fail(why, "triangle " + std::to_string(t) + " has a vertex index out of range");
+    }
+    const int m = triangle_material[t];
+    if (m < 0 || m >= static_cast<int>(materials.size())) {
+      return Fail(why, "triangle " + std::to_string(t) + " has a material index out of range");
+    }
+    const auto& tri = triangles[t];
+    const Eigen::Vector3d e1 = positions_m[tri[1]] - positions_m[tri[0]];
+    const Eigen::Vector3d e2 = positions_m[tri[2]] - positions_m[tri[0]];
+    const double area = 0.5 * e1.cross(e2).norm();
+    const double scale = std::max(e1.squaredNorm(), e2.squaredNorm());
+    if (!(area > 1e-12 * scale) || !(area > 0.0)) {
+      return Fail(why, "triangle " + std::to_string(t) + " is degenerate (zero area); remove it");
+    }
+  }
+  return true;
+}
+
+bool Lighting::IsValid(std::string* why) const {
+  for (const auto& light : point_lights) {
+    if (!Finite(light.position_m) || !light.intensity_w_per_sr.allFinite() ||
+        light.intensity_w_per_sr.minCoeff() < 0.0) {
+      return Fail(why, "point light: position and intensity must be finite, intensity >= 0");
+    }
+  }
+  for (const auto& light : area_lights) {
+    if (!Finite(light.corner_m) || !Finite(light.edge_u_m) || !Finite(light.edge_v_m) || !light.radiance.allFinite() ||
+        light.radiance.minCoeff() < 0.0) {
+      return Fail(why, "area light: geometry and radiance must be finite, radiance >= 0");
+    }
+    if (!(light.edge_u_m.cross(light.edge_v_m).norm() > 0.0)) {
+      return Fail(why, "area light: edges are parallel or zero (no area)");
+    }
+  }
+  for (const auto& sky : sun_sky) {
+    if (!Finite(sky.sun_dir_in_scene) || std::abs(sky.sun_dir_in_scene.norm() - 1.0) > 1e-6) {
+      return Fail(why, "sun_dir_in_scene must be a unit vector");
+    }
+    if (!sky.sun_irradiance_normal.allFinite() || sky.sun_irradiance_normal.minCoeff() < 0.0 ||
+        !sky.sky_radiance.allFinite() || sky.sky_radiance.minCoeff() < 0.0) {
+      return Fail(why, "sun irradiance and sky radiance must be finite and >= 0");
+    }
+  }
+  return true;
+}
+
+}  // namespace relume::radiosity
