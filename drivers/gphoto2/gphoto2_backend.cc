@@ -36,6 +36,9 @@ class Context {
     auto* self = static_cast<Context*>(data);
     if (!self->messages_.empty()) self->messages_ += "; ";
     self->messages_ += text;
+    // Status messages arrive without errors too: keep only the recent ones.
+    constexpr std::size_t kKeep = 2000;
+    if (self->messages_.size() > 2 * kKeep) self->messages_.erase(0, self->messages_.size() - kKeep);
   }
   GPContext* context_;
   std::string messages_;
@@ -436,8 +439,13 @@ StillFrame GPhoto2Camera::Capture() {
   frame.original_format = FileFormat(path.name, mime != nullptr ? mime : "");
   gp_file_unref(file);
   if (state_->delete_after_download) {
+    // The frame is good even when the camera refuses to delete it: keep the frame, and say so
+    // in the device details (a camera whose RAM fills up fails its next capture clearly).
     result = gp_camera_file_delete(state_->camera, path.folder, path.name, state_->context.get());
-    if (result < GP_OK) ThrowGphoto(result, id, std::string("deleting ") + path.name, state_->context);
+    if (result < GP_OK) {
+      info_.details["last_delete_error"] = std::string(path.name) + ": " + gp_result_as_string(result);
+      state_->context.TakeMessages();
+    }
   }
   if (frame.original_file.empty()) {
     throw DeviceError(DeviceErrorKind::kCorruptFrame, id, std::string("the camera sent an empty file ") + path.name);

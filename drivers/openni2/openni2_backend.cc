@@ -145,6 +145,9 @@ struct OpenNI2Sensor::State {
   bool have_returned = false;
 
   ~State() {
+    // Frames first: they belong to the streams destroyed below.
+    last_depth.release();
+    last_color.release();
     if (recorder.isValid()) {
       recorder.stop();
       recorder.destroy();

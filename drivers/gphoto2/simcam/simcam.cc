@@ -107,8 +107,9 @@ bool ParseNumber(std::string text, double* value) {
   const std::size_t slash = text.find('/');
   char* end = nullptr;
   if (slash != std::string::npos) {
-    const double num = std::strtod(text.substr(0, slash).c_str(), &end);
-    if (*end != '\0') return false;
+    const std::string num_text = text.substr(0, slash);
+    const double num = std::strtod(num_text.c_str(), &end);
+    if (*end != '\0' || num_text.empty()) return false;
     const std::string den_text = text.substr(slash + 1);
     const double den = std::strtod(den_text.c_str(), &end);
     if (*end != '\0' || den_text.empty() || den <= 0.0) return false;
