@@ -45,7 +45,8 @@ struct GPhoto2BackendOptions {
   // "Memory card"); must be one of its choices.
   std::string capture_target;
   // Delete each captured file from the camera after download (keeps the camera's RAM or card
-  // from filling up). Off keeps a copy on the camera.
+  // from filling up). Off keeps a copy on the camera. A refused delete does not lose the frame:
+  // it is noted in DeviceInfo::details["last_delete_error"].
   bool delete_after_download = true;
   bool IsValid(std::string* why) const;
 };
