@@ -76,11 +76,18 @@ int FakeRadiancePainter::frames_painted() const {
   return frames_painted_;
 }
 
-double FakeRadiancePainter::ExpectedCounts(double radiance, double exposure_time_s, int gain_raw,
-                                           int white_level) const {
-  const double gain = std::pow(10.0, gain_raw * options_.raw_gain_db_per_step / 20.0);
+double FakeRadiancePainter::LinearGain(int gain_raw) const {
+  return std::pow(10.0, gain_raw * options_.raw_gain_db_per_step / 20.0);
+}
+
+double FakeRadiancePainter::Counts(double radiance, double exposure_time_s, double gain, int white_level) const {
   const double counts = options_.black_level + radiance * exposure_time_s * gain * options_.counts_per_radiance_second;
   return std::clamp(std::round(counts), 0.0, static_cast<double>(white_level));
+}
+
+double FakeRadiancePainter::ExpectedCounts(double radiance, double exposure_time_s, int gain_raw,
+                                           int white_level) const {
+  return Counts(radiance, exposure_time_s, LinearGain(gain_raw), white_level);
 }
 
 const cv::Mat& FakeRadiancePainter::RadianceFor(int width, int height) {
@@ -111,6 +118,7 @@ void FakeRadiancePainter::Fill(ArvBuffer* buffer, void* self_ptr, unsigned expos
   const double exposure_s = exposure_time_us * 1e-6;
   const int white = (1 << format->bits_per_sample) - 1;
   const int channels = ChannelCount(format->layout);
+  const double gain = self->LinearGain(static_cast<int>(gain_raw));  // once per frame
   for (int y = 0; y < height; ++y) {
     const auto* row = radiance.ptr<cv::Vec3f>(y);
     for (int x = 0; x < width; ++x) {
@@ -124,8 +132,7 @@ void FakeRadiancePainter::Fill(ArvBuffer* buffer, void* self_ptr, unsigned expos
         } else {
           value = row[x][BayerChannel(format->layout, x, y)];
         }
-        const auto counts =
-            static_cast<std::uint32_t>(self->ExpectedCounts(value, exposure_s, static_cast<int>(gain_raw), white));
+        const auto counts = static_cast<std::uint32_t>(self->Counts(value, exposure_s, gain, white));
         const std::size_t index = (static_cast<std::size_t>(y) * width + x) * channels + c;
         if (format->bytes_per_pixel / channels == 2) {
           const auto v16 = static_cast<std::uint16_t>(counts);

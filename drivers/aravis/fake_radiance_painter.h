@@ -54,6 +54,8 @@ class FakeRadiancePainter {
 
  private:
   static void Fill(ArvBuffer* buffer, void* self, unsigned exposure_time_us, unsigned gain_raw, unsigned pixel_format);
+  double LinearGain(int gain_raw) const;
+  double Counts(double radiance, double exposure_time_s, double gain, int white_level) const;
   const cv::Mat& RadianceFor(int width, int height);  // CV_32FC3, cached per size
 
   std::shared_ptr<const sim::TruthSource> truth_;
