@@ -97,6 +97,15 @@ TEST(AravisFakeTest, OpensBySerialAndRejectsUnknownDevices) {
   EXPECT_THROW(backend.OpenRgbdSensor(rgbd), InvalidArgumentError);
 }
 
+TEST(AravisFakeTest, RegistryFindsAndOpensTheFakeByFullId) {
+  DeviceRegistry registry;
+  registry.Add(std::make_shared<AravisBackend>(FakeOnly()));
+  const DeviceInfo info = registry.Find("aravis:Fake_1");
+  std::unique_ptr<StillCamera> camera = registry.OpenStillCamera(info);
+  EXPECT_EQ(camera->info().FullId(), "aravis:Fake_1");
+  EXPECT_EQ(camera->capabilities().control, ExposureControl::kContinuous);
+}
+
 TEST(AravisFakeTest, CapabilitiesComeFromTheCameraBounds) {
   FakeRig rig;
   const ExposureCapabilities caps = rig.camera->capabilities();
