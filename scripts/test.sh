@@ -13,6 +13,7 @@ ctest --test-dir build/release --output-on-failure -j "$(nproc)" --timeout 900
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer build"
 bash scripts/build.sh asan
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  LSAN_OPTIONS="suppressions=$PWD/scripts/lsan.supp:print_suppressions=0" \
   ctest --test-dir build/asan --output-on-failure -j "$(nproc)" --timeout 1800 -LE benchmark
 
 echo "== all tests passed in $(( $(date +%s) - start )) s"
