@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "core/error.h"
 
@@ -58,7 +59,7 @@ bool CalibrationProfile::IsValid(std::string* why) const {
   return true;
 }
 
-void SaveProfile(const CalibrationProfile& profile, const std::string& path) {
+std::string ProfileToJson(const CalibrationProfile& profile) {
   json j;
   j["format"] = "relume-calibration-profile";
   j["version"] = 1;
@@ -82,18 +83,29 @@ void SaveProfile(const CalibrationProfile& profile, const std::string& path) {
               {"mean_delta_e_2000", profile.fit.mean_delta_e},
               {"max_delta_e_2000", profile.fit.max_delta_e},
               {"reason", profile.fit.reason}};
+  return j.dump(1) + "\n";
+}
+
+void SaveProfile(const CalibrationProfile& profile, const std::string& path) {
+  const std::string text = ProfileToJson(profile);
   std::ofstream out(path);
   if (!out) throw IoError(path, "cannot be written");
-  out << j.dump(1) << "\n";
+  out << text;
   if (!out) throw IoError(path, "write failed (disk full?)");
 }
 
 CalibrationProfile LoadProfile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw IoError(path, "cannot be read");
+  std::stringstream text;
+  text << in.rdbuf();
+  return ProfileFromJson(text.str(), path);
+}
+
+CalibrationProfile ProfileFromJson(const std::string& text, const std::string& path) {
   json j;
   try {
-    j = json::parse(in);
+    j = json::parse(text);
   } catch (const json::exception& e) {
     throw ConfigError(path, 0, "", std::string("not valid JSON: ") + e.what());
   }

@@ -37,6 +37,10 @@ struct CalibrationProfile {
 void SaveProfile(const CalibrationProfile& profile, const std::string& path);  // throws IoError
 // Throws IoError (unreadable) or ConfigError naming the key that is missing or malformed.
 CalibrationProfile LoadProfile(const std::string& path);
+// The same JSON as text (sessions keep profiles in their calibrations table). `path` names the
+// origin in error messages (a file, or "session DIR calibration N").
+std::string ProfileToJson(const CalibrationProfile& profile);
+CalibrationProfile ProfileFromJson(const std::string& text, const std::string& path);
 
 // Linearises and colour-corrects one 8/16-bit RGB frame taken with exposure_time_s.
 RadianceImage ApplyProfile(const CalibrationProfile& profile, const CameraImage& frame, double exposure_time_s);

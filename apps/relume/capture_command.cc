@@ -61,6 +61,7 @@ int RunCapture(const CaptureRequest& request) {
   info.clock_name = clock->name();
   info.created_utc = clock->NowUtc();
   std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info);
+  StoreRigWithSession(rig, request.out_dir);  // processing finds the geometry and cameras here
 
   capture::Recorder recorder(*writer, *clock, rig.recorder);
   for (const drivers::DeviceInfo& device : registry->Enumerate()) {

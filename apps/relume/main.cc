@@ -5,11 +5,12 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "apps/relume/calibrate_command.h"
 #include "apps/relume/capture_command.h"
+#include "apps/relume/hdr_command.h"
+#include "apps/relume/process_command.h"
 #include "apps/relume/session_command.h"
 #include "apps/relume/sim_command.h"
-#include "apps/relume/calibrate_command.h"
-#include "apps/relume/hdr_command.h"
 #include "apps/relume/sun_command.h"
 #include "core/error.h"
 
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   relume::app::AddSimCommand(app);
   relume::app::AddCalibrateCommand(app);
   relume::app::AddHdrCommand(app);
+  relume::app::AddProcessCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

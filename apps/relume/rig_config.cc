@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "capture/durable_file.h"
 #include "core/error.h"
 #include "core/yaml_file.h"
 #include "sim/world/scene_yaml.h"
@@ -43,7 +44,7 @@ YAML::Node ExpandSceneCamera(const YamlFile& file, const YAML::Node& device, con
 
 }  // namespace
 
-RigConfig LoadRigConfig(const std::string& path) {
+RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override) {
   const YamlFile file(path);
   const YAML::Node& root = file.root();
   file.RejectUnknownKeys(root, {"name", "scene", "clock", "schedule", "duration_minutes", "bracket", "retry",
@@ -63,7 +64,9 @@ RigConfig LoadRigConfig(const std::string& path) {
               "../scenes/outdoor-building.yaml)");
   }
   const std::filesystem::path scene_path =
-      std::filesystem::path(path).parent_path() / file.RequireString(root, "scene");
+      scene_override ? std::filesystem::path(*scene_override)
+                     : std::filesystem::path(path).parent_path() / file.RequireString(root, "scene");
+  rig.scene_path = scene_path.string();
   rig.world = std::make_shared<sim::World>(sim::LoadScene(scene_path.string()));
   rig.site = rig.world->scene().site;
 
@@ -158,6 +161,58 @@ RigConfig LoadRigConfig(const std::string& path) {
   std::string why;
   if (!rig.recorder.IsValid(&why)) throw ConfigError(path, 0, "", why);
   return rig;
+}
+
+namespace {
+
+std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream stream(path, std::ios::binary);
+  if (!stream) throw IoError(path.string(), "cannot be read");
+  std::stringstream text;
+  text << stream.rdbuf();
+  return text.str();
+}
+
+void WriteText(const std::filesystem::path& path, const std::string& text) {
+  capture::WriteFileDurably(path, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+}
+
+constexpr const char* kRigFolder = "rig";
+
+}  // namespace
+
+void StoreRigWithSession(const RigConfig& rig, const std::filesystem::path& session_dir) {
+  namespace fs = std::filesystem;
+  const fs::path folder = session_dir / kRigFolder;
+  capture::CreateDirectoryDurably(folder);
+  WriteText(folder / "rig.yaml", rig.yaml_text);
+  if (rig.scene_path.empty()) return;
+  WriteText(folder / "scene.yaml", ReadText(rig.scene_path));
+  // Mesh files the scene names, at the same relative paths.
+  const YamlFile scene(rig.scene_path);
+  const fs::path scene_folder = fs::path(rig.scene_path).parent_path();
+  if (const YAML::Node objects = scene.root()["objects"]; objects && objects.IsSequence()) {
+    for (const YAML::Node& object : objects) {
+      const YAML::Node mesh = object["mesh"];
+      if (!mesh || !mesh.IsMap() || !mesh["file"]) continue;
+      const fs::path relative = fs::path(mesh["file"].as<std::string>()).lexically_normal();
+      if (relative.is_absolute() || (!relative.empty() && *relative.begin() == "..")) {
+        scene.Fail(mesh["file"], "mesh.file",
+                   "lies outside the scene's folder, so a session cannot keep a copy of it; move it under " +
+                       scene_folder.string());
+      }
+      capture::CreateDirectoryDurably((folder / relative).parent_path());
+      WriteText(folder / relative, ReadText(scene_folder / relative));
+    }
+  }
+}
+
+std::shared_ptr<RigConfig> LoadSessionRig(const std::filesystem::path& session_dir) {
+  const std::filesystem::path folder = session_dir / kRigFolder;
+  if (!std::filesystem::exists(folder / "rig.yaml")) return nullptr;
+  std::optional<std::string> scene;
+  if (std::filesystem::exists(folder / "scene.yaml")) scene = (folder / "scene.yaml").string();
+  return std::make_shared<RigConfig>(LoadRigConfig((folder / "rig.yaml").string(), scene));
 }
 
 }  // namespace relume::app

@@ -16,6 +16,7 @@
 //       ...
 #pragma once
 
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -30,6 +31,7 @@ namespace relume::app {
 
 struct RigConfig {
   std::string path;
+  std::string scene_path;  // the simulated world's scene file
   std::string name;
   std::string yaml_text;  // the file, verbatim, for the session record
   Site site;
@@ -41,7 +43,18 @@ struct RigConfig {
   std::vector<sim::SimDeviceSpec> devices;
 };
 
-// Throws ConfigError / IoError naming the file, line and key.
-RigConfig LoadRigConfig(const std::string& path);
+// Throws ConfigError / IoError naming the file, line and key. `scene_override` replaces the
+// file's `scene:` path (a session's own copy of the world, see LoadSessionRig).
+RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override = std::nullopt);
+
+// A session keeps the rig it was recorded with, and for simulated rigs the world it looked at,
+// in <session>/rig/: rig.yaml (verbatim), scene.yaml and the mesh files the scene names. This
+// is what lets processing find the geometry, the cameras and (for simulated sessions) the
+// ground truth later, without the config folder the capture ran from. Files are written
+// durably; a mesh path that leaves the scene's folder is refused with a message.
+void StoreRigWithSession(const RigConfig& rig, const std::filesystem::path& session_dir);
+// The rig stored with a session, or null when the session has none (recorded before rigs
+// were stored). Errors in the stored files are reported like LoadRigConfig's.
+std::shared_ptr<RigConfig> LoadSessionRig(const std::filesystem::path& session_dir);
 
 }  // namespace relume::app

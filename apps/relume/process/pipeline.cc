@@ -1,0 +1,224 @@
+#include "apps/relume/process/pipeline.h"
+
+#include <spdlog/spdlog.h>
+
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <span>
+
+#include "capture/durable_file.h"
+#include "core/error.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+
+PipelineRun::PipelineRun(const PipelineRequest& request, const capture::SessionReader& session,
+                         std::shared_ptr<const RigConfig> rig)
+    : request_(request), session_(session), rig_(std::move(rig)), cache_(request.out_dir / "stages", request.reuse) {
+  for (const auto& [key, value] : request_.settings) settings_read_[key] = false;
+}
+
+namespace {
+
+[[noreturn]] void BadSetting(const std::string& key, const std::string& value, const std::string& expected) {
+  throw InvalidArgumentError("--set " + key + "=" + value + ": expected " + expected);
+}
+
+}  // namespace
+
+double PipelineRun::Setting(const std::string& key, double fallback) {
+  const auto it = request_.settings.find(key);
+  settings_read_[key] = true;
+  if (it == request_.settings.end()) return fallback;
+  double value = 0.0;
+  const char* begin = it->second.data();
+  const char* end = begin + it->second.size();
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (ec != std::errc() || ptr != end || !std::isfinite(value)) BadSetting(key, it->second, "a finite number");
+  return value;
+}
+
+int PipelineRun::Setting(const std::string& key, int fallback) {
+  const auto it = request_.settings.find(key);
+  settings_read_[key] = true;
+  if (it == request_.settings.end()) return fallback;
+  int value = 0;
+  const char* begin = it->second.data();
+  const char* end = begin + it->second.size();
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (ec != std::errc() || ptr != end) BadSetting(key, it->second, "an integer");
+  return value;
+}
+
+std::string PipelineRun::Setting(const std::string& key, const std::string& fallback) {
+  const auto it = request_.settings.find(key);
+  settings_read_[key] = true;
+  return it == request_.settings.end() ? fallback : it->second;
+}
+
+bool PipelineRun::Setting(const std::string& key, bool fallback) {
+  const auto it = request_.settings.find(key);
+  settings_read_[key] = true;
+  if (it == request_.settings.end()) return fallback;
+  if (it->second == "true" || it->second == "1" || it->second == "yes") return true;
+  if (it->second == "false" || it->second == "0" || it->second == "no") return false;
+  BadSetting(key, it->second, "true or false");
+}
+
+std::vector<std::string> PipelineRun::UnusedSettings() const {
+  std::vector<std::string> unused;
+  for (const auto& [key, read] : settings_read_) {
+    if (!read) unused.push_back(key);
+  }
+  return unused;
+}
+
+void PipelineRun::Decide(const std::string& stage, const std::string& action, const std::string& reason) {
+  decisions_.push_back({stage, action, reason});
+  spdlog::debug("{} {} {}", stage, action, reason);
+}
+
+StageCache::Result PipelineRun::RunStage(const std::string& stage, const StageKey& key,
+                                         const std::function<void(const fs::path&)>& produce) {
+  const auto start = std::chrono::steady_clock::now();
+  StageCache::Result result = cache_.Run(stage, key, produce);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (result.reused) {
+    Decide(stage, "reuse", "inputs and settings unchanged (key " + result.key.substr(0, 12) + ")");
+  } else {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.2f s", seconds);
+    Decide(stage, "run", std::string("computed in ") + text + " (key " + result.key.substr(0, 12) + ")");
+  }
+  metrics_["stage_seconds"][stage] = result.reused ? 0.0 : seconds;
+  return result;
+}
+
+void PipelineRun::Progress(const std::string& stage, std::int64_t done, std::int64_t total) {
+  const auto now = std::chrono::steady_clock::now();
+  if (stage != progress_stage_) {
+    progress_stage_ = stage;
+    progress_start_ = now;
+  }
+  const double elapsed = std::chrono::duration<double>(now - progress_start_).count();
+  const double rate = elapsed > 0.0 ? static_cast<double>(done) / elapsed : 0.0;
+  const double left = rate > 0.0 ? static_cast<double>(total - done) / rate : 0.0;
+  std::fprintf(stderr, "\r%-14s %lld/%lld  %.1f/s  %.0f s left   ", stage.c_str(), static_cast<long long>(done),
+               static_cast<long long>(total), rate, left);
+  if (done >= total) std::fprintf(stderr, "\n");
+}
+
+void PipelineRun::AddOutput(const fs::path& path, const std::string& what) {
+  outputs_.emplace_back(fs::relative(path, request_.out_dir).string(), what);
+}
+
+nlohmann::json PipelineRun::Summary(double seconds) const {
+  nlohmann::json summary;
+  summary["pipeline"] = request_.pipeline;
+  summary["session"] = fs::absolute(request_.session_dir).string();
+  summary["explain"] = request_.explain;
+  summary["seconds"] = seconds;
+  summary["settings"] = request_.settings;
+  summary["decisions"] = nlohmann::json::array();
+  for (const Decision& d : decisions_) {
+    summary["decisions"].push_back({{"stage", d.stage}, {"action", d.action}, {"reason", d.reason}});
+  }
+  summary["outputs"] = nlohmann::json::array();
+  for (const auto& [path, what] : outputs_) summary["outputs"].push_back({{"path", path}, {"what", what}});
+  summary["metrics"] = metrics_;
+  return summary;
+}
+
+std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& session, const std::string& selector) {
+  const std::vector<capture::FrameRecord> frames = session.Frames();
+  std::vector<capture::FrameRecord> selected;
+  if (selector == "all") return frames;
+  if (selector.rfind("bracket:", 0) == 0) {
+    std::int64_t id = 0;
+    const std::string number = selector.substr(8);
+    const auto [ptr, ec] = std::from_chars(number.data(), number.data() + number.size(), id);
+    if (ec != std::errc() || ptr != number.data() + number.size()) {
+      throw InvalidArgumentError("frame selector '" + selector + "': bracket:N takes a bracket id");
+    }
+    for (const capture::FrameRecord& f : frames) {
+      if (f.bracket_id == id) selected.push_back(f);
+    }
+  } else if (const std::size_t colon = selector.rfind(':'); colon != std::string::npos) {
+    const std::string device = selector.substr(0, colon);
+    const std::string stream = selector.substr(colon + 1);
+    for (const capture::FrameRecord& f : frames) {
+      const bool device_matches = f.device_id == device || f.device_id.ends_with(":" + device);
+      if (device_matches && f.stream == stream) selected.push_back(f);
+    }
+  } else {
+    std::int64_t id = 0;
+    const auto [ptr, ec] = std::from_chars(selector.data(), selector.data() + selector.size(), id);
+    if (ec != std::errc() || ptr != selector.data() + selector.size()) {
+      throw InvalidArgumentError("frame selector '" + selector +
+                                 "': give a frame id (42), a bracket (bracket:3), a device stream (rgbd:color) or all");
+    }
+    for (const capture::FrameRecord& f : frames) {
+      if (f.id == id) selected.push_back(f);
+    }
+  }
+  if (selected.empty()) {
+    std::string have;
+    for (const capture::BracketRecord& b : session.Brackets())
+      have += (have.empty() ? "" : ", ") + std::to_string(b.id);
+    throw InvalidArgumentError("frame selector '" + selector + "' matches no frame of " + session.dir().string() +
+                               " (frame ids 1.." + std::to_string(frames.size()) + ", brackets " +
+                               (have.empty() ? "none" : have) + "; see `relume session info`)");
+  }
+  return selected;
+}
+
+const sim::SimDeviceSpec* FindDeviceSpec(const RigConfig* rig, const std::string& device_id) {
+  if (rig == nullptr) return nullptr;
+  const std::string id = device_id.starts_with("sim:") ? device_id.substr(4) : device_id;
+  for (const sim::SimDeviceSpec& spec : rig->devices) {
+    if (spec.id == id) return &spec;
+  }
+  return nullptr;
+}
+
+nlohmann::json RunPipeline(const PipelineRequest& request) {
+  const PipelineEntry* entry = nullptr;
+  std::string names;
+  for (const PipelineEntry& e : Pipelines()) {
+    names += (names.empty() ? "" : ", ") + e.name;
+    if (e.name == request.pipeline) entry = &e;
+  }
+  if (entry == nullptr) {
+    throw InvalidArgumentError("no pipeline named '" + request.pipeline +
+                               "' (this build has: " + (names.empty() ? "none" : names) + ")");
+  }
+  if (!fs::exists(request.session_dir / capture::kSessionDatabaseName)) {
+    throw IoError(request.session_dir.string(), std::string("is not a relume session (no ") +
+                                                    capture::kSessionDatabaseName +
+                                                    "); record one with `relume capture`");
+  }
+  const capture::SessionReader session(request.session_dir);
+  std::shared_ptr<const RigConfig> rig = LoadSessionRig(request.session_dir);
+  std::error_code ec;
+  fs::create_directories(request.out_dir, ec);
+  if (ec) throw IoError(request.out_dir.string(), "cannot create the output folder: " + ec.message());
+
+  PipelineRun run(request, session, rig);
+  if (!rig) run.Decide("session", "note", "the session has no stored rig (rig/rig.yaml): no scene geometry or truth");
+  const auto start = std::chrono::steady_clock::now();
+  entry->run(run);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const std::string& key : run.UnusedSettings()) {
+    run.Decide("settings", "note", "--set " + key + " is not a knob of the " + request.pipeline + " pipeline; ignored");
+  }
+  nlohmann::json summary = run.Summary(seconds);
+  if (!request.explain) {
+    const std::string text = summary.dump(2) + "\n";
+    capture::WriteFileDurably(request.out_dir / "summary.json",
+                              std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+  }
+  return summary;
+}
+
+}  // namespace relume::app::process

@@ -1,0 +1,118 @@
+// `relume process SESSION --pipeline NAME`: the frame a processing pipeline runs in.
+//
+// A pipeline is a function that reads a recorded session, runs its stages through the
+// StageCache (so unchanged stages are reused) and records what it decided and measured in a
+// PipelineRun. The command writes the run's summary (summary.json) and prints its decisions.
+// Each pipeline lives in its own file under apps/relume/process/ and is listed once in
+// Pipelines() (pipelines.cc).
+#pragma once
+
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/relume/process/stage_cache.h"
+#include "apps/relume/rig_config.h"
+#include "capture/session.h"
+
+namespace relume::app::process {
+
+struct PipelineRequest {
+  std::filesystem::path session_dir;
+  std::filesystem::path out_dir;
+  std::string pipeline;
+  std::optional<std::string> source;            // frame selector (see SelectFrames)
+  std::optional<std::string> target;            // frame selector
+  std::optional<std::filesystem::path> mesh;    // geometry file when not recorded with the session
+  std::optional<std::string> target_light;      // FRAME selector, SH .json or environment map
+  std::map<std::string, std::string> settings;  // --set key=value: the pipeline's quality knobs
+  bool explain = false;                         // plan only: decide and print, run nothing expensive
+  bool reuse = true;                            // false: recompute every stage (--force)
+};
+
+// A planner decision, logged with its reason: "run", "reuse", "skip" or "choose".
+struct Decision {
+  std::string stage;
+  std::string action;
+  std::string reason;
+};
+
+class PipelineRun {
+ public:
+  PipelineRun(const PipelineRequest& request, const capture::SessionReader& session,
+              std::shared_ptr<const RigConfig> rig);
+
+  const PipelineRequest& request() const { return request_; }
+  const capture::SessionReader& session() const { return session_; }
+  // The rig the session was recorded with and, for simulated rigs, its world (scene, truth);
+  // null when the session did not record one (sessions older than the world record).
+  const RigConfig* rig() const { return rig_.get(); }
+  StageCache& cache() { return cache_; }
+  const std::filesystem::path& out_dir() const { return request_.out_dir; }
+
+  // Settings: typed reads of --set values with defaults; a value that does not parse is an
+  // InvalidArgumentError naming it; a key the pipeline never reads is noted in the summary.
+  double Setting(const std::string& key, double fallback);
+  int Setting(const std::string& key, int fallback);
+  std::string Setting(const std::string& key, const std::string& fallback);
+  bool Setting(const std::string& key, bool fallback);
+  std::vector<std::string> UnusedSettings() const;
+
+  void Decide(const std::string& stage, const std::string& action, const std::string& reason);
+  // Runs a stage through the cache and records "run" or "reuse" with the key's description.
+  StageCache::Result RunStage(const std::string& stage, const StageKey& key,
+                              const std::function<void(const std::filesystem::path&)>& produce);
+  // Progress of long work on stderr (stage, item, rate, time left).
+  void Progress(const std::string& stage, std::int64_t done, std::int64_t total);
+
+  // Figures the pipeline measured (errors against truth, timings, counts), written to summary.json.
+  nlohmann::json& metrics() { return metrics_; }
+  void AddOutput(const std::filesystem::path& path, const std::string& what);
+
+  nlohmann::json Summary(double seconds) const;
+  const std::vector<Decision>& decisions() const { return decisions_; }
+
+ private:
+  const PipelineRequest& request_;
+  const capture::SessionReader& session_;
+  std::shared_ptr<const RigConfig> rig_;
+  StageCache cache_;
+  std::vector<Decision> decisions_;
+  nlohmann::json metrics_ = nlohmann::json::object();
+  std::vector<std::pair<std::string, std::string>> outputs_;
+  std::map<std::string, bool> settings_read_;
+  std::chrono::steady_clock::time_point progress_start_;
+  std::string progress_stage_;
+};
+
+using PipelineFunction = std::function<void(PipelineRun&)>;
+
+struct PipelineEntry {
+  std::string name;
+  std::string description;
+  PipelineFunction run;
+};
+
+// Every pipeline of this build (pipelines.cc).
+const std::vector<PipelineEntry>& Pipelines();
+
+// Frames of the session matching a selector: a frame id ("42"), a bracket ("bracket:3"), a
+// device's stream ("rgbd:color", "dslr:still"), or "all". InvalidArgumentError naming the
+// selector and what the session has when nothing matches.
+std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& session, const std::string& selector);
+
+// The simulated device spec (camera pose, intrinsics, sensor) of a session device
+// ("sim:dslr" or "dslr"), or null when the rig has no such simulated device.
+const sim::SimDeviceSpec* FindDeviceSpec(const RigConfig* rig, const std::string& device_id);
+
+// Runs one pipeline end to end: opens the session, loads its rig, runs, writes summary.json
+// into out_dir and returns the summary.
+nlohmann::json RunPipeline(const PipelineRequest& request);
+
+}  // namespace relume::app::process

@@ -1,0 +1,85 @@
+// The pipelines of this build, and the `radiance` pipeline (linear radiance of every still
+// bracket, checked against the simulated world's truth when the session is simulated).
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "apps/relume/process/pipeline.h"
+#include "apps/relume/process/radiance.h"
+#include "calibration/image_file.h"
+#include "calibration/response.h"
+
+namespace relume::app::process {
+
+namespace {
+
+// Relative RMS error of `estimate` against `truth` after one least-squares scale per image
+// (relative radiance has one unknown scale), over pixels every channel of which was well
+// exposed (status 0) and where the truth is finite and positive.
+struct TruthComparison {
+  double scale = 0.0;
+  double relative_rms = 0.0;
+  int pixels = 0;
+};
+
+TruthComparison CompareWithTruth(const RadianceImage& estimate, const cv::Mat& status, const RadianceImage& truth) {
+  cv::Mat mask(estimate.height(), estimate.width(), CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < estimate.height(); ++y) {
+    const auto* e = estimate.pixels.ptr<cv::Vec3f>(y);
+    const auto* t = truth.pixels.ptr<cv::Vec3f>(y);
+    const std::uint8_t* s = status.empty() ? nullptr : status.ptr<std::uint8_t>(y);
+    for (int x = 0; x < estimate.width(); ++x) {
+      bool ok = s == nullptr || s[x] == 0;
+      for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(e[x][c]) && std::isfinite(t[x][c]) && t[x][c] > 1e-6f;
+      mask.at<std::uint8_t>(y, x) = ok ? 255 : 0;
+    }
+  }
+  const calibration::ScaleFit fit = calibration::FitScaleFactor(estimate.pixels, truth.pixels, mask);
+  return {fit.scale, fit.relative_rms, fit.pixels};
+}
+
+void RunRadiancePipeline(PipelineRun& run) {
+  const auto brackets = StillBrackets(run.session(), run.request().source);
+  if (brackets.empty()) {
+    run.Decide("radiance", "skip", "the session has no still-camera frames");
+    return;
+  }
+  run.Decide("radiance", "plan", std::to_string(brackets.size()) + " bracket(s) of still frames to linearise");
+  if (run.request().explain) return;
+  nlohmann::json& per_bracket = run.metrics()["brackets"];
+  const bool truth = run.Setting("compare_truth", true);
+  double worst = 0.0;
+  int done = 0;
+  for (const auto& bracket : brackets) {
+    const BracketRadiance r = LinearRadiance(run, bracket);
+    nlohmann::json m = {{"device", r.device_id},
+                        {"frames", r.frame_ids},
+                        {"utc", FormatIso8601(r.utc)},
+                        {"sun_elevation_deg", r.sun_elevation_deg},
+                        {"exr", std::filesystem::relative(r.exr, run.out_dir()).string()}};
+    const sim::SimDeviceSpec* spec = FindDeviceSpec(run.rig(), r.device_id);
+    if (truth && spec != nullptr && run.rig()->world) {
+      const sim::GroundTruth gt = run.rig()->world->Render(spec->camera, r.utc);
+      const TruthComparison cmp = CompareWithTruth(r.radiance, r.status, gt.radiance);
+      m["truth_relative_rms"] = cmp.relative_rms;
+      m["truth_pixels"] = cmp.pixels;
+      m["truth_scale"] = cmp.scale;
+      worst = std::max(worst, cmp.relative_rms);
+    }
+    run.AddOutput(
+        r.exr, "linear radiance of " + r.device_id + (r.bracket_id ? " bracket " + std::to_string(*r.bracket_id) : ""));
+    per_bracket.push_back(m);
+    run.Progress("radiance", ++done, static_cast<std::int64_t>(brackets.size()));
+  }
+  if (worst > 0.0) run.metrics()["truth_relative_rms_max"] = worst;
+}
+
+}  // namespace
+
+const std::vector<PipelineEntry>& Pipelines() {
+  static const std::vector<PipelineEntry> pipelines = {
+      {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline},
+  };
+  return pipelines;
+}
+
+}  // namespace relume::app::process

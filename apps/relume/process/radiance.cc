@@ -1,0 +1,216 @@
+#include "apps/relume/process/radiance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calibration/calibration_profile.h"
+#include "calibration/hdr_merge.h"
+#include "calibration/image_file.h"
+#include "calibration/raw_loader.h"
+#include "calibration/response.h"
+#include "core/color.h"
+#include "core/error.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+
+std::vector<std::vector<capture::FrameRecord>> StillBrackets(const capture::SessionReader& session,
+                                                             const std::optional<std::string>& selector) {
+  const std::vector<capture::FrameRecord> frames =
+      selector ? SelectFrames(session, *selector) : SelectFrames(session, "all");
+  std::vector<std::vector<capture::FrameRecord>> brackets;
+  std::map<std::int64_t, std::size_t> index_of_bracket;
+  for (const capture::FrameRecord& f : frames) {
+    if (f.stream != "still") continue;
+    if (!f.bracket_id) {
+      brackets.push_back({f});
+      continue;
+    }
+    const auto [it, inserted] = index_of_bracket.emplace(*f.bracket_id, brackets.size());
+    if (inserted) brackets.emplace_back();
+    brackets[it->second].push_back(f);
+  }
+  return brackets;
+}
+
+namespace {
+
+// Relative exposure of a frame: t * ISO/100, or 2^EV for EV-only cameras.
+double RelativeExposure(const drivers::ExposureRecord& e) {
+  double t =
+      std::isfinite(e.exposure_time_s) && e.exposure_time_s > 0.0 ? e.exposure_time_s : std::exp2(e.ev_compensation);
+  if (std::isfinite(e.iso) && e.iso > 0.0) t *= e.iso / 100.0;
+  return t;
+}
+
+bool IsEvOnly(const std::vector<capture::FrameRecord>& bracket) {
+  return std::all_of(bracket.begin(), bracket.end(),
+                     [](const capture::FrameRecord& f) { return !std::isfinite(f.exposure.exposure_time_s); });
+}
+
+// The newest calibration of the device with the given kind, as a profile.
+std::optional<calibration::CalibrationProfile> SessionProfile(const capture::SessionReader& session,
+                                                              const std::string& device_id, const std::string& kind,
+                                                              std::int64_t* calibration_id) {
+  std::optional<calibration::CalibrationProfile> found;
+  for (const capture::CalibrationRecord& c : session.Calibrations()) {
+    if (c.device_id != device_id || c.kind != kind) continue;
+    found = calibration::ProfileFromJson(
+        c.json, "session " + session.dir().string() + " calibration " + std::to_string(c.id) + " (" + kind + ")");
+    *calibration_id = c.id;
+  }
+  return found;
+}
+
+CameraImage AsRgb(CameraImage image) {
+  if (image.layout == ColorLayout::kRgb) return image;
+  if (image.layout == ColorLayout::kMono) {
+    cv::Mat rgb;
+    cv::cvtColor(image.pixels, rgb, cv::COLOR_GRAY2RGB);
+    image.pixels = rgb;
+    image.layout = ColorLayout::kRgb;
+    return image;
+  }
+  return calibration::DemosaicBilinear(image);
+}
+
+}  // namespace
+
+BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket) {
+  RELUME_CHECK(!bracket.empty());
+  const capture::SessionReader& session = run.session();
+  BracketRadiance out;
+  out.device_id = bracket.front().device_id;
+  out.bracket_id = bracket.front().bracket_id;
+  out.utc = bracket.front().utc;
+  out.sun_azimuth_deg = bracket.front().sun_azimuth_deg;
+  out.sun_elevation_deg = bracket.front().sun_elevation_deg;
+  for (const capture::FrameRecord& f : bracket) out.frame_ids.push_back(f.id);
+  const std::string name =
+      out.bracket_id ? "bracket " + std::to_string(*out.bracket_id) : "frame " + std::to_string(bracket.front().id);
+
+  calibration::HdrMergeOptions merge;
+  merge.black_margin = run.Setting("merge_black_margin", merge.black_margin);
+  merge.saturation_margin = run.Setting("merge_saturation_margin", merge.saturation_margin);
+  calibration::ResponseOptions response_options;
+  response_options.sample_count = run.Setting("response_samples", response_options.sample_count);
+  std::string why;
+  if (!merge.IsValid(&why)) throw InvalidArgumentError("merge settings: " + why);
+  if (!response_options.IsValid(&why)) throw InvalidArgumentError("response settings: " + why);
+
+  std::int64_t profile_id = 0;
+  std::int64_t response_id = 0;
+  const std::optional<calibration::CalibrationProfile> profile =
+      SessionProfile(session, out.device_id, "profile", &profile_id);
+  std::optional<calibration::CalibrationProfile> response_record =
+      SessionProfile(session, out.device_id, "response", &response_id);
+
+  StageKey& key = out.key;
+  key.Add("stage", "radiance-v1");
+  for (const capture::FrameRecord& f : bracket)
+    key.Add("frame", f.sha256).Add("exposure", RelativeExposure(f.exposure));
+  key.Add("black_margin", merge.black_margin).Add("saturation_margin", merge.saturation_margin);
+  key.Add("response_samples", response_options.sample_count);
+  key.Add("profile", profile_id).Add("response", response_id);
+
+  const bool sensor_linear = bracket.front().encoding == SampleEncoding::kSensorLinear;
+  if (bracket.size() == 1) {
+    run.Decide("radiance", "skip", name + ": single exposure, linearised without a merge");
+  }
+  if (!sensor_linear && !(profile && profile->response) && !response_record) {
+    if (bracket.size() < 2) {
+      throw InvalidArgumentError(name + " of " + out.device_id +
+                                 " is a single camera-encoded frame and the session has no response for the device: "
+                                 "record one with `relume calibrate response --session " +
+                                 session.dir().string() + "` or capture brackets");
+    }
+    run.Decide("radiance", "choose",
+               name + ": no response recorded for " + out.device_id + "; recovering it from the bracket (" +
+                   (IsEvOnly(bracket) ? "EV-only: Debevec-Malik with per-image scales" : "Debevec-Malik") + ")");
+  }
+  if (profile)
+    run.Decide("radiance", "choose",
+               name + ": applying colour profile (calibration " + std::to_string(profile_id) + ")");
+
+  const StageCache::Result stage = run.RunStage("radiance", key, [&](const fs::path& dir) {
+    std::vector<CameraImage> frames;
+    std::vector<double> times;
+    for (const capture::FrameRecord& f : bracket) {
+      frames.push_back(AsRgb(session.LoadImage(f)));
+      times.push_back(RelativeExposure(f.exposure));
+    }
+    calibration::CameraResponse response;
+    if (sensor_linear) {
+      response = calibration::SensorLinearResponse(frames.front());
+    } else if (profile && profile->response) {
+      response = *profile->response;
+    } else if (response_record && response_record->response) {
+      response = *response_record->response;
+    } else if (IsEvOnly(bracket)) {
+      std::vector<double> ev;
+      for (const capture::FrameRecord& f : bracket) ev.push_back(f.exposure.ev_compensation);
+      const calibration::EvCalibration ev_cal = calibration::RecoverResponseFromEv(frames, ev, response_options);
+      if (!ev_cal.result.summary.usable) {
+        throw InvalidArgumentError(
+            name + ": the response cannot be recovered from this bracket: " + ev_cal.result.summary.reason);
+      }
+      response = ev_cal.result.response;
+      times = ev_cal.exposure_times_s;
+    } else {
+      const calibration::ResponseResult r = calibration::RecoverResponse(frames, times, response_options);
+      if (!r.summary.usable) {
+        throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + r.summary.reason);
+      }
+      response = r.response;
+    }
+    calibration::HdrMergeResult merged = calibration::MergeHdr(frames, times, response, merge);
+    if (profile) merged.radiance = calibration::ApplyProfile(*profile, merged.radiance);
+    calibration::SaveRadianceExr(merged.radiance, (dir / "radiance.exr").string());
+    calibration::SaveImage(merged.status, (dir / "status.png").string());
+    calibration::SaveImage(RadiancePreview(merged.radiance), (dir / "preview.png").string());
+  });
+  out.exr = stage.dir / "radiance.exr";
+  out.radiance = calibration::LoadRadianceExr(out.exr.string());
+  out.status = cv::imread((stage.dir / "status.png").string(), cv::IMREAD_UNCHANGED);
+  return out;
+}
+
+cv::Mat RadiancePreview(const RadianceImage& radiance, double white) {
+  RELUME_CHECK(radiance.pixels.type() == CV_32FC3);
+  if (!(white > 0.0)) {
+    std::vector<float> lum;
+    lum.reserve(radiance.pixels.total());
+    for (int y = 0; y < radiance.height(); ++y) {
+      const auto* p = radiance.pixels.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < radiance.width(); ++x) {
+        const float l = 0.2126f * p[x][0] + 0.7152f * p[x][1] + 0.0722f * p[x][2];
+        if (std::isfinite(l)) lum.push_back(l);
+      }
+    }
+    if (!lum.empty()) {
+      const std::size_t k = lum.size() * 99 / 100;
+      std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(k), lum.end());
+      white = lum[k];
+    }
+    if (!(white > 0.0)) white = 1.0;
+  }
+  cv::Mat out(radiance.height(), radiance.width(), CV_8UC3);
+  for (int y = 0; y < radiance.height(); ++y) {
+    const auto* p = radiance.pixels.ptr<cv::Vec3f>(y);
+    auto* o = out.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < radiance.width(); ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const double v = std::isfinite(p[x][c]) ? std::clamp(p[x][c] / white, 0.0, 1.0) : 0.0;
+        const double s = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+        o[x][c] = static_cast<std::uint8_t>(std::lround(255.0 * s));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace relume::app::process

@@ -1,0 +1,58 @@
+// The shared first stage of every pipeline: a still camera's frames as linear radiance.
+//
+// A bracket (or a single frame) of a session becomes one linear float RGB image:
+//  - sensor-linear frames (raw) through their black and white level; Bayer mosaics demosaiced;
+//  - camera-encoded frames (JPEG, 8-bit) through the inverse response the session recorded for
+//    the device (calibration kind "response" or "profile"), or, when it has none, a response
+//    recovered from the bracket itself (Debevec-Malik; EV-only cameras with Loscos et al.'s
+//    per-image scale), logged as a decision;
+//  - merged with calibration::MergeHdr when the bracket has several frames; a single frame is
+//    linearised without a merge (the planner logs "skip merge");
+//  - the device's colour profile (gain + 3x3 matrix, calibration kind "profile") applied when
+//    the session has one.
+// Units: relative radiance, X / (t * ISO/100) where the exposure time and ISO are known
+// (EV-only cameras: 2^EV), the same scale for every bracket of one device, so ratios between
+// brackets are meaningful. Cached as stage "radiance" keyed by the frames' SHA-256 and the
+// settings; the EXR is <stage dir>/radiance.exr.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/relume/process/pipeline.h"
+#include "core/image.h"
+#include "core/time.h"
+
+namespace relume::app::process {
+
+struct BracketRadiance {
+  std::string device_id;
+  std::optional<std::int64_t> bracket_id;  // none for a frame outside a bracket
+  std::vector<std::int64_t> frame_ids;
+  UtcTime utc;  // of the bracket's first frame
+  double sun_azimuth_deg = 0.0;
+  double sun_elevation_deg = 0.0;
+  RadianceImage radiance;  // CV_32FC3, relative units (see above)
+  cv::Mat status;          // CV_8UC1 calibration::HdrPixelStatus (0 = every channel well exposed)
+  std::filesystem::path exr;
+  StageKey key;  // what the radiance depends on; dependants AddKey() it
+};
+
+// Still-camera frames grouped by bracket (frames outside a bracket stand alone), in capture
+// order, optionally restricted to the frames a selector picks (see SelectFrames).
+std::vector<std::vector<capture::FrameRecord>> StillBrackets(const capture::SessionReader& session,
+                                                             const std::optional<std::string>& selector);
+
+// Settings read (all optional): merge_black_margin, merge_saturation_margin (codes),
+// response_samples. Throws InvalidArgumentError when the frames cannot be linearised (an
+// encoded single frame and no recorded response: the message says to run `relume calibrate`).
+BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket);
+
+// An 8-bit sRGB preview of linear radiance: scaled so that `white` maps to 1, clipped, sRGB
+// transfer. With white <= 0 the 99th percentile of the finite luminance is used.
+cv::Mat RadiancePreview(const RadianceImage& radiance, double white = 0.0);
+
+}  // namespace relume::app::process

@@ -1,0 +1,103 @@
+#include "apps/relume/process/stage_cache.h"
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <system_error>
+
+#include "capture/durable_file.h"
+#include "core/error.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+
+namespace {
+constexpr const char* kManifest = "stage.json";
+constexpr const char* kPartialSuffix = ".partial";
+}  // namespace
+
+StageKey& StageKey::Add(std::string_view name, std::string_view value) {
+  fields_.emplace_back(std::string(name), std::string(value));
+  return *this;
+}
+
+StageKey& StageKey::Add(std::string_view name, double value) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%a", value);
+  return Add(name, std::string_view(text));
+}
+
+StageKey& StageKey::Add(std::string_view name, std::int64_t value) {
+  return Add(name, std::to_string(value));
+}
+
+StageKey& StageKey::AddFileContent(std::string_view name, const fs::path& path) {
+  return Add(name, capture::Sha256HexOfFile(path));
+}
+
+std::string StageKey::Hex() const {
+  std::string text;
+  for (const auto& [name, value] : fields_) {
+    // Length-prefixed so that ("ab","c") and ("a","bc") differ.
+    text += std::to_string(name.size()) + ":" + name + "=" + std::to_string(value.size()) + ":" + value + ";";
+  }
+  return capture::Sha256Hex(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+}
+
+std::string StageKey::Describe() const {
+  std::string text;
+  for (const auto& [name, value] : fields_) {
+    if (!text.empty()) text += ", ";
+    text += name + "=" + (value.size() > 16 ? value.substr(0, 12) + "..." : value);
+  }
+  return text;
+}
+
+StageCache::StageCache(fs::path root, bool reuse) : root_(std::move(root)), reuse_(reuse) {
+  std::error_code ec;
+  fs::create_directories(root_, ec);
+  if (ec) throw IoError(root_.string(), "cannot create the stage folder: " + ec.message());
+}
+
+fs::path StageCache::DirFor(std::string_view stage, const StageKey& key) const {
+  return root_ / (std::string(stage) + "-" + key.Hex().substr(0, 16));
+}
+
+bool StageCache::IsComplete(std::string_view stage, const StageKey& key) const {
+  return fs::exists(DirFor(stage, key) / kManifest);
+}
+
+StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
+                                   const std::function<void(const fs::path&)>& produce) {
+  Result result;
+  result.dir = DirFor(stage, key);
+  result.key = key.Hex();
+  if (reuse_ && IsComplete(stage, key)) {
+    result.reused = true;
+    return result;
+  }
+  const fs::path partial = result.dir.string() + kPartialSuffix;
+  std::error_code ec;
+  fs::remove_all(partial, ec);  // left by a run that was stopped mid-stage
+  if (ec) throw IoError(partial.string(), "cannot remove the unfinished stage folder: " + ec.message());
+  fs::create_directories(partial, ec);
+  if (ec) throw IoError(partial.string(), "cannot create the stage folder: " + ec.message());
+
+  produce(partial);
+
+  nlohmann::json manifest;
+  manifest["stage"] = std::string(stage);
+  manifest["key"] = result.key;
+  manifest["depends_on"] = key.Describe();
+  const std::string text = manifest.dump(2) + "\n";
+  capture::WriteFileDurably(partial / kManifest,
+                            std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+  fs::remove_all(result.dir, ec);  // a forced recomputation replaces the old folder
+  fs::rename(partial, result.dir, ec);
+  if (ec) throw IoError(result.dir.string(), "cannot move the stage folder into place: " + ec.message());
+  capture::SyncDirectory(root_);
+  return result;
+}
+
+}  // namespace relume::app::process

@@ -1,0 +1,71 @@
+// Content-keyed stage outputs for `relume process`: a stage whose inputs (content hashes) and
+// settings have not changed is not recomputed (DESIGN.md, "Skip what a scene does not need").
+//
+// Each stage run owns one folder, <root>/<stage>-<key>/, where <key> is a hash of everything
+// the stage's result depends on (a StageKey). The folder is produced under a temporary name
+// and renamed into place only after the stage finished and its manifest (stage.json) is
+// written, so a run stopped by Ctrl-C or a crash leaves no half-written stage behind: the
+// next run removes the temporary folder and computes the stage again.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace relume::app::process {
+
+// What a stage's output depends on, as named fields. Order matters (fields are hashed in the
+// order they are added). Hex() is the SHA-256 of the fields; Describe() lists them for logs.
+class StageKey {
+ public:
+  StageKey& Add(std::string_view name, std::string_view value);
+  StageKey& Add(std::string_view name, const char* value) { return Add(name, std::string_view(value)); }
+  StageKey& Add(std::string_view name, const std::string& value) { return Add(name, std::string_view(value)); }
+  StageKey& Add(std::string_view name, double value);  // exact (hex float), not rounded
+  StageKey& Add(std::string_view name, std::int64_t value);
+  StageKey& Add(std::string_view name, int value) { return Add(name, static_cast<std::int64_t>(value)); }
+  StageKey& Add(std::string_view name, bool value) { return Add(name, value ? "true" : "false"); }
+  // The SHA-256 of a file's content (not its name or time).
+  StageKey& AddFileContent(std::string_view name, const std::filesystem::path& path);
+  // Another stage's key: this stage depends on everything that one depends on.
+  StageKey& AddKey(std::string_view name, const StageKey& other) { return Add(name, other.Hex()); }
+
+  std::string Hex() const;  // 64 hex digits
+  std::string Describe() const;
+
+ private:
+  std::vector<std::pair<std::string, std::string>> fields_;
+};
+
+class StageCache {
+ public:
+  // `root` is created when missing. With `reuse` false every stage is recomputed (and its
+  // folder replaced), as `relume process --force` asks.
+  explicit StageCache(std::filesystem::path root, bool reuse = true);
+
+  struct Result {
+    std::filesystem::path dir;  // the stage's completed folder
+    bool reused = false;        // true: found complete from an earlier run, `produce` not called
+    std::string key;            // StageKey::Hex()
+  };
+
+  // Runs `produce(folder)` unless a completed folder for (stage, key) exists. `produce` writes
+  // its outputs into the folder it is given (a temporary folder that becomes `dir`).
+  Result Run(std::string_view stage, const StageKey& key,
+             const std::function<void(const std::filesystem::path&)>& produce);
+
+  // The folder a completed stage would have, without running anything.
+  std::filesystem::path DirFor(std::string_view stage, const StageKey& key) const;
+  bool IsComplete(std::string_view stage, const StageKey& key) const;
+
+  const std::filesystem::path& root() const { return root_; }
+
+ private:
+  std::filesystem::path root_;
+  bool reuse_;
+};
+
+}  // namespace relume::app::process

@@ -1,0 +1,95 @@
+#include "apps/relume/process_command.h"
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <memory>
+
+#include "apps/relume/process/pipeline.h"
+#include "core/error.h"
+
+namespace relume::app {
+
+namespace {
+
+struct ProcessArgs {
+  std::string session;
+  std::string out;
+  std::string pipeline;
+  std::string source;
+  std::string target;
+  std::string mesh;
+  std::string target_light;
+  std::vector<std::string> settings;
+  bool explain = false;
+  bool force = false;
+  bool list = false;
+};
+
+void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
+  std::cout << "pipeline " << summary["pipeline"].get<std::string>() << " on " << summary["session"].get<std::string>()
+            << (summary["explain"].get<bool>() ? " (plan only)" : "") << "\n";
+  for (const nlohmann::json& d : summary["decisions"]) {
+    std::printf("  %-16s %-7s %s\n", d["stage"].get<std::string>().c_str(), d["action"].get<std::string>().c_str(),
+                d["reason"].get<std::string>().c_str());
+  }
+  std::fflush(stdout);
+  if (summary["explain"].get<bool>()) return;
+  for (const nlohmann::json& o : summary["outputs"]) {
+    std::cout << "  wrote " << out_dir << "/" << o["path"].get<std::string>() << "  (" << o["what"].get<std::string>()
+              << ")\n";
+  }
+  std::printf("done in %.2f s; summary in %s/summary.json\n", summary["seconds"].get<double>(), out_dir.c_str());
+}
+
+void Run(const ProcessArgs& args) {
+  if (args.list) {
+    for (const process::PipelineEntry& entry : process::Pipelines()) {
+      std::printf("%-12s %s\n", entry.name.c_str(), entry.description.c_str());
+    }
+    return;
+  }
+  if (args.session.empty()) throw InvalidArgumentError("relume process: give the session folder");
+  if (args.pipeline.empty()) throw InvalidArgumentError("relume process: give --pipeline NAME (--list names them)");
+  process::PipelineRequest request;
+  request.session_dir = args.session;
+  request.out_dir = args.out.empty() ? std::filesystem::path(args.session) / "processed" / args.pipeline
+                                     : std::filesystem::path(args.out);
+  request.pipeline = args.pipeline;
+  if (!args.source.empty()) request.source = args.source;
+  if (!args.target.empty()) request.target = args.target;
+  if (!args.mesh.empty()) request.mesh = args.mesh;
+  if (!args.target_light.empty()) request.target_light = args.target_light;
+  for (const std::string& kv : args.settings) {
+    const std::size_t eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw InvalidArgumentError("--set " + kv + ": expected KEY=VALUE (e.g. --set sh_order=1)");
+    }
+    request.settings[kv.substr(0, eq)] = kv.substr(eq + 1);
+  }
+  request.explain = args.explain;
+  request.reuse = !args.force;
+  const nlohmann::json summary = process::RunPipeline(request);
+  PrintSummary(summary, request.out_dir.string());
+}
+
+}  // namespace
+
+void AddProcessCommand(CLI::App& app) {
+  auto args = std::make_shared<ProcessArgs>();
+  CLI::App* cmd =
+      app.add_subcommand("process", "Reprocess a recorded session through a pipeline (reuses unchanged stages)");
+  cmd->add_option("SESSION", args->session, "Session folder (from relume capture)");
+  cmd->add_option("--pipeline", args->pipeline, "Pipeline to run (--list names them)");
+  cmd->add_option("--out", args->out, "Output folder (default SESSION/processed/PIPELINE)");
+  cmd->add_option("--source", args->source, "Source frames: id, bracket:N, DEVICE:STREAM or all");
+  cmd->add_option("--target", args->target, "Target frames: id, bracket:N, DEVICE:STREAM or all");
+  cmd->add_option("--mesh", args->mesh, "Scene geometry when the session did not record it");
+  cmd->add_option("--target-light", args->target_light, "Destination lighting: frame selector, SH .json or env map");
+  cmd->add_option("--set", args->settings, "A pipeline knob, KEY=VALUE (repeatable)");
+  cmd->add_flag("--explain", args->explain, "Print the plan and its reasons; run nothing expensive");
+  cmd->add_flag("--force", args->force, "Recompute every stage, even unchanged ones");
+  cmd->add_flag("--list", args->list, "List the pipelines of this build");
+  cmd->callback([args]() { Run(*args); });
+}
+
+}  // namespace relume::app

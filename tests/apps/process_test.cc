@@ -1,0 +1,154 @@
+// The `relume process` frame: content-keyed stage reuse, frame selection, and the radiance
+// pipeline end to end on a small simulated session (against the world's truth).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "apps/relume/process/stage_cache.h"
+#include "core/error.h"
+#include "tests/apps/cli_runner.h"
+
+namespace relume::app::process {
+namespace {
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("relume_process_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(StageKeyTest, EveryFieldAndItsOrderMatter) {
+  const std::string base = StageKey().Add("a", 1).Add("b", 0.5).Hex();
+  EXPECT_EQ(base, StageKey().Add("a", 1).Add("b", 0.5).Hex());
+  EXPECT_NE(base, StageKey().Add("b", 0.5).Add("a", 1).Hex());
+  EXPECT_NE(base, StageKey().Add("a", 1).Add("b", 0.5000000001).Hex());
+  EXPECT_NE(base, StageKey().Add("a", 2).Add("b", 0.5).Hex());
+  // Length prefixes keep field boundaries apart.
+  EXPECT_NE(StageKey().Add("x", "ab").Add("y", "c").Hex(), StageKey().Add("x", "a").Add("y", "bc").Hex());
+  EXPECT_EQ(base.size(), 64u);
+}
+
+TEST(StageCacheTest, ReusesCompleteStagesAndRecomputesChangedOnes) {
+  const fs::path root = TempDir("cache");
+  StageCache cache(root);
+  int runs = 0;
+  auto produce = [&](const fs::path& dir) {
+    ++runs;
+    std::ofstream(dir / "out.txt") << "result " << runs;
+  };
+  const StageKey key = StageKey().Add("input", "abc").Add("knob", 3);
+  const StageCache::Result first = cache.Run("normals", key, produce);
+  EXPECT_FALSE(first.reused);
+  EXPECT_TRUE(fs::exists(first.dir / "out.txt"));
+  EXPECT_TRUE(fs::exists(first.dir / "stage.json"));
+  const StageCache::Result second = cache.Run("normals", key, produce);
+  EXPECT_TRUE(second.reused);
+  EXPECT_EQ(second.dir, first.dir);
+  EXPECT_EQ(runs, 1);
+  const StageCache::Result changed = cache.Run("normals", StageKey().Add("input", "abc").Add("knob", 4), produce);
+  EXPECT_FALSE(changed.reused);
+  EXPECT_NE(changed.dir, first.dir);
+  EXPECT_EQ(runs, 2);
+  // --force recomputes and replaces the folder.
+  StageCache forced(root, /*reuse=*/false);
+  EXPECT_FALSE(forced.Run("normals", key, produce).reused);
+  EXPECT_EQ(runs, 3);
+  fs::remove_all(root);
+}
+
+TEST(StageCacheTest, AStageStoppedMidwayIsRecomputedNotReused) {
+  const fs::path root = TempDir("partial");
+  StageCache cache(root);
+  const StageKey key = StageKey().Add("input", "abc");
+  EXPECT_THROW(cache.Run("fit", key,
+                         [](const fs::path& dir) {
+                           std::ofstream(dir / "half.txt") << "half";
+                           throw InvalidArgumentError("stopped");
+                         }),
+               InvalidArgumentError);
+  EXPECT_FALSE(cache.IsComplete("fit", key));
+  EXPECT_FALSE(fs::exists(cache.DirFor("fit", key)));
+  bool ran = false;
+  const StageCache::Result result = cache.Run("fit", key, [&](const fs::path& dir) {
+    ran = true;
+    EXPECT_FALSE(fs::exists(dir / "half.txt"));  // the unfinished folder was cleared
+  });
+  EXPECT_TRUE(ran);
+  EXPECT_FALSE(result.reused);
+  fs::remove_all(root);
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
+  const fs::path dir = TempDir("cli");
+  const fs::path session = dir / "session";
+  const std::string rig = std::string(RELUME_SOURCE_DIR) + "/tests/data/rigs/sim-tiny-outdoor.yaml";
+  const testing::CliResult capture = testing::RunRelume("capture --rig " + rig + " --out " + session.string());
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  ASSERT_TRUE(fs::exists(session / "rig" / "scene.yaml")) << "the session keeps its world";
+
+  const fs::path out = dir / "radiance";
+  const testing::CliResult first =
+      testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + out.string());
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const nlohmann::json summary = ReadJson(out / "summary.json");
+  ASSERT_EQ(summary["metrics"]["brackets"].size(), 4u);  // DSLR and phone, 09:00 and 15:00
+  double dslr_scale = 0.0;
+  for (const nlohmann::json& b : summary["metrics"]["brackets"]) {
+    // Linear radiance within 2% (RMS, after one scale) of the world's truth, with sensor noise.
+    EXPECT_LT(b["truth_relative_rms"].get<double>(), 0.02) << b.dump();
+    if (b["device"] == "sim:dslr") {
+      // Raw frames: the same scale at 09:00 and 15:00, so brackets can be compared directly.
+      const double scale = b["truth_scale"].get<double>();
+      if (dslr_scale > 0.0) {
+        EXPECT_NEAR(scale / dslr_scale, 1.0, 2e-3);
+      }
+      dslr_scale = scale;
+    }
+  }
+  EXPECT_NE(first.output.find("no response recorded for sim:phone"), std::string::npos) << first.output;
+
+  // Unchanged: every stage reused. A changed knob: every radiance stage recomputed.
+  const testing::CliResult again =
+      testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + out.string());
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  int reused = 0;
+  const nlohmann::json again_summary = ReadJson(out / "summary.json");
+  for (const nlohmann::json& d : again_summary["decisions"]) reused += d["action"] == "reuse";
+  EXPECT_EQ(reused, 4) << again.output;
+  const testing::CliResult knob = testing::RunRelume(
+      "process " + session.string() + " --pipeline radiance --set merge_saturation_margin=8 --out " + out.string());
+  ASSERT_EQ(knob.exit_code, 0) << knob.output;
+  int ran = 0;
+  const nlohmann::json knob_summary = ReadJson(out / "summary.json");
+  for (const nlohmann::json& d : knob_summary["decisions"]) ran += d["action"] == "run";
+  EXPECT_EQ(ran, 4) << knob.output;
+
+  // Errors a user can make, each named.
+  const testing::CliResult no_pipeline = testing::RunRelume("process " + session.string() + " --pipeline nope");
+  EXPECT_NE(no_pipeline.exit_code, 0);
+  EXPECT_NE(no_pipeline.output.find("no pipeline named 'nope'"), std::string::npos) << no_pipeline.output;
+  const testing::CliResult no_session = testing::RunRelume("process " + dir.string() + " --pipeline radiance");
+  EXPECT_NE(no_session.exit_code, 0);
+  EXPECT_NE(no_session.output.find("is not a relume session"), std::string::npos) << no_session.output;
+  const testing::CliResult bad_frames =
+      testing::RunRelume("process " + session.string() + " --pipeline radiance --source bracket:99");
+  EXPECT_NE(bad_frames.exit_code, 0);
+  EXPECT_NE(bad_frames.output.find("matches no frame"), std::string::npos) << bad_frames.output;
+  const testing::CliResult bad_knob =
+      testing::RunRelume("process " + session.string() + " --pipeline radiance --set merge_black_margin=two");
+  EXPECT_NE(bad_knob.exit_code, 0);
+  EXPECT_NE(bad_knob.output.find("merge_black_margin=two: expected an integer"), std::string::npos) << bad_knob.output;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace relume::app::process
