@@ -7,12 +7,14 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "apps/relume/process/radiance.h"
 #include "calibration/calibration_profile.h"
 #include "calibration/colorchecker_detect.h"
 #include "calibration/colorchecker_fit.h"
 #include "calibration/image_file.h"
 #include "calibration/report_plots.h"
 #include "calibration/response.h"
+#include "capture/session.h"
 #include "core/error.h"
 #include "core/yaml_file.h"
 
@@ -43,6 +45,36 @@ std::vector<cv::Point2f> CornersFromYaml(const std::string& path) {
     }
   }
   return points;
+}
+
+// The frames a --session/--frames pair names: one device's still frames.
+std::vector<capture::FrameRecord> SessionFrames(const capture::SessionReader& reader, const SessionSource& source) {
+  if (source.frames.empty()) throw InvalidArgumentError("--session needs --frames (e.g. --frames bracket:1)");
+  std::vector<capture::FrameRecord> frames;
+  for (const capture::FrameRecord& f : process::SelectFrames(reader, source.frames)) {
+    if (f.stream == "still") frames.push_back(f);
+  }
+  if (frames.empty()) throw InvalidArgumentError("--frames " + source.frames + ": no still-camera frames selected");
+  for (const capture::FrameRecord& f : frames) {
+    if (f.device_id != frames.front().device_id) {
+      throw InvalidArgumentError("--frames " + source.frames + " selects frames of " + frames.front().device_id +
+                                 " and " + f.device_id + "; a calibration is of one camera");
+    }
+  }
+  return frames;
+}
+
+// Stores a profile in the session with the frames it came from; returns its id.
+std::int64_t StoreInSession(const std::string& session, const std::string& kind, const CalibrationProfile& profile,
+                            const std::vector<capture::FrameRecord>& frames) {
+  capture::CalibrationRecord record;
+  record.created_utc =
+      UtcTime(std::chrono::duration_cast<Nanoseconds>(std::chrono::system_clock::now().time_since_epoch()));
+  record.kind = kind;
+  record.device_id = frames.front().device_id;
+  record.json = ProfileToJson(profile);
+  for (const capture::FrameRecord& f : frames) record.source_frame_ids.push_back(f.id);
+  return capture::SessionWriter::Append(session)->AddCalibration(record);
 }
 
 }  // namespace
@@ -76,10 +108,37 @@ std::vector<double> ResolveExposures(const ExposureArgs& args, std::size_t count
   return times;
 }
 
-void RunCalibrateResponse(const CalibrateResponseArgs& args, std::ostream& out) {
-  if (args.files.size() < 2) throw InvalidArgumentError("calibrate response: give at least 2 image files");
+void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& out) {
+  CalibrateResponseArgs args = args_in;
   std::vector<CameraImage> frames;
-  for (const auto& f : args.files) frames.push_back(LoadFrame(f).image);
+  std::vector<capture::FrameRecord> records;
+  if (!args.source.session.empty()) {
+    if (!args.files.empty()) throw InvalidArgumentError("calibrate response: give files or --session, not both");
+    const capture::SessionReader reader(args.source.session);
+    records = SessionFrames(reader, args.source);
+    const bool ev_only = std::isnan(records.front().exposure.exposure_time_s);
+    for (const capture::FrameRecord& f : records) {
+      frames.push_back(reader.LoadImage(f));
+      args.files.push_back((reader.dir() / f.file_path).string());
+    }
+    if (args.exposure.exposures_s.empty() && args.exposure.ev.empty()) {
+      for (const capture::FrameRecord& f : records) {
+        if (ev_only) {
+          args.exposure.ev.push_back(f.exposure.ev_compensation);
+        } else {
+          const double iso = std::isfinite(f.exposure.iso) && f.exposure.iso > 0.0 ? f.exposure.iso / 100.0 : 1.0;
+          args.exposure.exposures_s.push_back(f.exposure.exposure_time_s * iso);
+        }
+      }
+    }
+    if (frames.front().encoding == SampleEncoding::kSensorLinear) {
+      throw InvalidArgumentError("--frames " + args.source.frames +
+                                 ": these are sensor-linear (raw) frames, which need no response curve");
+    }
+  } else {
+    for (const auto& f : args.files) frames.push_back(LoadFrame(f).image);
+  }
+  if (frames.size() < 2) throw InvalidArgumentError("calibrate response: give at least 2 images of one bracket");
   ResponseOptions options;
   options.method = ResponseMethodFromString(args.method);
   options.sample_count = args.samples;
@@ -103,9 +162,15 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args, std::ostream& out) 
     throw InvalidArgumentError("the response could not be recovered: " + result.summary.reason);
   }
   CalibrationProfile profile;
-  profile.camera = std::filesystem::path(args.files.front()).stem().string();
+  profile.camera =
+      records.empty() ? std::filesystem::path(args.files.front()).stem().string() : records.front().device_id;
   profile.response = result.response;
   SaveProfile(profile, args.out);
+  if (!records.empty()) {
+    const std::int64_t id = StoreInSession(args.source.session, "response", profile, records);
+    out << "stored in " << args.source.session << " as calibration " << id << " (response of " << profile.camera
+        << ", from " << records.size() << " frames)\n";
+  }
   const std::string plot = args.plot.empty() ? WithoutJson(args.out) + ".png" : args.plot;
   SaveImage(PlotResponse(result.response), plot);
   const std::string report = WithoutJson(args.out) + "_report.json";
@@ -136,7 +201,26 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   cv::Mat preview;
   std::string gain_input = "radiance";
   const std::string ext = std::filesystem::path(args.image).extension().string();
-  if (ext == ".exr" || ext == ".EXR") {
+  std::vector<capture::FrameRecord> records;
+  if (!args.source.session.empty()) {
+    if (!args.image.empty()) throw InvalidArgumentError("calibrate chart: give an image or --session, not both");
+    const capture::SessionReader reader(args.source.session);
+    records = SessionFrames(reader, args.source);
+    std::optional<CameraResponse> response;
+    if (base && base->response) {
+      response = base->response;
+    } else if (const auto recorded = process::SessionCalibration(reader, records.front().device_id, "response")) {
+      response = recorded->first.response;
+    }
+    const process::LinearisedBracket linear =
+        process::LineariseBracket(reader, records, response, std::nullopt, HdrMergeOptions{}, ResponseOptions{});
+    out << "chart image: " << records.size() << " frame(s) of " << records.front().device_id << " merged ("
+        << linear.response_source << " response)\n";
+    chart.values = linear.radiance.pixels;
+    preview = PreviewLinear(linear.radiance.pixels);
+  } else if (args.image.empty()) {
+    throw InvalidArgumentError("calibrate chart: give the chart image, or --session DIR --frames SELECTOR");
+  } else if (ext == ".exr" || ext == ".EXR") {
     const RadianceImage radiance = LoadRadianceExr(args.image);
     if (radiance.pixels.channels() != 3) throw InvalidArgumentError(args.image + ": the chart image must be RGB");
     chart.values = radiance.pixels;
@@ -190,12 +274,18 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   if (!fit.summary.usable) throw InvalidArgumentError("the chart fit failed: " + fit.summary.reason);
 
   CalibrationProfile profile = base.value_or(CalibrationProfile{});
+  if (!records.empty()) profile.camera = records.front().device_id;
   if (profile.camera.empty()) profile.camera = std::filesystem::path(args.image).stem().string();
   profile.gain_input = gain_input;
   profile.gain = fit.gain;
   profile.ccm = fit.ccm;
   profile.fit = fit.summary;
   SaveProfile(profile, args.out);
+  if (!records.empty()) {
+    const std::int64_t id = StoreInSession(args.source.session, "profile", profile, records);
+    out << "stored in " << args.source.session << " as calibration " << id << " (colour profile of " << profile.camera
+        << ", applied when its frames are processed)\n";
+  }
 
   const std::string dir = args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
   std::filesystem::create_directories(dir);
@@ -236,7 +326,10 @@ void AddCalibrateCommand(CLI::App& app) {
 
   auto r = std::make_shared<CalibrateResponseArgs>();
   CLI::App* response = calibrate->add_subcommand("response", "Recover the camera response from an exposure bracket");
-  response->add_option("files", r->files, "Bracket images of a static scene (8-bit, same size)")->required();
+  response->add_option("files", r->files, "Bracket images of a static scene (8-bit, same size)");
+  response->add_option("--session", r->source.session,
+                       "Take the bracket from this session (and store the result in it)");
+  response->add_option("--frames", r->source.frames, "With --session: the frames (bracket:N, ids, DEVICE:still)");
   response->add_option("--exposures", r->exposure.exposures_s, "Exposure times in seconds, one per file")
       ->delimiter(',');
   response->add_option("--ev", r->exposure.ev, "EV values (EV-only cameras), one per file")->delimiter(',');
@@ -249,7 +342,9 @@ void AddCalibrateCommand(CLI::App& app) {
 
   auto c = std::make_shared<CalibrateChartArgs>();
   CLI::App* chart = calibrate->add_subcommand("chart", "Find a ColorChecker, fit gain and colour matrix");
-  chart->add_option("image", c->image, "Image of the chart (PNG/TIFF camera output, raw, or EXR radiance)")->required();
+  chart->add_option("image", c->image, "Image of the chart (PNG/TIFF camera output, raw, or EXR radiance)");
+  chart->add_option("--session", c->source.session, "Take the chart from this session (and store the profile in it)");
+  chart->add_option("--frames", c->source.frames, "With --session: the chart's frames (bracket:N or a frame id)");
   chart->add_option("--corners", c->corners, "Chart corners x0,y0,...,x3,y3 (pixels), instead of detection")
       ->delimiter(',');
   chart->add_option("--corners-file", c->corners_file, "YAML with corners: [[x, y], ...]");

@@ -23,8 +23,18 @@ struct ExposureArgs {
   std::vector<double> ev;
 };
 
+// `--session DIR --frames SELECTOR`: the frames come from a recorded session (their exposures
+// from its records), and the result is also stored in the session's calibrations table with
+// the ids of the frames it came from, so that processing applies it when it reads that
+// device's frames.
+struct SessionSource {
+  std::string session;
+  std::string frames;
+};
+
 struct CalibrateResponseArgs {
   std::vector<std::string> files;
+  SessionSource source;
   ExposureArgs exposure;
   std::string method = "debevec";
   int samples = 300;
@@ -37,6 +47,7 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args, std::ostream& out);
 
 struct CalibrateChartArgs {
   std::string image;              // 8/16-bit camera image, or .exr radiance
+  SessionSource source;           // instead of image: a session bracket, linearised and merged
   std::vector<double> corners;    // 8 numbers x0,y0,...,x3,y3 (any order around the chart)
   std::string corners_file;       // YAML: corners: [[x, y], [x, y], [x, y], [x, y]]
   std::string detector = "auto";  // auto, mcc, lattice

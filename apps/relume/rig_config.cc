@@ -187,24 +187,32 @@ void StoreRigWithSession(const RigConfig& rig, const std::filesystem::path& sess
   capture::CreateDirectoryDurably(folder);
   WriteText(folder / "rig.yaml", rig.yaml_text);
   if (rig.scene_path.empty()) return;
-  WriteText(folder / "scene.yaml", ReadText(rig.scene_path));
-  // Mesh files the scene names, at the same relative paths.
+  // The scene, with every file it names (meshes, chart references) copied into files/ and
+  // its paths pointed at the copies, so the session stands alone.
   const YamlFile scene(rig.scene_path);
   const fs::path scene_folder = fs::path(rig.scene_path).parent_path();
-  if (const YAML::Node objects = scene.root()["objects"]; objects && objects.IsSequence()) {
-    for (const YAML::Node& object : objects) {
-      const YAML::Node mesh = object["mesh"];
-      if (!mesh || !mesh.IsMap() || !mesh["file"]) continue;
-      const fs::path relative = fs::path(mesh["file"].as<std::string>()).lexically_normal();
-      if (relative.is_absolute() || (!relative.empty() && *relative.begin() == "..")) {
-        scene.Fail(mesh["file"], "mesh.file",
-                   "lies outside the scene's folder, so a session cannot keep a copy of it; move it under " +
-                       scene_folder.string());
+  YAML::Node root = YAML::Clone(scene.root());
+  int copied = 0;
+  auto keep = [&](YAML::Node holder, const char* key, const std::string& fallback) {
+    const std::string relative = holder[key] ? holder[key].as<std::string>() : fallback;
+    const std::string name = "files/" + std::to_string(copied++) + "-" + fs::path(relative).filename().string();
+    if (copied == 1) capture::CreateDirectoryDurably(folder / "files");
+    WriteText(folder / name, ReadText(scene_folder / relative));
+    holder[key] = name;
+  };
+  if (YAML::Node objects = root["objects"]; objects && objects.IsSequence()) {
+    for (YAML::Node object : objects) {
+      if (YAML::Node mesh = object["mesh"]; mesh && mesh.IsMap() && mesh["file"]) keep(mesh, "file", "");
+      if (YAML::Node chart = object["colorchecker"]; chart && chart.IsMap()) {
+        keep(chart, "reference", "../colorchecker/xrite_classic_2014_lab_d50.yaml");  // the loader's default
       }
-      capture::CreateDirectoryDurably((folder / relative).parent_path());
-      WriteText(folder / relative, ReadText(scene_folder / relative));
     }
   }
+  YAML::Emitter emitter;
+  emitter << root;
+  WriteText(folder / "scene.yaml", "# " + rig.scene_path +
+                                       " as recorded by relume capture; files/ holds copies of the files it names\n" +
+                                       std::string(emitter.c_str()) + "\n");
 }
 
 std::shared_ptr<RigConfig> LoadSessionRig(const std::filesystem::path& session_dir) {

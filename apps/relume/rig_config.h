@@ -48,10 +48,10 @@ struct RigConfig {
 RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override = std::nullopt);
 
 // A session keeps the rig it was recorded with, and for simulated rigs the world it looked at,
-// in <session>/rig/: rig.yaml (verbatim), scene.yaml and the mesh files the scene names. This
-// is what lets processing find the geometry, the cameras and (for simulated sessions) the
-// ground truth later, without the config folder the capture ran from. Files are written
-// durably; a mesh path that leaves the scene's folder is refused with a message.
+// in <session>/rig/: rig.yaml (verbatim), scene.yaml (with the meshes and chart references it
+// names copied into files/ and its paths pointed there). This is what lets processing find the
+// geometry, the cameras and (for simulated sessions) the ground truth later, without the config
+// folder the capture ran from. Files are written durably.
 void StoreRigWithSession(const RigConfig& rig, const std::filesystem::path& session_dir);
 // The rig stored with a session, or null when the session has none (recorded before rigs
 // were stored). Errors in the stored files are reported like LoadRigConfig's.

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/relume/process/stage_cache.h"
+#include "capture/session.h"
 #include "core/error.h"
 #include "tests/apps/cli_runner.h"
 
@@ -147,6 +148,65 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
       testing::RunRelume("process " + session.string() + " --pipeline radiance --set merge_black_margin=two");
   EXPECT_NE(bad_knob.exit_code, 0);
   EXPECT_NE(bad_knob.output.find("merge_black_margin=two: expected an integer"), std::string::npos) << bad_knob.output;
+  fs::remove_all(dir);
+}
+
+std::vector<capture::CalibrationRecord> Calibrations(const fs::path& session) {
+  return capture::SessionReader(session).Calibrations();
+}
+
+TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
+  const fs::path dir = TempDir("calibrate");
+  const std::string source = RELUME_SOURCE_DIR;
+  // The chart shot: found, fitted, stored in the session with the frames it came from.
+  const fs::path chart_session = dir / "chart";
+  ASSERT_EQ(
+      testing::RunRelume("capture --rig " + source + "/tests/data/rigs/sim-chart.yaml --out " + chart_session.string())
+          .exit_code,
+      0);
+  const testing::CliResult chart = testing::RunRelume(
+      "calibrate chart --session " + chart_session.string() + " --frames bracket:1 --reference " + source +
+      "/config/colorchecker/xrite_classic_2014_lab_d50.yaml --out " + (dir / "profile.json").string());
+  ASSERT_EQ(chart.exit_code, 0) << chart.output;
+  EXPECT_TRUE(fs::exists(dir / "profile.json")) << "the standalone profile file";
+  const std::vector<capture::CalibrationRecord> stored = Calibrations(chart_session);
+  ASSERT_EQ(stored.size(), 1u);
+  EXPECT_EQ(stored[0].kind, "profile");
+  EXPECT_EQ(stored[0].device_id, "sim:dslr");
+  EXPECT_EQ(stored[0].source_frame_ids, (std::vector<std::int64_t>{1, 2}));
+  const nlohmann::json report = ReadJson(dir / "profile_report" / "chart_report.json");
+  EXPECT_LT(report["fit"]["mean_delta_e_2000"].get<double>(), 1.0) << report["fit"].dump();
+  const testing::CliResult applied =
+      testing::RunRelume("process " + chart_session.string() + " --pipeline radiance --out " + (dir / "p").string());
+  ASSERT_EQ(applied.exit_code, 0) << applied.output;
+  EXPECT_NE(applied.output.find("applying colour profile (calibration " + std::to_string(stored[0].id) + ")"),
+            std::string::npos)
+      << applied.output;
+
+  // An EV-only camera's response, recovered from one bracket and stored: later brackets of that
+  // camera are linearised with it instead of recovering their own.
+  const fs::path session = dir / "outdoor";
+  ASSERT_EQ(
+      testing::RunRelume("capture --rig " + source + "/tests/data/rigs/sim-tiny-outdoor.yaml --out " + session.string())
+          .exit_code,
+      0);
+  const testing::CliResult response = testing::RunRelume("calibrate response --session " + session.string() +
+                                                         " --frames bracket:2 --out " + (dir / "phone.json").string());
+  ASSERT_EQ(response.exit_code, 0) << response.output;
+  ASSERT_EQ(Calibrations(session).size(), 1u);
+  EXPECT_EQ(Calibrations(session)[0].kind, "response");
+  const testing::CliResult processed =
+      testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + (dir / "q").string());
+  ASSERT_EQ(processed.exit_code, 0) << processed.output;
+  EXPECT_EQ(processed.output.find("no response recorded for sim:phone"), std::string::npos) << processed.output;
+  for (const nlohmann::json& b : ReadJson(dir / "q" / "summary.json")["metrics"]["brackets"]) {
+    EXPECT_LT(b["truth_relative_rms"].get<double>(), 0.03) << b.dump();
+  }
+  // Raw frames need no response: a clear refusal.
+  const testing::CliResult raw = testing::RunRelume("calibrate response --session " + session.string() +
+                                                    " --frames bracket:1 --out " + (dir / "raw.json").string());
+  EXPECT_NE(raw.exit_code, 0);
+  EXPECT_NE(raw.output.find("need no response curve"), std::string::npos) << raw.output;
   fs::remove_all(dir);
 }
 

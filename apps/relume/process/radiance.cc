@@ -52,20 +52,6 @@ bool IsEvOnly(const std::vector<capture::FrameRecord>& bracket) {
                      [](const capture::FrameRecord& f) { return !std::isfinite(f.exposure.exposure_time_s); });
 }
 
-// The newest calibration of the device with the given kind, as a profile.
-std::optional<calibration::CalibrationProfile> SessionProfile(const capture::SessionReader& session,
-                                                              const std::string& device_id, const std::string& kind,
-                                                              std::int64_t* calibration_id) {
-  std::optional<calibration::CalibrationProfile> found;
-  for (const capture::CalibrationRecord& c : session.Calibrations()) {
-    if (c.device_id != device_id || c.kind != kind) continue;
-    found = calibration::ProfileFromJson(
-        c.json, "session " + session.dir().string() + " calibration " + std::to_string(c.id) + " (" + kind + ")");
-    *calibration_id = c.id;
-  }
-  return found;
-}
-
 CameraImage AsRgb(CameraImage image) {
   if (image.layout == ColorLayout::kRgb) return image;
   if (image.layout == ColorLayout::kMono) {
@@ -79,6 +65,73 @@ CameraImage AsRgb(CameraImage image) {
 }
 
 }  // namespace
+
+std::optional<std::pair<calibration::CalibrationProfile, std::int64_t>> SessionCalibration(
+    const capture::SessionReader& session, const std::string& device_id, const std::string& kind) {
+  std::optional<std::pair<calibration::CalibrationProfile, std::int64_t>> found;
+  for (const capture::CalibrationRecord& c : session.Calibrations()) {
+    if (c.device_id != device_id || c.kind != kind) continue;
+    found.emplace(calibration::ProfileFromJson(c.json, "session " + session.dir().string() + " calibration " +
+                                                           std::to_string(c.id) + " (" + kind + ")"),
+                  c.id);
+  }
+  return found;
+}
+
+LinearisedBracket LineariseBracket(const capture::SessionReader& session,
+                                   const std::vector<capture::FrameRecord>& bracket,
+                                   const std::optional<calibration::CameraResponse>& recorded,
+                                   const std::optional<calibration::CalibrationProfile>& profile,
+                                   const calibration::HdrMergeOptions& merge,
+                                   const calibration::ResponseOptions& response_options) {
+  RELUME_CHECK(!bracket.empty());
+  const std::string name = bracket.front().bracket_id ? "bracket " + std::to_string(*bracket.front().bracket_id)
+                                                      : "frame " + std::to_string(bracket.front().id);
+  std::vector<CameraImage> frames;
+  std::vector<double> times;
+  for (const capture::FrameRecord& f : bracket) {
+    frames.push_back(AsRgb(session.LoadImage(f)));
+    times.push_back(RelativeExposure(f.exposure));
+  }
+  LinearisedBracket out;
+  calibration::CameraResponse response;
+  if (bracket.front().encoding == SampleEncoding::kSensorLinear) {
+    response = calibration::SensorLinearResponse(frames.front());
+    out.response_source = "sensor-linear";
+  } else if (recorded) {
+    response = *recorded;
+    out.response_source = "recorded";
+  } else {
+    if (frames.size() < 2) {
+      throw InvalidArgumentError(name + " is a single camera-encoded frame and no response is recorded for " +
+                                 bracket.front().device_id + ": record one with `relume calibrate response --session " +
+                                 session.dir().string() + " --frames bracket:N`");
+    }
+    if (IsEvOnly(bracket)) {
+      std::vector<double> ev;
+      for (const capture::FrameRecord& f : bracket) ev.push_back(f.exposure.ev_compensation);
+      const calibration::EvCalibration ev_cal = calibration::RecoverResponseFromEv(frames, ev, response_options);
+      if (!ev_cal.result.summary.usable) {
+        throw InvalidArgumentError(
+            name + ": the response cannot be recovered from this bracket: " + ev_cal.result.summary.reason);
+      }
+      response = ev_cal.result.response;
+      times = ev_cal.exposure_times_s;
+    } else {
+      const calibration::ResponseResult r = calibration::RecoverResponse(frames, times, response_options);
+      if (!r.summary.usable) {
+        throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + r.summary.reason);
+      }
+      response = r.response;
+    }
+    out.response_source = "recovered from the bracket";
+  }
+  calibration::HdrMergeResult merged = calibration::MergeHdr(frames, times, response, merge);
+  if (profile) merged.radiance = calibration::ApplyProfile(*profile, merged.radiance);
+  out.radiance = std::move(merged.radiance);
+  out.status = std::move(merged.status);
+  return out;
+}
 
 BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket) {
   RELUME_CHECK(!bracket.empty());
@@ -102,12 +155,18 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   if (!merge.IsValid(&why)) throw InvalidArgumentError("merge settings: " + why);
   if (!response_options.IsValid(&why)) throw InvalidArgumentError("response settings: " + why);
 
-  std::int64_t profile_id = 0;
-  std::int64_t response_id = 0;
-  const std::optional<calibration::CalibrationProfile> profile =
-      SessionProfile(session, out.device_id, "profile", &profile_id);
-  std::optional<calibration::CalibrationProfile> response_record =
-      SessionProfile(session, out.device_id, "response", &response_id);
+  const auto profile_record = SessionCalibration(session, out.device_id, "profile");
+  const auto response_record = SessionCalibration(session, out.device_id, "response");
+  const std::int64_t profile_id = profile_record ? profile_record->second : 0;
+  const std::int64_t response_id = response_record ? response_record->second : 0;
+  std::optional<calibration::CalibrationProfile> profile;
+  if (profile_record) profile = profile_record->first;
+  std::optional<calibration::CameraResponse> response;
+  if (profile && profile->response) {
+    response = profile->response;
+  } else if (response_record && response_record->first.response) {
+    response = response_record->first.response;
+  }
 
   StageKey& key = out.key;
   key.Add("stage", "radiance-v1");
@@ -121,7 +180,7 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   if (bracket.size() == 1) {
     run.Decide("radiance", "skip", name + ": single exposure, linearised without a merge");
   }
-  if (!sensor_linear && !(profile && profile->response) && !response_record) {
+  if (!sensor_linear && !response) {
     if (bracket.size() < 2) {
       throw InvalidArgumentError(name + " of " + out.device_id +
                                  " is a single camera-encoded frame and the session has no response for the device: "
@@ -137,41 +196,10 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
                name + ": applying colour profile (calibration " + std::to_string(profile_id) + ")");
 
   const StageCache::Result stage = run.RunStage("radiance", key, [&](const fs::path& dir) {
-    std::vector<CameraImage> frames;
-    std::vector<double> times;
-    for (const capture::FrameRecord& f : bracket) {
-      frames.push_back(AsRgb(session.LoadImage(f)));
-      times.push_back(RelativeExposure(f.exposure));
-    }
-    calibration::CameraResponse response;
-    if (sensor_linear) {
-      response = calibration::SensorLinearResponse(frames.front());
-    } else if (profile && profile->response) {
-      response = *profile->response;
-    } else if (response_record && response_record->response) {
-      response = *response_record->response;
-    } else if (IsEvOnly(bracket)) {
-      std::vector<double> ev;
-      for (const capture::FrameRecord& f : bracket) ev.push_back(f.exposure.ev_compensation);
-      const calibration::EvCalibration ev_cal = calibration::RecoverResponseFromEv(frames, ev, response_options);
-      if (!ev_cal.result.summary.usable) {
-        throw InvalidArgumentError(
-            name + ": the response cannot be recovered from this bracket: " + ev_cal.result.summary.reason);
-      }
-      response = ev_cal.result.response;
-      times = ev_cal.exposure_times_s;
-    } else {
-      const calibration::ResponseResult r = calibration::RecoverResponse(frames, times, response_options);
-      if (!r.summary.usable) {
-        throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + r.summary.reason);
-      }
-      response = r.response;
-    }
-    calibration::HdrMergeResult merged = calibration::MergeHdr(frames, times, response, merge);
-    if (profile) merged.radiance = calibration::ApplyProfile(*profile, merged.radiance);
-    calibration::SaveRadianceExr(merged.radiance, (dir / "radiance.exr").string());
-    calibration::SaveImage(merged.status, (dir / "status.png").string());
-    calibration::SaveImage(RadiancePreview(merged.radiance), (dir / "preview.png").string());
+    const LinearisedBracket linear = LineariseBracket(session, bracket, response, profile, merge, response_options);
+    calibration::SaveRadianceExr(linear.radiance, (dir / "radiance.exr").string());
+    calibration::SaveImage(linear.status, (dir / "status.png").string());
+    calibration::SaveImage(RadiancePreview(linear.radiance), (dir / "preview.png").string());
   });
   out.exr = stage.dir / "radiance.exr";
   out.radiance = calibration::LoadRadianceExr(out.exr.string());

@@ -23,6 +23,9 @@
 #include <vector>
 
 #include "apps/relume/process/pipeline.h"
+#include "calibration/calibration_profile.h"
+#include "calibration/hdr_merge.h"
+#include "calibration/response.h"
 #include "core/image.h"
 #include "core/time.h"
 
@@ -45,6 +48,27 @@ struct BracketRadiance {
 // order, optionally restricted to the frames a selector picks (see SelectFrames).
 std::vector<std::vector<capture::FrameRecord>> StillBrackets(const capture::SessionReader& session,
                                                              const std::optional<std::string>& selector);
+
+// The linearisation itself, without caching or decisions (`relume calibrate --session` uses
+// it to measure a chart). `profile`: gain + CCM to apply (none for a chart being fitted);
+// `response`: the inverse response for camera-encoded frames (none: recovered from the
+// bracket, which then needs two frames or more).
+struct LinearisedBracket {
+  RadianceImage radiance;
+  cv::Mat status;
+  std::string response_source;  // "sensor-linear", "recorded", "recovered from the bracket"
+};
+LinearisedBracket LineariseBracket(const capture::SessionReader& session,
+                                   const std::vector<capture::FrameRecord>& bracket,
+                                   const std::optional<calibration::CameraResponse>& response,
+                                   const std::optional<calibration::CalibrationProfile>& profile,
+                                   const calibration::HdrMergeOptions& merge,
+                                   const calibration::ResponseOptions& response_options);
+
+// The newest calibration of a device of the given kind ("response" or "profile") stored in the
+// session, with its id; nullopt when there is none.
+std::optional<std::pair<calibration::CalibrationProfile, std::int64_t>> SessionCalibration(
+    const capture::SessionReader& session, const std::string& device_id, const std::string& kind);
 
 // Settings read (all optional): merge_black_margin, merge_saturation_margin (codes),
 // response_samples. Throws InvalidArgumentError when the frames cannot be linearised (an
