@@ -12,6 +12,8 @@ PACKAGES=(
   libsqlite3-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the HTML report is checked by loading it in headless Chromium
+  chromium
   # device backends and their simulated devices
   libgphoto2-dev libusb-1.0-0-dev libopenni2-dev libaravis-dev aravis-tools umockdev libumockdev-dev
 )

@@ -64,17 +64,38 @@ std::vector<capture::FrameRecord> SessionFrames(const capture::SessionReader& re
   return frames;
 }
 
-// Stores a profile in the session with the frames it came from; returns its id.
+// Stores a profile in the session with the frames it came from (empty when they are frames of
+// another session); returns its id.
 std::int64_t StoreInSession(const std::string& session, const std::string& kind, const CalibrationProfile& profile,
-                            const std::vector<capture::FrameRecord>& frames) {
+                            const std::vector<capture::FrameRecord>& frames, bool own_frames = true) {
   capture::CalibrationRecord record;
   record.created_utc =
       UtcTime(std::chrono::duration_cast<Nanoseconds>(std::chrono::system_clock::now().time_since_epoch()));
   record.kind = kind;
   record.device_id = frames.front().device_id;
   record.json = ProfileToJson(profile);
-  for (const capture::FrameRecord& f : frames) record.source_frame_ids.push_back(f.id);
+  if (own_frames) {
+    for (const capture::FrameRecord& f : frames) record.source_frame_ids.push_back(f.id);
+  }
   return capture::SessionWriter::Append(session)->AddCalibration(record);
+}
+
+// Stores the calibration in the source session and every --store-in session, and says so.
+void StoreEverywhere(const SessionSource& source, const std::string& kind, const CalibrationProfile& profile,
+                     const std::vector<capture::FrameRecord>& frames, std::ostream& out) {
+  const std::int64_t id = StoreInSession(source.session, kind, profile, frames);
+  out << "stored in " << source.session << " as calibration " << id << " (" << kind << " of " << profile.camera
+      << ", from " << frames.size() << " frames; applied when its frames are processed)\n";
+  for (const std::string& other : source.store_in) {
+    const capture::SessionReader reader(other);  // IoError naming it when it is not a session
+    const auto devices = reader.Devices();
+    if (std::none_of(devices.begin(), devices.end(),
+                     [&](const drivers::DeviceInfo& d) { return d.FullId() == frames.front().device_id; })) {
+      throw InvalidArgumentError("--store-in " + other + ": that session has no device " + frames.front().device_id);
+    }
+    const std::int64_t other_id = StoreInSession(other, kind, profile, frames, /*own_frames=*/false);
+    out << "stored in " << other << " as calibration " << other_id << "\n";
+  }
 }
 
 }  // namespace
@@ -166,11 +187,7 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& ou
       records.empty() ? std::filesystem::path(args.files.front()).stem().string() : records.front().device_id;
   profile.response = result.response;
   SaveProfile(profile, args.out);
-  if (!records.empty()) {
-    const std::int64_t id = StoreInSession(args.source.session, "response", profile, records);
-    out << "stored in " << args.source.session << " as calibration " << id << " (response of " << profile.camera
-        << ", from " << records.size() << " frames)\n";
-  }
+  if (!records.empty()) StoreEverywhere(args.source, "response", profile, records, out);
   const std::string plot = args.plot.empty() ? WithoutJson(args.out) + ".png" : args.plot;
   SaveImage(PlotResponse(result.response), plot);
   const std::string report = WithoutJson(args.out) + "_report.json";
@@ -281,11 +298,7 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   profile.ccm = fit.ccm;
   profile.fit = fit.summary;
   SaveProfile(profile, args.out);
-  if (!records.empty()) {
-    const std::int64_t id = StoreInSession(args.source.session, "profile", profile, records);
-    out << "stored in " << args.source.session << " as calibration " << id << " (colour profile of " << profile.camera
-        << ", applied when its frames are processed)\n";
-  }
+  if (!records.empty()) StoreEverywhere(args.source, "profile", profile, records, out);
 
   const std::string dir = args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
   std::filesystem::create_directories(dir);
@@ -330,6 +343,7 @@ void AddCalibrateCommand(CLI::App& app) {
   response->add_option("--session", r->source.session,
                        "Take the bracket from this session (and store the result in it)");
   response->add_option("--frames", r->source.frames, "With --session: the frames (bracket:N, ids, DEVICE:still)");
+  response->add_option("--store-in", r->source.store_in, "With --session: also store the response in these sessions");
   response->add_option("--exposures", r->exposure.exposures_s, "Exposure times in seconds, one per file")
       ->delimiter(',');
   response->add_option("--ev", r->exposure.ev, "EV values (EV-only cameras), one per file")->delimiter(',');
@@ -345,6 +359,7 @@ void AddCalibrateCommand(CLI::App& app) {
   chart->add_option("image", c->image, "Image of the chart (PNG/TIFF camera output, raw, or EXR radiance)");
   chart->add_option("--session", c->source.session, "Take the chart from this session (and store the profile in it)");
   chart->add_option("--frames", c->source.frames, "With --session: the chart's frames (bracket:N or a frame id)");
+  chart->add_option("--store-in", c->source.store_in, "With --session: also store the profile in these sessions");
   chart->add_option("--corners", c->corners, "Chart corners x0,y0,...,x3,y3 (pixels), instead of detection")
       ->delimiter(',');
   chart->add_option("--corners-file", c->corners_file, "YAML with corners: [[x, y], ...]");

@@ -30,6 +30,9 @@ struct ExposureArgs {
 struct SessionSource {
   std::string session;
   std::string frames;
+  // Further sessions of the same camera to store the result in (a chart shot recorded as its
+  // own short session before the day's capture). Stored there without source frame ids.
+  std::vector<std::string> store_in;
 };
 
 struct CalibrateResponseArgs {

@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "apps/relume/process/pipeline.h"
+#include "apps/relume/process/report.h"
 #include "core/error.h"
 
 namespace relume::app {
@@ -49,11 +50,12 @@ void Run(const ProcessArgs& args) {
     return;
   }
   if (args.session.empty()) throw InvalidArgumentError("relume process: give the session folder");
-  if (args.pipeline.empty()) throw InvalidArgumentError("relume process: give --pipeline NAME (--list names them)");
+  const bool all = args.pipeline.empty() || args.pipeline == "all";
   process::PipelineRequest request;
   request.session_dir = args.session;
-  request.out_dir = args.out.empty() ? std::filesystem::path(args.session) / "processed" / args.pipeline
-                                     : std::filesystem::path(args.out);
+  request.out_dir = args.out.empty()
+                        ? std::filesystem::path(args.session) / "processed" / (all ? std::string() : args.pipeline)
+                        : std::filesystem::path(args.out);
   request.pipeline = args.pipeline;
   if (!args.source.empty()) request.source = args.source;
   if (!args.target.empty()) request.target = args.target;
@@ -68,8 +70,33 @@ void Run(const ProcessArgs& args) {
   }
   request.explain = args.explain;
   request.reuse = !args.force;
-  const nlohmann::json summary = process::RunPipeline(request);
-  PrintSummary(summary, request.out_dir.string());
+
+  std::vector<process::PipelineReport> reports;
+  if (!all) {
+    nlohmann::json summary = process::RunPipeline(request);
+    PrintSummary(summary, request.out_dir.string());
+    reports.push_back({request.pipeline, request.out_dir, std::move(summary), ""});
+  } else {
+    // Every pipeline of this build, each into its own folder; one that cannot run on this
+    // session says why and the others go on.
+    for (const process::PipelineEntry& entry : process::Pipelines()) {
+      process::PipelineRequest one = request;
+      one.pipeline = entry.name;
+      one.out_dir = request.out_dir / entry.name;
+      try {
+        nlohmann::json summary = process::RunPipeline(one);
+        PrintSummary(summary, one.out_dir.string());
+        reports.push_back({entry.name, one.out_dir, std::move(summary), ""});
+      } catch (const InvalidArgumentError& e) {
+        std::cout << "pipeline " << entry.name << " skipped: " << e.what() << "\n";
+        reports.push_back({entry.name, one.out_dir, nullptr, e.what()});
+      }
+    }
+  }
+  if (args.explain) return;
+  const std::filesystem::path page =
+      process::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
+  std::cout << "report: " << page.string() << "\n";
 }
 
 }  // namespace
@@ -79,8 +106,8 @@ void AddProcessCommand(CLI::App& app) {
   CLI::App* cmd =
       app.add_subcommand("process", "Reprocess a recorded session through a pipeline (reuses unchanged stages)");
   cmd->add_option("SESSION", args->session, "Session folder (from relume capture)");
-  cmd->add_option("--pipeline", args->pipeline, "Pipeline to run (--list names them)");
-  cmd->add_option("--out", args->out, "Output folder (default SESSION/processed/PIPELINE)");
+  cmd->add_option("--pipeline", args->pipeline, "Pipeline to run (--list names them; default: all of them)");
+  cmd->add_option("--out", args->out, "Output folder (default SESSION/processed[/PIPELINE])");
   cmd->add_option("--source", args->source, "Source frames: id, bracket:N, DEVICE:STREAM or all");
   cmd->add_option("--target", args->target, "Target frames: id, bracket:N, DEVICE:STREAM or all");
   cmd->add_option("--mesh", args->mesh, "Scene geometry when the session did not record it");

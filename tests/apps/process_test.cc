@@ -83,6 +83,21 @@ TEST(StageCacheTest, AStageStoppedMidwayIsRecomputedNotReused) {
   fs::remove_all(root);
 }
 
+// The page's DOM after Chromium loaded it (and ran its load handler).
+std::string LoadInChromium(const fs::path& page) {
+  const std::string command =
+      "chromium --headless --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom file://" +
+      fs::absolute(page).string() + " 2>/dev/null";
+  std::string dom;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return dom;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof(buffer), pipe)) dom += buffer;
+  const int status = pclose(pipe);
+  EXPECT_EQ(status, 0) << "chromium failed; install it with scripts/install-deps.sh";
+  return dom;
+}
+
 nlohmann::json ReadJson(const fs::path& path) {
   std::ifstream in(path);
   return nlohmann::json::parse(in);
@@ -133,6 +148,15 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   for (const nlohmann::json& d : knob_summary["decisions"]) ran += d["action"] == "run";
   EXPECT_EQ(ran, 4) << knob.output;
 
+  // The report loads in a browser with every image and figure.
+  ASSERT_TRUE(fs::exists(out / "report.html"));
+  const std::string dom = LoadInChromium(out / "report.html");
+  EXPECT_NE(dom.find("data-images-broken=\"0\""), std::string::npos) << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("data-images-loaded=\"4\""), std::string::npos) << "one preview per bracket";
+  EXPECT_NE(dom.find("data-figures=\"1\""), std::string::npos) << "the timeline";
+  EXPECT_NE(dom.find("id=\"pipeline-radiance\""), std::string::npos);
+  EXPECT_NE(dom.find("truth_relative_rms"), std::string::npos);
+
   // Errors a user can make, each named.
   const testing::CliResult no_pipeline = testing::RunRelume("process " + session.string() + " --pipeline nope");
   EXPECT_NE(no_pipeline.exit_code, 0);
@@ -161,7 +185,7 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   // The chart shot: found, fitted, stored in the session with the frames it came from.
   const fs::path chart_session = dir / "chart";
   ASSERT_EQ(
-      testing::RunRelume("capture --rig " + source + "/tests/data/rigs/sim-chart.yaml --out " + chart_session.string())
+      testing::RunRelume("capture --rig " + source + "/config/rigs/sim-chart.yaml --out " + chart_session.string())
           .exit_code,
       0);
   const testing::CliResult chart = testing::RunRelume(
@@ -195,10 +219,20 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   ASSERT_EQ(response.exit_code, 0) << response.output;
   ASSERT_EQ(Calibrations(session).size(), 1u);
   EXPECT_EQ(Calibrations(session)[0].kind, "response");
+  // The chart shot's profile, stored also in the day's session of the same DSLR.
+  const testing::CliResult store_in = testing::RunRelume(
+      "calibrate chart --session " + chart_session.string() + " --frames bracket:1 --store-in " + session.string() +
+      " --reference " + source + "/config/colorchecker/xrite_classic_2014_lab_d50.yaml --out " +
+      (dir / "profile2.json").string());
+  ASSERT_EQ(store_in.exit_code, 0) << store_in.output;
+  ASSERT_EQ(Calibrations(session).size(), 2u);
+  EXPECT_EQ(Calibrations(session)[1].kind, "profile");
+  EXPECT_EQ(Calibrations(session)[1].device_id, "sim:dslr");
   const testing::CliResult processed =
       testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + (dir / "q").string());
   ASSERT_EQ(processed.exit_code, 0) << processed.output;
   EXPECT_EQ(processed.output.find("no response recorded for sim:phone"), std::string::npos) << processed.output;
+  EXPECT_NE(processed.output.find("applying colour profile"), std::string::npos) << processed.output;
   for (const nlohmann::json& b : ReadJson(dir / "q" / "summary.json")["metrics"]["brackets"]) {
     EXPECT_LT(b["truth_relative_rms"].get<double>(), 0.03) << b.dump();
   }

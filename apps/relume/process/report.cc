@@ -1,0 +1,302 @@
+#include "apps/relume/process/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+#include <span>
+#include <sstream>
+
+#include "calibration/calibration_profile.h"
+#include "calibration/image_file.h"
+#include "calibration/report_plots.h"
+#include "capture/durable_file.h"
+#include "core/error.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Escape(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string Fixed(double value, int digits) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", digits, value);
+  return text;
+}
+
+const char* const kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf"};
+
+// Frames by device against the sun's elevation over the session's time, events as ticks.
+std::string TimelineSvg(const std::vector<capture::FrameRecord>& frames,
+                        const std::vector<capture::EventRecord>& events) {
+  if (frames.empty()) return "<p>No frames.</p>";
+  const double t0 = static_cast<double>(frames.front().utc.time_since_epoch().count()) * 1e-9;
+  double t1 = t0;
+  double el_min = 0.0, el_max = 10.0;
+  for (const capture::FrameRecord& f : frames) {
+    t1 = std::max(t1, static_cast<double>(f.utc.time_since_epoch().count()) * 1e-9);
+    el_min = std::min(el_min, std::floor(f.sun_elevation_deg / 10.0) * 10.0);
+    el_max = std::max(el_max, std::ceil(f.sun_elevation_deg / 10.0) * 10.0);
+  }
+  const double span = std::max(t1 - t0, 1.0);
+  const int w = 860, h = 300, left = 60, right = 20, top = 20, bottom = 50;
+  auto x_of = [&](double t) { return left + (t - t0) / span * (w - left - right); };
+  auto y_of = [&](double el) { return top + (el_max - el) / (el_max - el_min) * (h - top - bottom); };
+  std::ostringstream svg;
+  svg << "<svg id=\"timeline\" class=\"figure\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\""
+      << h << "\" viewBox=\"0 0 " << w << " " << h
+      << "\" role=\"img\" aria-label=\"frames and sun elevation over time\">\n";
+  svg << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << w - left - right << "\" height=\""
+      << h - top - bottom << "\" fill=\"#fafafa\" stroke=\"#ccc\"/>\n";
+  for (double el = el_min; el <= el_max + 1e-9; el += 10.0) {
+    svg << "<line x1=\"" << left << "\" x2=\"" << w - right << "\" y1=\"" << y_of(el) << "\" y2=\"" << y_of(el)
+        << "\" stroke=\"#e4e4e4\"/><text x=\"" << left - 6 << "\" y=\"" << y_of(el) + 4
+        << "\" font-size=\"11\" text-anchor=\"end\">" << el << "&#176;</text>\n";
+  }
+  svg << "<text x=\"14\" y=\"" << (top + h - bottom) / 2 << "\" font-size=\"11\" transform=\"rotate(-90 14 "
+      << (top + h - bottom) / 2 << ")\" text-anchor=\"middle\">sun elevation</text>\n";
+  for (int k = 0; k <= 4; ++k) {
+    const double t = t0 + span * k / 4.0;
+    const UtcTime utc{std::chrono::duration_cast<Nanoseconds>(std::chrono::duration<double>(t))};
+    svg << "<text x=\"" << x_of(t) << "\" y=\"" << h - bottom + 16 << "\" font-size=\"11\" text-anchor=\"middle\">"
+        << Escape(FormatIso8601(utc).substr(11, 8)) << "</text>\n";
+  }
+  svg << "<text x=\"" << (left + w - right) / 2 << "\" y=\"" << h - 8
+      << "\" font-size=\"11\" text-anchor=\"middle\">UTC, " << Escape(FormatIso8601(frames.front().utc).substr(0, 10))
+      << "</text>\n";
+  std::map<std::string, int> device_index;
+  for (const capture::FrameRecord& f : frames) device_index.emplace(f.device_id + " " + f.stream, 0);
+  int next = 0;
+  for (auto& [name, index] : device_index) index = next++;
+  for (const capture::EventRecord& e : events) {
+    if (e.type == "note") continue;
+    const double t = static_cast<double>(e.utc.time_since_epoch().count()) * 1e-9;
+    if (t < t0 - 1 || t > t1 + 1) continue;
+    const std::string colour = e.type == "fault" ? "#d62728" : "#999";
+    svg << "<line x1=\"" << x_of(t) << "\" x2=\"" << x_of(t) << "\" y1=\"" << top << "\" y2=\"" << h - bottom
+        << "\" stroke=\"" << colour << "\" stroke-dasharray=\"3,3\"><title>" << Escape(e.type + ": " + e.message)
+        << "</title></line>\n";
+  }
+  for (const capture::FrameRecord& f : frames) {
+    const double t = static_cast<double>(f.utc.time_since_epoch().count()) * 1e-9;
+    const int index = device_index[f.device_id + " " + f.stream];
+    svg << "<circle cx=\"" << x_of(t) << "\" cy=\"" << y_of(f.sun_elevation_deg) + (index - 1) * 3
+        << "\" r=\"3\" fill=\"" << kPalette[index % 7] << "\"><title>frame " << f.id << " " << Escape(f.device_id)
+        << " " << f.stream << " " << Escape(FormatIso8601(f.utc)) << " sun " << Fixed(f.sun_elevation_deg, 2)
+        << "&#176;</title></circle>\n";
+  }
+  int row = 0;
+  for (const auto& [name, index] : device_index) {
+    svg << "<circle cx=\"" << left + 12 << "\" cy=\"" << top + 14 + 14 * row << "\" r=\"4\" fill=\""
+        << kPalette[index % 7] << "\"/><text x=\"" << left + 22 << "\" y=\"" << top + 18 + 14 * row
+        << "\" font-size=\"11\">" << Escape(name) << "</text>\n";
+    ++row;
+  }
+  svg << "</svg>\n";
+  return svg.str();
+}
+
+bool IsImage(const fs::path& path) {
+  const std::string ext = path.extension().string();
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".svg";
+}
+
+// An image that shows an output: itself, or the preview PNG written beside an EXR.
+std::optional<fs::path> ShownImage(const fs::path& output) {
+  if (IsImage(output)) return output;
+  for (const fs::path& candidate :
+       {fs::path(output).replace_extension(".png"), output.parent_path() / (output.stem().string() + "_preview.png"),
+        output.parent_path() / "preview.png"}) {
+    if (fs::exists(candidate)) return candidate;
+  }
+  return std::nullopt;
+}
+
+// Scalar figures of a metrics object, flattened to "a.b.c" keys (arrays of objects listed by index).
+void Flatten(const nlohmann::json& j, const std::string& prefix,
+             std::vector<std::pair<std::string, std::string>>& out) {
+  if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) Flatten(value, prefix.empty() ? key : prefix + "." + key, out);
+  } else if (j.is_array()) {
+    const bool scalars = std::all_of(j.begin(), j.end(), [](const nlohmann::json& v) { return v.is_primitive(); });
+    if (scalars && j.size() <= 12) {
+      out.emplace_back(prefix, j.dump());
+    } else {
+      for (std::size_t i = 0; i < j.size() && i < 40; ++i) Flatten(j[i], prefix + "[" + std::to_string(i) + "]", out);
+    }
+  } else if (j.is_number_float()) {
+    const double v = j.get<double>();
+    out.emplace_back(prefix, std::fabs(v) >= 1e4 || (std::fabs(v) < 1e-3 && v != 0.0) ? [&] {
+      char text[32];
+      std::snprintf(text, sizeof(text), "%.4g", v);
+      return std::string(text);
+    }()
+                                                                                        : Fixed(v, 4));
+  } else if (j.is_string()) {
+    out.emplace_back(prefix, j.get<std::string>());
+  } else {
+    out.emplace_back(prefix, j.dump());
+  }
+}
+
+}  // namespace
+
+fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_dir,
+                     const std::vector<PipelineReport>& pipelines) {
+  const fs::path assets = out_dir / "report";
+  capture::CreateDirectoryDurably(assets);
+  const capture::SessionInfo& info = session.info();
+  const std::vector<capture::FrameRecord> frames = session.Frames();
+  const std::vector<capture::BracketRecord> brackets = session.Brackets();
+  const std::vector<capture::EventRecord> events = session.Events();
+  const std::vector<capture::CalibrationRecord> calibrations = session.Calibrations();
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>relume report: "
+       << Escape(info.name) << "</title>\n<style>\n"
+       << "body{font-family:sans-serif;margin:24px;max-width:1100px;color:#222}"
+          "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ddd;padding:3px 8px;font-size:13px;"
+          "text-align:left;vertical-align:top}th{background:#f3f3f3}figure{display:inline-block;margin:6px;"
+          "vertical-align:top}figure img{max-width:420px;border:1px solid #ccc}figcaption{font-size:12px;"
+          "max-width:420px}.skip{color:#a60}.run{color:#060}.reuse{color:#06a}.error{color:#b00}"
+          "code{font-size:12px}\n</style>\n</head>\n<body>\n";
+  html << "<h1>relume report: " << Escape(info.name) << "</h1>\n";
+  html << "<table id=\"session\"><tr><th>session</th><td>" << Escape(fs::absolute(session.dir()).string())
+       << "</td></tr><tr><th>site</th><td>" << Fixed(info.site.latitude_deg(), 6) << "&#176;, "
+       << Fixed(info.site.longitude_deg(), 6) << "&#176;, " << Fixed(info.site.height_m, 1)
+       << " m</td></tr><tr><th>clock</th><td>" << Escape(info.clock_name) << "</td></tr><tr><th>recorded</th><td>"
+       << Escape(FormatIso8601(info.created_utc)) << " by " << Escape(info.software_version) << "</td></tr></table>\n";
+
+  // Devices and frame counts.
+  html << "<h2>Devices and frames</h2>\n<table id=\"devices\"><tr><th>device</th><th>model</th><th>frames</th>"
+          "<th>brackets (complete / partial)</th></tr>\n";
+  for (const drivers::DeviceInfo& d : session.Devices()) {
+    const std::string id = d.FullId();
+    const auto count = std::count_if(frames.begin(), frames.end(), [&](const auto& f) { return f.device_id == id; });
+    int complete = 0, partial = 0;
+    for (const capture::BracketRecord& b : brackets) {
+      if (b.device_id != id) continue;
+      complete += b.status == "complete";
+      partial += b.status == "partial";
+    }
+    html << "<tr><td>" << Escape(id) << "</td><td>" << Escape(d.model) << "</td><td>" << count << "</td><td>"
+         << complete << " / " << partial << "</td></tr>\n";
+  }
+  html << "</table>\n<h2>Timeline</h2>\n" << TimelineSvg(frames, events);
+
+  html << "<h2>Events</h2>\n";
+  if (events.empty()) {
+    html << "<p>No faults, retries or other events.</p>\n";
+  } else {
+    html << "<table id=\"events\"><tr><th>UTC</th><th>device</th><th>type</th><th>message</th></tr>\n";
+    for (std::size_t i = 0; i < events.size() && i < 200; ++i) {
+      const capture::EventRecord& e = events[i];
+      html << "<tr><td>" << Escape(FormatIso8601(e.utc)) << "</td><td>" << Escape(e.device_id) << "</td><td>"
+           << Escape(e.type) << "</td><td>" << Escape(e.message) << "</td></tr>\n";
+    }
+    html << "</table>\n";
+    if (events.size() > 200) html << "<p>" << events.size() - 200 << " more events in the session database.</p>\n";
+  }
+
+  html << "<h2>Calibrations</h2>\n";
+  if (calibrations.empty()) {
+    html << "<p>None recorded: camera-encoded frames are linearised with a response recovered from each bracket, "
+            "and no colour correction is applied (<code>relume calibrate chart --session</code> records one).</p>\n";
+  }
+  for (const capture::CalibrationRecord& c : calibrations) {
+    html << "<h3 id=\"calibration-" << c.id << "\">calibration " << c.id << ": " << Escape(c.kind) << " of "
+         << Escape(c.device_id) << "</h3>\n<p>from frames";
+    for (const std::int64_t id : c.source_frame_ids) html << " " << id;
+    html << ", recorded " << Escape(FormatIso8601(c.created_utc)) << "</p>\n";
+    try {
+      const calibration::CalibrationProfile profile = calibration::ProfileFromJson(c.json, "calibration");
+      if (c.kind == "profile") {
+        html << "<p>chart fit: " << profile.fit.patches_used << " patches, mean &#916;E2000 "
+             << Fixed(profile.fit.mean_delta_e, 3) << ", max " << Fixed(profile.fit.max_delta_e, 3) << ", condition "
+             << Fixed(profile.fit.condition, 2) << (profile.fit.low_confidence ? " (low confidence)" : "")
+             << "</p>\n<table><tr><th colspan=\"3\">colour matrix</th></tr>";
+        for (int r = 0; r < 3; ++r) {
+          html << "<tr>";
+          for (int k = 0; k < 3; ++k) html << "<td>" << Fixed(profile.ccm(r, k), 4) << "</td>";
+          html << "</tr>";
+        }
+        html << "</table>\n";
+      }
+      if (profile.response && !profile.response->sensor_linear) {
+        const std::string name = "calibration-" + std::to_string(c.id) + "-response.png";
+        calibration::SaveImage(calibration::PlotResponse(*profile.response), (assets / name).string());
+        html << "<figure><img src=\"report/" << name << "\" alt=\"inverse response\"><figcaption>inverse response, "
+             << profile.response->levels << " levels</figcaption></figure>\n";
+      }
+    } catch (const Error& e) {
+      html << "<p class=\"error\">cannot be read: " << Escape(e.what()) << "</p>\n";
+    }
+  }
+
+  for (const PipelineReport& p : pipelines) {
+    html << "<h2 id=\"pipeline-" << Escape(p.name) << "\">Pipeline: " << Escape(p.name) << "</h2>\n";
+    if (p.summary.is_null()) {
+      html << "<p class=\"skip\">not run: " << Escape(p.error) << "</p>\n";
+      continue;
+    }
+    html << "<p>" << Fixed(p.summary.value("seconds", 0.0), 2) << " s; output in <code>"
+         << Escape(fs::relative(p.out_dir, out_dir).string()) << "</code></p>\n";
+    html << "<table class=\"decisions\"><tr><th>stage</th><th>action</th><th>reason</th></tr>\n";
+    for (const nlohmann::json& d : p.summary["decisions"]) {
+      const std::string action = d.value("action", "");
+      html << "<tr><td>" << Escape(d.value("stage", "")) << "</td><td class=\"" << Escape(action) << "\">"
+           << Escape(action) << "</td><td>" << Escape(d.value("reason", "")) << "</td></tr>\n";
+    }
+    html << "</table>\n";
+    std::vector<std::pair<std::string, std::string>> figures;
+    if (p.summary.contains("metrics")) Flatten(p.summary["metrics"], "", figures);
+    if (!figures.empty()) {
+      html << "<details open><summary>figures (" << figures.size() << ")</summary><table class=\"metrics\">";
+      for (const auto& [key, value] : figures) {
+        html << "<tr><td><code>" << Escape(key) << "</code></td><td>" << Escape(value) << "</td></tr>";
+      }
+      html << "</table></details>\n";
+    }
+    std::set<fs::path> shown;
+    for (const nlohmann::json& o : p.summary["outputs"]) {
+      const fs::path output = p.out_dir / o.value("path", "");
+      const std::optional<fs::path> image = ShownImage(output);
+      if (!image || !fs::exists(*image) || !shown.insert(*image).second) continue;
+      html << "<figure><img src=\"" << Escape(fs::relative(*image, out_dir).string()) << "\" alt=\""
+           << Escape(o.value("what", "")) << "\"><figcaption>" << Escape(o.value("what", ""))
+           << "</figcaption></figure>\n";
+    }
+  }
+
+  html << "<script>\nwindow.addEventListener('load', function () {\n"
+          "  var ok = 0, broken = 0;\n"
+          "  document.querySelectorAll('img').forEach(function (img) {\n"
+          "    if (img.complete && img.naturalWidth > 0) { ok++; } else { broken++; }\n"
+          "  });\n"
+          "  document.body.setAttribute('data-images-loaded', ok);\n"
+          "  document.body.setAttribute('data-images-broken', broken);\n"
+          "  document.body.setAttribute('data-figures', document.querySelectorAll('svg.figure').length);\n"
+          "});\n</script>\n</body>\n</html>\n";
+  const std::string text = html.str();
+  const fs::path page = out_dir / "report.html";
+  capture::WriteFileDurably(page, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+  return page;
+}
+
+}  // namespace relume::app::process
