@@ -128,6 +128,8 @@ struct ChannelSolve {
   std::string problem;  // non-empty: unusable
 };
 
+constexpr int kMinDistinctCodes = 4;
+
 // Samples with at least two frames inside the weighted range constrain the curve's shape.
 std::vector<int> InformativeSamples(const Samples& samples, int channel, const std::vector<double>& weight) {
   std::vector<int> useful;
@@ -445,6 +447,27 @@ ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std
   summary.converged = true;
   summary.samples_used = samples.count;
   for (int c = 0; c < first.pixels.channels(); ++c) {
+    // A curve needs codes across its range: samples that all sit at one or two codes (a flat
+    // scene, or every frame clipped to the same value) cannot define it, however many there are.
+    std::vector<bool> seen(256, false);
+    int distinct = 0;
+    for (const int sample : InformativeSamples(samples, c, weight)) {
+      for (int f = 0; f < samples.frames; ++f) {
+        const int z = samples.at(sample, f, c);
+        if (weight[z] > 0.0 && !seen[z]) {
+          seen[z] = true;
+          ++distinct;
+        }
+      }
+    }
+    if (distinct < kMinDistinctCodes) {
+      summary.usable = false;
+      summary.converged = false;
+      summary.reason = "channel " + std::to_string(c) + ": the well-exposed samples cover only " +
+                       std::to_string(distinct) + " distinct code(s), too few to define a response (a flat scene?)";
+      result.response.inverse.clear();
+      return result;
+    }
     const ChannelSolve solve = options.method == ResponseMethod::kDebevec
                                    ? SolveDebevec(samples, c, log_t, weight, options)
                                    : SolveRobertson(samples, c, t, weight, options);
