@@ -1,6 +1,7 @@
 #include "apps/relume/process_command.h"
 
 #include <CLI/CLI.hpp>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 
@@ -26,26 +27,28 @@ struct ProcessArgs {
   bool list = false;
 };
 
+// Everything through std::cout (main turns off stdio sync, so mixing printf would reorder lines).
 void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
   std::cout << "pipeline " << summary["pipeline"].get<std::string>() << " on " << summary["session"].get<std::string>()
             << (summary["explain"].get<bool>() ? " (plan only)" : "") << "\n";
   for (const nlohmann::json& d : summary["decisions"]) {
-    std::printf("  %-16s %-7s %s\n", d["stage"].get<std::string>().c_str(), d["action"].get<std::string>().c_str(),
-                d["reason"].get<std::string>().c_str());
+    std::cout << "  " << std::left << std::setw(16) << d["stage"].get<std::string>() << " " << std::setw(7)
+              << d["action"].get<std::string>() << " " << d["reason"].get<std::string>() << "\n";
   }
-  std::fflush(stdout);
   if (summary["explain"].get<bool>()) return;
   for (const nlohmann::json& o : summary["outputs"]) {
     std::cout << "  wrote " << out_dir << "/" << o["path"].get<std::string>() << "  (" << o["what"].get<std::string>()
               << ")\n";
   }
-  std::printf("done in %.2f s; summary in %s/summary.json\n", summary["seconds"].get<double>(), out_dir.c_str());
+  std::cout << "done in " << std::fixed << std::setprecision(2) << summary["seconds"].get<double>() << " s; summary in "
+            << out_dir << "/summary.json\n"
+            << std::defaultfloat;
 }
 
 void Run(const ProcessArgs& args) {
   if (args.list) {
     for (const process::PipelineEntry& entry : process::Pipelines()) {
-      std::printf("%-12s %s\n", entry.name.c_str(), entry.description.c_str());
+      std::cout << std::left << std::setw(12) << entry.name << " " << entry.description << "\n";
     }
     return;
   }

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
+
 #include <charconv>
 #include <cstdio>
 #include <fstream>
@@ -96,6 +98,8 @@ StageCache::Result PipelineRun::RunStage(const std::string& stage, const StageKe
 }
 
 void PipelineRun::Progress(const std::string& stage, std::int64_t done, std::int64_t total) {
+  static const bool terminal = ::isatty(STDERR_FILENO) != 0;
+  if (!terminal) return;  // a live line only; logs and pipes get the summary
   const auto now = std::chrono::steady_clock::now();
   if (stage != progress_stage_) {
     progress_stage_ = stage;
