@@ -1,7 +1,6 @@
 #include "apps/relume/process/pipeline.h"
 
 #include <spdlog/spdlog.h>
-
 #include <unistd.h>
 
 #include <charconv>
