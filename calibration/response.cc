@@ -463,8 +463,9 @@ ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std
     if (distinct < kMinDistinctCodes) {
       summary.usable = false;
       summary.converged = false;
-      summary.reason = "channel " + std::to_string(c) + ": the well-exposed samples cover only " +
-                       std::to_string(distinct) + " distinct code(s), too few to define a response (a flat scene?)";
+      summary.reason = "channel " + std::to_string(c) + ": the well-exposed samples (" + std::to_string(samples.count) +
+                       " drawn) cover only " + std::to_string(distinct) +
+                       " distinct code(s), too few to define a response (a flat scene?)";
       result.response.inverse.clear();
       return result;
     }

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "apps/relume/bench_command.h"
 #include "apps/relume/calibrate_command.h"
 #include "apps/relume/capture_command.h"
 #include "apps/relume/hdr_command.h"
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   relume::app::AddSimCommand(app);
   relume::app::AddCalibrateCommand(app);
   relume::app::AddHdrCommand(app);
+  relume::app::AddBenchCommand(app);
   relume::app::AddProcessCommand(app);
   try {
     app.parse(argc, argv);
