@@ -7,6 +7,7 @@
 
 #include "apps/relume/calibrate_command.h"
 #include "apps/relume/capture_command.h"
+#include "apps/relume/devices_command.h"
 #include "apps/relume/hdr_command.h"
 #include "apps/relume/process_command.h"
 #include "apps/relume/session_command.h"
@@ -25,6 +26,7 @@ int main(int argc, char** argv) {
   relume::app::AddCalibrateCommand(app);
   relume::app::AddHdrCommand(app);
   relume::app::AddProcessCommand(app);
+  relume::app::AddDevicesCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
