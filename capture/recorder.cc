@@ -7,6 +7,7 @@
 #include <sstream>
 #include <thread>
 
+#include "capture/playback.h"
 #include "core/error.h"
 
 namespace relume::capture {
@@ -17,6 +18,8 @@ struct Recorder::StillDevice {
   drivers::ExposureCapabilities caps;
   double metering_time_s = 1e-3;  // shutter-list and continuous cameras
   double metering_ev = 0.0;       // EV-only cameras
+  // A played-back session's camera: its recorded brackets replace metering and planning.
+  std::shared_ptr<RecordedBrackets> recorded;
 };
 
 struct Recorder::RgbdDevice {
@@ -104,6 +107,9 @@ void Recorder::AddStillCamera(std::unique_ptr<drivers::StillCamera> camera, Stil
   device->info = camera->info();
   device->caps = camera->capabilities();
   device->metering_time_s = InitialMeteringTime(device->caps);
+  if (const auto* playback = dynamic_cast<const PlaybackStillCamera*>(camera.get())) {
+    device->recorded = playback->recorded_brackets();
+  }
   const std::string id = device->info.FullId();
   drivers::DeviceEventSink sink = [this, id](const drivers::DeviceEvent& event) {
     RecordEvent(id, drivers::ToString(event.type),
@@ -139,7 +145,33 @@ void Recorder::AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSe
   rgbds_.push_back(std::move(device));
 }
 
+// The next recorded bracket of a played-back camera, as a plan: exactly the recorded
+// exposures, no metering frame, no dark extension (the recorded ones are in the list).
+std::optional<BracketPlan> Recorder::RecordedPlan(StillDevice& device, std::string* recorded_partial) {
+  const std::optional<RecordedBracket> recorded = device.recorded->Next();
+  if (!recorded) {
+    RecordEvent(device.info.FullId(), "skip", "the played session has no more brackets");
+    return std::nullopt;
+  }
+  BracketPlan plan;
+  plan.reason = "replaying recorded bracket " + std::to_string(recorded->recorded_id);
+  for (const drivers::ExposureSettings& s : recorded->exposures) {
+    PlannedExposure e;
+    e.exposure_time_s = s.exposure_time_s;
+    e.ev_compensation = s.ev_compensation;
+    plan.exposures.push_back(e);
+  }
+  if (recorded->status == "partial") *recorded_partial = "the recorded bracket was partial: " + recorded->reason;
+  return plan;
+}
+
 void Recorder::CaptureBracket(StillDevice& device) {
+  if (device.recorded) {
+    std::string recorded_partial;
+    const std::optional<BracketPlan> plan = RecordedPlan(device, &recorded_partial);
+    if (plan) StoreBracket(device, *plan, /*extend_darker=*/false, recorded_partial);
+    return;
+  }
   const std::string id = device.info.FullId();
   const bool ev_only = device.caps.control == drivers::ExposureControl::kEvOnly;
   // 1. Meter.
@@ -167,7 +199,15 @@ void Recorder::CaptureBracket(StillDevice& device) {
     if (e.ev_compensation) planned << " " << *e.ev_compensation << " EV";
   }
   RecordEvent(id, "plan", planned.str());
+  StoreBracket(device, plan, /*extend_darker=*/true, "");
+}
 
+void Recorder::StoreBracket(StillDevice& device, const BracketPlan& plan, bool extend_darker,
+                            const std::string& known_partial) {
+  const std::string id = device.info.FullId();
+  if (plan.exposures.empty()) return;
+  if (device.recorded)
+    RecordEvent(id, "plan", std::to_string(plan.exposures.size()) + " exposures (" + plan.reason + ")");
   std::int64_t bracket_id = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -202,7 +242,7 @@ void Recorder::CaptureBracket(StillDevice& device) {
   for (std::size_t i = 0; i < plan.exposures.size() && partial_reason.empty(); ++i) {
     const std::optional<drivers::StillFrame> frame = capture_one(plan.exposures[i]);
     if (progress_) progress_(Snapshot());
-    if (!frame || i != 0) continue;
+    if (!frame || i != 0 || !extend_darker) continue;
     // Adaptive range: while the darkest frame clips, add darker ones.
     PlannedExposure darkest = plan.exposures[0];
     MeteringStats stats = MeasureMeteringFrame(frame->image, darkest.relative_exposure, options_.bracket);
@@ -221,6 +261,7 @@ void Recorder::CaptureBracket(StillDevice& device) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++status_.brackets;
+    if (partial_reason.empty()) partial_reason = known_partial;
     if (!partial_reason.empty()) ++status_.partial_brackets;
     if (!storage_failed_) {
       try {

@@ -79,6 +79,8 @@ class Recorder {
   struct StillDevice;
   struct RgbdDevice;
   void CaptureBracket(StillDevice& device);
+  std::optional<BracketPlan> RecordedPlan(StillDevice& device, std::string* recorded_partial);
+  void StoreBracket(StillDevice& device, const BracketPlan& plan, bool extend_darker, const std::string& known_partial);
   void RecordEvent(const std::string& device_id, const std::string& type, const std::string& message);
   void RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop);
   void RecordBurst(RgbdDevice& device);

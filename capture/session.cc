@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "capture/durable_file.h"
+#include "capture/rgbd_geometry.h"
 #include "core/error.h"
 
 namespace relume::capture {
@@ -331,10 +332,18 @@ std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers:
   const std::vector<std::uint8_t> color_bytes = Encode(frame.color.pixels, "." + color.file_format);
   depth = StoreFile(std::move(depth), depth_bytes);
   color = StoreFile(std::move(color), color_bytes);
+  const std::string geometry = RgbdGeometryToJson(frame);
   Transaction transaction(*db_);
   InsertFrame(depth);
   InsertFrame(color);
+  auto known = rgbd_geometry_.find(frame.device_id);
+  const bool new_geometry = known == rgbd_geometry_.end() || known->second != geometry;
+  if (new_geometry) {
+    AddCalibration(
+        {0, frame.depth_timing.host_utc, kRgbdGeometryKind, frame.device_id, geometry, {depth.id, color.id}});
+  }
   transaction.Commit();
+  if (new_geometry) rgbd_geometry_[frame.device_id] = geometry;
   return {depth, color};
 }
 
@@ -476,13 +485,19 @@ std::vector<CalibrationRecord> SessionReader::Calibrations() const {
   return calibrations;
 }
 
-namespace {
-cv::Mat DecodeVerified(const fs::path& dir, const FrameRecord& frame, bool verify_checksum) {
-  const fs::path path = dir / frame.file_path;
-  const std::vector<std::uint8_t> bytes = ReadFile(path);
+std::vector<std::uint8_t> SessionReader::ReadFrameFile(const FrameRecord& frame, bool verify_checksum) const {
+  const fs::path path = dir_ / frame.file_path;
+  std::vector<std::uint8_t> bytes = ReadFile(path);
   if (verify_checksum && Sha256Hex(bytes) != frame.sha256) {
     throw IoError(path.string(), "checksum mismatch: the file changed after it was recorded");
   }
+  return bytes;
+}
+
+namespace {
+cv::Mat DecodeVerified(const SessionReader& reader, const FrameRecord& frame, bool verify_checksum) {
+  const fs::path path = reader.dir() / frame.file_path;
+  const std::vector<std::uint8_t> bytes = reader.ReadFrameFile(frame, verify_checksum);
   if (frame.file_format != "png" && frame.file_format != "tiff" && frame.file_format != "jpeg" &&
       frame.file_format != "jpg") {
     throw InvalidArgumentError(path.string() + ": '" + frame.file_format +
@@ -497,7 +512,7 @@ cv::Mat DecodeVerified(const fs::path& dir, const FrameRecord& frame, bool verif
 
 CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_checksum) const {
   CameraImage image;
-  image.pixels = DecodeVerified(dir_, frame, verify_checksum);
+  image.pixels = DecodeVerified(*this, frame, verify_checksum);
   image.layout = frame.layout;
   image.encoding = frame.encoding;
   image.bits_per_sample = frame.bits_per_sample;
@@ -507,7 +522,7 @@ CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_check
 }
 
 cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {
-  const cv::Mat mm = DecodeVerified(dir_, frame, verify_checksum);
+  const cv::Mat mm = DecodeVerified(*this, frame, verify_checksum);
   if (mm.type() != CV_16UC1) throw IoError((dir_ / frame.file_path).string(), "depth file is not 16-bit mono");
   cv::Mat depth_m(mm.size(), CV_32FC1);
   for (int y = 0; y < mm.rows; ++y) {
