@@ -2,8 +2,10 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <sstream>
 
 #include "capture/durable_file.h"
@@ -195,7 +197,7 @@ void SessionWriter::EndBracket(std::int64_t bracket_id, const std::string& statu
       .Run();
 }
 
-FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes) {
+FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder) {
   const fs::path folder = dir_ / "frames" / Slug(record.device_id);
   if (!fs::exists(folder)) CreateDirectoryDurably(folder);
   fs::path relative;
@@ -206,7 +208,7 @@ FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::ui
                   record.file_format.c_str());
     relative = fs::path("frames") / Slug(record.device_id) / name;
   } while (fs::exists(dir_ / relative));
-  WriteFileDurably(dir_ / relative, bytes);
+  WriteFileDurably(dir_ / relative, bytes, sync_folder);
   bytes_written_ += bytes.size();
   record.file_path = relative.generic_string();
   record.sha256 = Sha256Hex(bytes);
@@ -307,44 +309,93 @@ FrameRecord SessionWriter::WriteStillFrame(const drivers::StillFrame& frame, std
   return record;
 }
 
-std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers::RgbdFrame& frame) {
-  // Depth as 16-bit millimetres; NaN, non-positive and out-of-range values become 0 (none).
-  cv::Mat depth_mm(frame.depth_m.size(), CV_16UC1);
-  for (int y = 0; y < frame.depth_m.rows; ++y) {
-    const float* in = frame.depth_m.ptr<float>(y);
+namespace {
+// Depth as 16-bit millimetres; NaN, non-positive and out-of-range values become 0 (none).
+cv::Mat DepthMillimetres(const cv::Mat& depth_m) {
+  cv::Mat depth_mm(depth_m.size(), CV_16UC1);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* in = depth_m.ptr<float>(y);
     std::uint16_t* out = depth_mm.ptr<std::uint16_t>(y);
-    for (int x = 0; x < frame.depth_m.cols; ++x) {
+    for (int x = 0; x < depth_m.cols; ++x) {
       const float mm = in[x] * 1000.0f;
       out[x] = (std::isfinite(mm) && mm >= 0.5f && mm < 65535.5f) ? static_cast<std::uint16_t>(std::lround(mm)) : 0;
     }
   }
-  CameraImage depth_image;
-  depth_image.pixels = depth_mm;
-  depth_image.layout = ColorLayout::kMono;
-  depth_image.encoding = SampleEncoding::kSensorLinear;
-  depth_image.bits_per_sample = 16;
-  depth_image.white_level = 65535;
-  FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
-  depth.file_format = "png";
-  FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
-  color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
-  const std::vector<std::uint8_t> depth_bytes = Encode(depth_mm, ".png");
-  const std::vector<std::uint8_t> color_bytes = Encode(frame.color.pixels, "." + color.file_format);
-  depth = StoreFile(std::move(depth), depth_bytes);
-  color = StoreFile(std::move(color), color_bytes);
-  const std::string geometry = RgbdGeometryToJson(frame);
+  return depth_mm;
+}
+}  // namespace
+
+std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers::RgbdFrame& frame) {
+  return WriteRgbdFrames(std::span(&frame, 1)).front();
+}
+
+std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
+    std::span<const drivers::RgbdFrame> frames) {
+  // Records and images: depth then colour for each frame.
+  std::vector<FrameRecord> records;
+  std::vector<cv::Mat> images;
+  for (const drivers::RgbdFrame& frame : frames) {
+    CameraImage depth_image;
+    depth_image.pixels = DepthMillimetres(frame.depth_m);
+    depth_image.layout = ColorLayout::kMono;
+    depth_image.encoding = SampleEncoding::kSensorLinear;
+    depth_image.bits_per_sample = 16;
+    depth_image.white_level = 65535;
+    FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
+    depth.file_format = "png";
+    FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
+    color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
+    records.push_back(std::move(depth));
+    images.push_back(depth_image.pixels);
+    records.push_back(std::move(color));
+    images.push_back(frame.color.pixels);
+  }
+  // PNG encoding dominates the cost of a frame: encode every image of the batch in parallel.
+  std::vector<std::vector<std::uint8_t>> encoded(images.size());
+  std::vector<std::string> failed(images.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(images.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      try {
+        encoded[k] = Encode(images[k], "." + records[k].file_format);
+      } catch (const Error& e) {
+        failed[k] = e.what();
+      }
+    }
+  });
+  for (const std::string& f : failed) {
+    if (!f.empty()) throw IoError(records.front().device_id, f);
+  }
+  std::set<fs::path> folders;
+  for (std::size_t k = 0; k < records.size(); ++k) {
+    records[k] = StoreFile(std::move(records[k]), encoded[k], /*sync_folder=*/false);
+    folders.insert((dir_ / records[k].file_path).parent_path());
+  }
+  for (const fs::path& folder : folders) SyncDirectory(folder);  // the renames are durable before the rows
   Transaction transaction(*db_);
-  InsertFrame(depth);
-  InsertFrame(color);
-  auto known = rgbd_geometry_.find(frame.device_id);
-  const bool new_geometry = known == rgbd_geometry_.end() || known->second != geometry;
-  if (new_geometry) {
-    AddCalibration(
-        {0, frame.depth_timing.host_utc, kRgbdGeometryKind, frame.device_id, geometry, {depth.id, color.id}});
+  std::map<std::string, std::string> new_geometry;
+  std::vector<std::pair<FrameRecord, FrameRecord>> out;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    FrameRecord& depth = records[2 * i];
+    FrameRecord& color = records[2 * i + 1];
+    InsertFrame(depth);
+    InsertFrame(color);
+    const std::string geometry = RgbdGeometryToJson(frames[i]);
+    const auto in_batch = new_geometry.find(frames[i].device_id);
+    const auto known = rgbd_geometry_.find(frames[i].device_id);
+    const std::string* last = in_batch != new_geometry.end()  ? &in_batch->second
+                              : known != rgbd_geometry_.end() ? &known->second
+                                                              : nullptr;
+    if (!last || *last != geometry) {
+      AddCalibration(
+          {0, frames[i].depth_timing.host_utc, kRgbdGeometryKind, frames[i].device_id, geometry, {depth.id, color.id}});
+      new_geometry[frames[i].device_id] = geometry;
+    }
+    out.emplace_back(depth, color);
   }
   transaction.Commit();
-  if (new_geometry) rgbd_geometry_[frame.device_id] = geometry;
-  return {depth, color};
+  for (auto& [device, geometry] : new_geometry) rgbd_geometry_[device] = geometry;
+  return out;
 }
 
 std::int64_t SessionWriter::AddEvent(const EventRecord& event) {
