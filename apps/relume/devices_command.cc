@@ -105,8 +105,8 @@ void PrintDevice(const drivers::DeviceRegistry& registry, const drivers::DeviceI
 
 DeviceBackendOptions OptionsFor(const DevicesRequest& request, std::shared_ptr<RigConfig>* rig) {
   DeviceBackendOptions options;
-  if (!request.rig_path.empty()) {
-    *rig = std::make_shared<RigConfig>(LoadRigConfig(request.rig_path));
+  if (!request.rig_path.empty()) *rig = std::make_shared<RigConfig>(LoadRigConfig(request.rig_path));
+  if (*rig && !(*rig)->devices.empty()) {
     options.sim_devices = (*rig)->devices;
     options.sim_truth = (*rig)->world;
     options.sim_clock = std::make_shared<ManualClock>((*rig)->clock_start, "simulated, event-driven");
@@ -133,7 +133,7 @@ DeviceBackendOptions OptionsFor(const DevicesRequest& request, std::shared_ptr<R
 
 void ListDevices(const drivers::DeviceRegistry& registry, const DevicesRequest& request,
                  const DeviceBackendOptions& options, const std::vector<std::string>& problems, std::ostream& out) {
-  if (!options.sim_truth) out << "sim: no rig given (--rig FILE lists the rig's simulated devices)\n";
+  if (!options.sim_truth) out << "sim: no simulated devices (--rig FILE lists a rig's simulated devices)\n";
   for (const auto& backend : registry.backends()) {
     std::vector<drivers::DeviceInfo> devices;
     try {

@@ -6,7 +6,9 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
+#include "capture/session.h"
 #include "tests/apps/cli_runner.h"
 
 namespace relume {
@@ -47,7 +49,7 @@ TEST(DevicesCliTest, ListsTheRigsSimulatedDevicesWithCapabilities) {
 TEST(DevicesCliTest, WithoutARigTheSimBackendSaysWhatToGive) {
   const auto r = RunRelume("devices" + Only("sim"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_TRUE(Has(r, "sim: no rig given (--rig FILE")) << r.output;
+  EXPECT_TRUE(Has(r, "sim: no simulated devices (--rig FILE")) << r.output;
 }
 
 TEST(DevicesCliTest, ChecksASimulatedStillCameraAndRgbdSensor) {
@@ -179,6 +181,84 @@ TEST(DevicesUsbTest, RecognisesAKnownUsbDevice) {
   EXPECT_TRUE(Has(r, "usb (known devices, listing only): 1 device")) << r.output;
   EXPECT_TRUE(Has(r, "usb:04a9:3218@1-2  still_camera  model \"Canon DSLR\"")) << r.output;
   EXPECT_TRUE(Has(r, "backend: gphoto2")) << r.output;
+}
+
+// `relume capture` with real backends: a rig naming the simulated DSLR (libgphoto2 + simcam.so)
+// and the simulated RGB-D sensor (libOpenNI2 + its driver), on the host clock; then the
+// recorded session played back through a `backend: playback` rig into a new session.
+class CaptureRealDevicesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    RELUME_SKIP_UNLESS(RELUME_TEST_GPHOTO2 && RELUME_TEST_OPENNI2, "the gphoto2 and openni2 backends");
+    root_ = fs::path(::testing::TempDir()) / "capture_real_devices";
+    fs::remove_all(root_);
+    fs::create_directories(root_ / "card");
+  }
+  fs::path WriteRig(const std::string& name, const std::string& text) const {
+    const fs::path path = root_ / name;
+    std::ofstream(path) << text;
+    return path;
+  }
+  std::string RealRig(const std::string& port) const {
+    return "name: real\nsite: " + fs::absolute("config/sites/athens-acropolis.yaml").string() +
+           "\nschedule: {count: 1}\nrgbd_burst_frames: 3\ndevices:\n"
+           "  - {backend: gphoto2, model: Relume Simulated DSLR, port: \"disk:" +
+           port + "\"}\n  - {backend: openni2, uri: \"relume-sim://rgbd/0\"}\n";
+  }
+  static std::vector<std::string> Checksums(const fs::path& session) {
+    std::vector<std::string> out;
+    for (const auto& f : capture::SessionReader(session).Frames()) out.push_back(f.stream + " " + f.sha256);
+    return out;
+  }
+  fs::path root_;
+};
+
+TEST_F(CaptureRealDevicesTest, RecordsThroughTheRealLibrariesAndReplaysThroughPlayback) {
+  const fs::path rig = WriteRig("real.yaml", RealRig((root_ / "card").string()));
+  auto r = RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "recorded").string() + " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "(clock system)")) << r.output;
+  EXPECT_TRUE(Has(r, "1 brackets (0 partial), 3 RGB-D frames, 0 faults")) << r.output;
+  const capture::SessionReader recorded(root_ / "recorded");
+  ASSERT_EQ(recorded.Devices().size(), 2u);
+  EXPECT_EQ(recorded.Devices()[0].FullId(), "gphoto2:Relume Simulated DSLR@disk:" + (root_ / "card").string());
+  EXPECT_EQ(recorded.Devices()[1].FullId(), "openni2:relume-sim://rgbd/0");
+  int tiffs = 0;
+  for (const auto& f : recorded.Frames()) tiffs += f.file_format == "tiff" && f.stream == "still" ? 1 : 0;
+  EXPECT_GE(tiffs, 1);  // the camera's own 16-bit TIFF, kept byte for byte
+
+  const fs::path replay = WriteRig("replay.yaml",
+                                   "name: replay\nschedule: {count: 1}\nrgbd_burst_frames: 3\ndevices:\n"
+                                   "  - {backend: playback, session: recorded, device: \"" +
+                                       recorded.Devices()[0].FullId() +
+                                       "\"}\n  - {backend: playback, session: recorded, device: "
+                                       "\"openni2:relume-sim://rgbd/0\"}\n");
+  r = RunRelume("capture --rig " + replay.string() + " --out " + (root_ / "replayed").string() + " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(Checksums(root_ / "replayed"), Checksums(root_ / "recorded"));
+}
+
+TEST_F(CaptureRealDevicesTest, AnAbsentDeviceStopsTheCaptureWithWhatToDo) {
+  const fs::path rig = WriteRig("absent.yaml", RealRig((root_ / "unplugged").string()));
+  const auto r =
+      RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "absent").string() + " --no-progress");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "relume: error: gphoto2 device (model \"Relume Simulated DSLR\", port \"disk:" +
+                         (root_ / "unplugged").string() +
+                         "\") at line 6: not found: not present; gphoto2 sees no devices"))
+      << r.output;
+  EXPECT_TRUE(Has(r, "Check that it is plugged in, powered")) << r.output;
+  EXPECT_FALSE(fs::exists(root_ / "absent")) << "no session folder for a capture that cannot start";
+}
+
+TEST_F(CaptureRealDevicesTest, RigsCannotMixSimulatedAndRealDevices) {
+  const fs::path rig =
+      WriteRig("mixed.yaml", "name: mixed\nscene: " + fs::absolute("config/scenes/outdoor-building.yaml").string() +
+                                 "\ndevices:\n  - {id: cam, kind: still_camera}\n"
+                                 "  - {backend: openni2, uri: \"relume-sim://rgbd/0\"}\n");
+  const auto r = RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "mixed").string() + " --no-progress");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "a rig cannot mix simulated and real devices")) << r.output;
 }
 
 }  // namespace
