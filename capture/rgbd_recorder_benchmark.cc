@@ -1,7 +1,7 @@
 // RGB-D recorder throughput (issue 4): can the recorder store 640x480 depth + colour at 30 fps
 // without dropping frames? The recorder is under test, not the renderer: the simulated sensor
 // renders only ~5 frames/s at 640x480 on a 2-core machine, so frames are rendered once up
-// front (SimRgbdSensor, the analytic wall-and-sphere scene, noise on) and a PacedRgbdSource
+// front (4 frames of SimRgbdSensor, the analytic wall-and-sphere scene, noise on) and a PacedRgbdSource
 // delivers them in turn at a real 30 fps on the host clock, like a sensor with a 4-frame
 // buffer: a frame not taken within 4 periods is lost (counted as dropped by the device).
 //
@@ -115,6 +115,12 @@ std::vector<drivers::RgbdFrame> PrerenderedFrames(int count) {
   return frames;
 }
 
+// Rendered once per process, shared by every benchmark here.
+const std::vector<drivers::RgbdFrame>& Frames() {
+  static const std::vector<drivers::RgbdFrame> frames = PrerenderedFrames(4);
+  return frames;
+}
+
 double StreamSeconds() {
   const char* text = std::getenv("RELUME_RGBD_STREAM_SECONDS");
   return text ? std::max(1.0, std::atof(text)) : 3.0;
@@ -138,7 +144,7 @@ double LoadAverage() {
 }
 
 void BM_RgbdRecorder640x480At30Fps(benchmark::State& state) {
-  static const std::vector<drivers::RgbdFrame> frames = PrerenderedFrames(8);
+  const std::vector<drivers::RgbdFrame>& frames = Frames();
   const double seconds = StreamSeconds();
   for (auto _ : state) {
     const fs::path dir = BenchmarkDir() / "relume_rgbd_recorder_benchmark";
@@ -188,7 +194,7 @@ BENCHMARK(BM_RgbdRecorder640x480At30Fps)->Arg(8)->Arg(1)->Iterations(1)->UseManu
 // (8-bit RGB) images, and a whole SessionWriter::WriteRgbdFrame (encode, write, fsync, rename,
 // fsync the folder, commit), one frame after another on one thread.
 void BM_EncodeRgbdPngs(benchmark::State& state) {
-  static const std::vector<drivers::RgbdFrame> frames = PrerenderedFrames(8);
+  const std::vector<drivers::RgbdFrame>& frames = Frames();
   std::size_t i = 0, bytes = 0;
   // arg 0: -1 = OpenCV's default (level 1, RLE strategy, what the session writer uses), else
   // a zlib level with the default strategy; arg 1: 1 = Huffman-only strategy instead.
@@ -212,7 +218,7 @@ void BM_EncodeRgbdPngs(benchmark::State& state) {
 BENCHMARK(BM_EncodeRgbdPngs)->Args({-1, 0})->Args({0, 0})->Args({1, 0})->Args({-1, 1})->Unit(benchmark::kMillisecond);
 
 void BM_WriteRgbdFrame(benchmark::State& state) {
-  static const std::vector<drivers::RgbdFrame> frames = PrerenderedFrames(8);
+  const std::vector<drivers::RgbdFrame>& frames = Frames();
   const fs::path dir = BenchmarkDir() / "relume_rgbd_write_benchmark";
   fs::remove_all(dir);
   SessionInfo info;
