@@ -98,8 +98,9 @@ class Recorder {
                      const drivers::RgbdStreamConfig& config, int burst_frames = 0);
 
   // Runs until the schedule and duration end, `stop` becomes true, or storage fails.
-  // `progress` is called after every stored frame and at every trigger (from the calling
-  // thread for stills and from the writer thread for RGB-D; keep it cheap).
+  // `progress` is called after every stored still frame, after every group commit of streamed
+  // RGB-D frames and at every trigger (from the calling thread for stills and from the writer
+  // thread for RGB-D; keep it cheap).
   RecorderSummary Run(const std::atomic<bool>& stop, const std::function<void(const RecorderStatus&)>& progress = {});
 
  private:
