@@ -59,7 +59,7 @@ void CreateDirectoryDurably(const std::filesystem::path& dir) {
   if (dir.has_parent_path()) SyncDirectory(dir.parent_path());
 }
 
-void WriteFileDurably(const std::filesystem::path& path, std::span<const std::uint8_t> bytes) {
+void WriteFileDurably(const std::filesystem::path& path, std::span<const std::uint8_t> bytes, bool sync_folder) {
   const std::filesystem::path temp = path.string() + kTempSuffix;
   Fd fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
   if (fd.get() < 0) ThrowErrno(temp, "cannot create file", errno);
@@ -89,7 +89,7 @@ void WriteFileDurably(const std::filesystem::path& path, std::span<const std::ui
     ::unlink(temp.c_str());
     ThrowErrno(path, "cannot rename file into place", error);
   }
-  SyncDirectory(path.parent_path());
+  if (sync_folder) SyncDirectory(path.parent_path());
 }
 
 namespace {

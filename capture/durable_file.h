@@ -13,8 +13,10 @@ namespace relume::capture {
 
 inline constexpr const char* kTempSuffix = ".tmp";
 
-// Throws IoError naming the path (and "disk full" for ENOSPC / EDQUOT).
-void WriteFileDurably(const std::filesystem::path& path, std::span<const std::uint8_t> bytes);
+// Throws IoError naming the path (and "disk full" for ENOSPC / EDQUOT). With sync_folder false
+// the folder is not fsynced: the caller must SyncDirectory(path.parent_path()) before anything
+// relies on the file being there (writers of several files in one folder sync it once).
+void WriteFileDurably(const std::filesystem::path& path, std::span<const std::uint8_t> bytes, bool sync_folder = true);
 // fsyncs a directory so that a rename or new entry in it is durable.
 void SyncDirectory(const std::filesystem::path& dir);
 // Creates a directory (and parents) and makes its entry durable.

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <thread>
 
+#include "capture/playback.h"
 #include "core/error.h"
 
 namespace relume::capture {
@@ -17,6 +18,8 @@ struct Recorder::StillDevice {
   drivers::ExposureCapabilities caps;
   double metering_time_s = 1e-3;  // shutter-list and continuous cameras
   double metering_ev = 0.0;       // EV-only cameras
+  // A played-back session's camera: its recorded brackets replace metering and planning.
+  std::shared_ptr<RecordedBrackets> recorded;
 };
 
 struct Recorder::RgbdDevice {
@@ -29,9 +32,41 @@ struct Recorder::RgbdDevice {
   std::thread storer;
   std::mutex queue_mutex;
   std::condition_variable queue_ready;
-  std::deque<drivers::RgbdFrame> queue;
+  struct Queued {
+    drivers::RgbdFrame frame;
+    std::chrono::steady_clock::time_point arrived;  // when WaitForFrame returned it
+  };
+  std::deque<Queued> queue;
   bool reader_done = false;
 };
+
+void LatencyHistogram::Add(Nanoseconds latency) {
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(latency).count();
+  ++bins_[static_cast<std::size_t>(std::clamp<std::int64_t>(ms, 0, kBins - 1))];
+  ++count_;
+  max_ = std::max(max_, latency);
+}
+
+LatencySummary LatencyHistogram::Summary() const {
+  LatencySummary s;
+  s.frames = count_;
+  s.max_ms = std::chrono::duration<double, std::milli>(max_).count();
+  auto quantile = [&](double q) {
+    const auto rank = static_cast<std::int64_t>(std::ceil(q * static_cast<double>(count_)));
+    std::int64_t seen = 0;
+    for (std::size_t i = 0; i < bins_.size(); ++i) {
+      seen += bins_[i];
+      if (seen >= std::max<std::int64_t>(rank, 1)) return static_cast<double>(i + 1);  // upper edge of the bin
+    }
+    return s.max_ms;
+  };
+  if (count_ > 0) {
+    s.p50_ms = std::min(quantile(0.50), s.max_ms);
+    s.p90_ms = std::min(quantile(0.90), s.max_ms);
+    s.p99_ms = std::min(quantile(0.99), s.max_ms);
+  }
+  return s;
+}
 
 bool RecorderOptions::IsValid(std::string* why) const {
   if (!schedule.IsValid(why) || !bracket.IsValid(why) || !retry.IsValid(why)) return false;
@@ -39,8 +74,8 @@ bool RecorderOptions::IsValid(std::string* why) const {
     if (why) *why = "duration must be positive";
     return false;
   }
-  if (max_dark_extensions < 0 || rgbd_queue_frames < 1) {
-    if (why) *why = "max_dark_extensions must be >= 0 and rgbd_queue_frames >= 1";
+  if (max_dark_extensions < 0 || rgbd_queue_frames < 1 || rgbd_batch_frames < 1) {
+    if (why) *why = "max_dark_extensions must be >= 0, rgbd_queue_frames and rgbd_batch_frames >= 1";
     return false;
   }
   return true;
@@ -104,6 +139,9 @@ void Recorder::AddStillCamera(std::unique_ptr<drivers::StillCamera> camera, Stil
   device->info = camera->info();
   device->caps = camera->capabilities();
   device->metering_time_s = InitialMeteringTime(device->caps);
+  if (const auto* playback = dynamic_cast<const PlaybackStillCamera*>(camera.get())) {
+    device->recorded = playback->recorded_brackets();
+  }
   const std::string id = device->info.FullId();
   drivers::DeviceEventSink sink = [this, id](const drivers::DeviceEvent& event) {
     RecordEvent(id, drivers::ToString(event.type),
@@ -139,7 +177,33 @@ void Recorder::AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSe
   rgbds_.push_back(std::move(device));
 }
 
+// The next recorded bracket of a played-back camera, as a plan: exactly the recorded
+// exposures, no metering frame, no dark extension (the recorded ones are in the list).
+std::optional<BracketPlan> Recorder::RecordedPlan(StillDevice& device, std::string* recorded_partial) {
+  const std::optional<RecordedBracket> recorded = device.recorded->Next();
+  if (!recorded) {
+    RecordEvent(device.info.FullId(), "skip", "the played session has no more brackets");
+    return std::nullopt;
+  }
+  BracketPlan plan;
+  plan.reason = "replaying recorded bracket " + std::to_string(recorded->recorded_id);
+  for (const drivers::ExposureSettings& s : recorded->exposures) {
+    PlannedExposure e;
+    e.exposure_time_s = s.exposure_time_s;
+    e.ev_compensation = s.ev_compensation;
+    plan.exposures.push_back(e);
+  }
+  if (recorded->status == "partial") *recorded_partial = "the recorded bracket was partial: " + recorded->reason;
+  return plan;
+}
+
 void Recorder::CaptureBracket(StillDevice& device) {
+  if (device.recorded) {
+    std::string recorded_partial;
+    const std::optional<BracketPlan> plan = RecordedPlan(device, &recorded_partial);
+    if (plan) StoreBracket(device, *plan, /*extend_darker=*/false, recorded_partial);
+    return;
+  }
   const std::string id = device.info.FullId();
   const bool ev_only = device.caps.control == drivers::ExposureControl::kEvOnly;
   // 1. Meter.
@@ -167,7 +231,15 @@ void Recorder::CaptureBracket(StillDevice& device) {
     if (e.ev_compensation) planned << " " << *e.ev_compensation << " EV";
   }
   RecordEvent(id, "plan", planned.str());
+  StoreBracket(device, plan, /*extend_darker=*/true, "");
+}
 
+void Recorder::StoreBracket(StillDevice& device, const BracketPlan& plan, bool extend_darker,
+                            const std::string& known_partial) {
+  const std::string id = device.info.FullId();
+  if (plan.exposures.empty()) return;
+  if (device.recorded)
+    RecordEvent(id, "plan", std::to_string(plan.exposures.size()) + " exposures (" + plan.reason + ")");
   std::int64_t bracket_id = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -202,7 +274,7 @@ void Recorder::CaptureBracket(StillDevice& device) {
   for (std::size_t i = 0; i < plan.exposures.size() && partial_reason.empty(); ++i) {
     const std::optional<drivers::StillFrame> frame = capture_one(plan.exposures[i]);
     if (progress_) progress_(Snapshot());
-    if (!frame || i != 0) continue;
+    if (!frame || i != 0 || !extend_darker) continue;
     // Adaptive range: while the darkest frame clips, add darker ones.
     PlannedExposure darkest = plan.exposures[0];
     MeteringStats stats = MeasureMeteringFrame(frame->image, darkest.relative_exposure, options_.bracket);
@@ -221,6 +293,7 @@ void Recorder::CaptureBracket(StillDevice& device) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++status_.brackets;
+    if (partial_reason.empty()) partial_reason = known_partial;
     if (!partial_reason.empty()) ++status_.partial_brackets;
     if (!storage_failed_) {
       try {
@@ -308,13 +381,14 @@ void Recorder::RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop) {
         started = true;
       }
       drivers::RgbdFrame frame = device.sensor->WaitForFrame(timeout);
+      const auto arrived = std::chrono::steady_clock::now();
       std::lock_guard<std::mutex> lock(device.queue_mutex);
       if (static_cast<int>(device.queue.size()) >= options_.rgbd_queue_frames) {
         std::lock_guard<std::mutex> status_lock(mutex_);
         ++status_.rgbd_dropped;
         continue;
       }
-      device.queue.push_back(std::move(frame));
+      device.queue.push_back({std::move(frame), arrived});
       device.queue_ready.notify_one();
     } catch (const drivers::DeviceError& e) {
       RecordEvent(id, "fault", e.what());
@@ -354,14 +428,26 @@ RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
         std::unique_lock<std::mutex> lock(device.queue_mutex);
         device.queue_ready.wait(lock, [&] { return !device.queue.empty() || device.reader_done; });
         if (device.queue.empty()) return;
-        drivers::RgbdFrame frame = std::move(device.queue.front());
-        device.queue.pop_front();
+        // Everything waiting (up to a batch) is acknowledged together: one group commit.
+        std::vector<RgbdDevice::Queued> batch;
+        while (!device.queue.empty() && static_cast<int>(batch.size()) < options_.rgbd_batch_frames) {
+          batch.push_back(std::move(device.queue.front()));
+          device.queue.pop_front();
+        }
         lock.unlock();
         if (storage_failed_) continue;  // drain without writing
+        std::vector<drivers::RgbdFrame> frames;
+        for (RgbdDevice::Queued& q : batch) frames.push_back(std::move(q.frame));
         try {
-          std::lock_guard<std::mutex> writer_lock(mutex_);
-          writer_.WriteRgbdFrame(frame);
-          ++status_.rgbd_frames;
+          {
+            std::lock_guard<std::mutex> writer_lock(mutex_);
+            writer_.WriteRgbdFrames(frames);
+            const auto acknowledged = std::chrono::steady_clock::now();
+            status_.rgbd_frames += static_cast<std::int64_t>(frames.size());
+            for (const RgbdDevice::Queued& q : batch) rgbd_latency_.Add(acknowledged - q.arrived);
+            status_.rgbd_last_latency = acknowledged - batch.front().arrived;
+          }
+          if (progress_) progress_(Snapshot());
         } catch (const Error& e) {
           StorageFailed(e.what());
         }
@@ -426,6 +512,10 @@ RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
     RecordEvent("", "stop", summary.stop_reason);
   }
   summary.status = Snapshot();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    summary.rgbd_latency = rgbd_latency_.Summary();
+  }
   progress_ = nullptr;
   return summary;
 }

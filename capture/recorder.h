@@ -32,6 +32,7 @@ struct RecorderOptions {
   std::optional<Nanoseconds> duration;
   int max_dark_extensions = 3;  // adaptive extra dark frames per bracket
   int rgbd_queue_frames = 64;   // frames buffered between an RGB-D sensor and the disk
+  int rgbd_batch_frames = 8;    // most queued RGB-D frames acknowledged by one group commit
   bool IsValid(std::string* why) const;
 };
 
@@ -42,13 +43,39 @@ struct RecorderStatus {
   std::int64_t partial_brackets = 0;
   std::int64_t faults = 0;        // device errors seen (retries included)
   std::int64_t rgbd_dropped = 0;  // frames the recorder could not store in time (queue full)
+  // Of the last streamed RGB-D frame stored: host steady time from its arrival at the recorder
+  // (WaitForFrame returned) to its acknowledgement (queue wait + encode + durable write).
+  Nanoseconds rgbd_last_latency{0};
   std::uint64_t bytes_written = 0;
   std::optional<UtcTime> next_trigger;
   UtcTime now;
 };
 
+// Streamed RGB-D frames, arrival at the recorder to acknowledgement (1 ms resolution).
+struct LatencySummary {
+  std::int64_t frames = 0;
+  double p50_ms = 0.0;
+  double p90_ms = 0.0;
+  double p99_ms = 0.0;
+  double max_ms = 0.0;
+};
+
+// Fixed memory whatever the run's length: 1 ms bins up to 60 s (later ones in the last bin).
+class LatencyHistogram {
+ public:
+  void Add(Nanoseconds latency);
+  LatencySummary Summary() const;
+
+ private:
+  static constexpr std::int64_t kBins = 60000;
+  std::vector<std::int64_t> bins_ = std::vector<std::int64_t>(kBins, 0);
+  std::int64_t count_ = 0;
+  Nanoseconds max_{0};
+};
+
 struct RecorderSummary {
   RecorderStatus status;
+  LatencySummary rgbd_latency;
   bool stopped_by_user = false;
   bool storage_failed = false;
   std::string stop_reason;
@@ -71,14 +98,17 @@ class Recorder {
                      const drivers::RgbdStreamConfig& config, int burst_frames = 0);
 
   // Runs until the schedule and duration end, `stop` becomes true, or storage fails.
-  // `progress` is called after every stored frame and at every trigger (from the calling
-  // thread for stills and from the writer thread for RGB-D; keep it cheap).
+  // `progress` is called after every stored still frame, after every group commit of streamed
+  // RGB-D frames and at every trigger (from the calling thread for stills and from the writer
+  // thread for RGB-D; keep it cheap).
   RecorderSummary Run(const std::atomic<bool>& stop, const std::function<void(const RecorderStatus&)>& progress = {});
 
  private:
   struct StillDevice;
   struct RgbdDevice;
   void CaptureBracket(StillDevice& device);
+  std::optional<BracketPlan> RecordedPlan(StillDevice& device, std::string* recorded_partial);
+  void StoreBracket(StillDevice& device, const BracketPlan& plan, bool extend_darker, const std::string& known_partial);
   void RecordEvent(const std::string& device_id, const std::string& type, const std::string& message);
   void RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop);
   void RecordBurst(RgbdDevice& device);
@@ -92,6 +122,7 @@ class Recorder {
   std::vector<std::unique_ptr<RgbdDevice>> rgbds_;
   std::mutex mutex_;  // guards writer_ and status_
   RecorderStatus status_;
+  LatencyHistogram rgbd_latency_;
   std::atomic<bool> storage_failed_{false};
   std::string storage_message_;
   std::function<void(const RecorderStatus&)> progress_;

@@ -2,11 +2,14 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <sstream>
 
 #include "capture/durable_file.h"
+#include "capture/rgbd_geometry.h"
 #include "core/error.h"
 
 namespace relume::capture {
@@ -194,7 +197,7 @@ void SessionWriter::EndBracket(std::int64_t bracket_id, const std::string& statu
       .Run();
 }
 
-FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes) {
+FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder) {
   const fs::path folder = dir_ / "frames" / Slug(record.device_id);
   if (!fs::exists(folder)) CreateDirectoryDurably(folder);
   fs::path relative;
@@ -205,7 +208,7 @@ FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::ui
                   record.file_format.c_str());
     relative = fs::path("frames") / Slug(record.device_id) / name;
   } while (fs::exists(dir_ / relative));
-  WriteFileDurably(dir_ / relative, bytes);
+  WriteFileDurably(dir_ / relative, bytes, sync_folder);
   bytes_written_ += bytes.size();
   record.file_path = relative.generic_string();
   record.sha256 = Sha256Hex(bytes);
@@ -306,36 +309,93 @@ FrameRecord SessionWriter::WriteStillFrame(const drivers::StillFrame& frame, std
   return record;
 }
 
-std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers::RgbdFrame& frame) {
-  // Depth as 16-bit millimetres; NaN, non-positive and out-of-range values become 0 (none).
-  cv::Mat depth_mm(frame.depth_m.size(), CV_16UC1);
-  for (int y = 0; y < frame.depth_m.rows; ++y) {
-    const float* in = frame.depth_m.ptr<float>(y);
+namespace {
+// Depth as 16-bit millimetres; NaN, non-positive and out-of-range values become 0 (none).
+cv::Mat DepthMillimetres(const cv::Mat& depth_m) {
+  cv::Mat depth_mm(depth_m.size(), CV_16UC1);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* in = depth_m.ptr<float>(y);
     std::uint16_t* out = depth_mm.ptr<std::uint16_t>(y);
-    for (int x = 0; x < frame.depth_m.cols; ++x) {
+    for (int x = 0; x < depth_m.cols; ++x) {
       const float mm = in[x] * 1000.0f;
       out[x] = (std::isfinite(mm) && mm >= 0.5f && mm < 65535.5f) ? static_cast<std::uint16_t>(std::lround(mm)) : 0;
     }
   }
-  CameraImage depth_image;
-  depth_image.pixels = depth_mm;
-  depth_image.layout = ColorLayout::kMono;
-  depth_image.encoding = SampleEncoding::kSensorLinear;
-  depth_image.bits_per_sample = 16;
-  depth_image.white_level = 65535;
-  FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
-  depth.file_format = "png";
-  FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
-  color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
-  const std::vector<std::uint8_t> depth_bytes = Encode(depth_mm, ".png");
-  const std::vector<std::uint8_t> color_bytes = Encode(frame.color.pixels, "." + color.file_format);
-  depth = StoreFile(std::move(depth), depth_bytes);
-  color = StoreFile(std::move(color), color_bytes);
+  return depth_mm;
+}
+}  // namespace
+
+std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers::RgbdFrame& frame) {
+  return WriteRgbdFrames(std::span(&frame, 1)).front();
+}
+
+std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
+    std::span<const drivers::RgbdFrame> frames) {
+  // Records and images: depth then colour for each frame.
+  std::vector<FrameRecord> records;
+  std::vector<cv::Mat> images;
+  for (const drivers::RgbdFrame& frame : frames) {
+    CameraImage depth_image;
+    depth_image.pixels = DepthMillimetres(frame.depth_m);
+    depth_image.layout = ColorLayout::kMono;
+    depth_image.encoding = SampleEncoding::kSensorLinear;
+    depth_image.bits_per_sample = 16;
+    depth_image.white_level = 65535;
+    FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
+    depth.file_format = "png";
+    FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
+    color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
+    records.push_back(std::move(depth));
+    images.push_back(depth_image.pixels);
+    records.push_back(std::move(color));
+    images.push_back(frame.color.pixels);
+  }
+  // PNG encoding dominates the cost of a frame: encode every image of the batch in parallel.
+  std::vector<std::vector<std::uint8_t>> encoded(images.size());
+  std::vector<std::string> failed(images.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(images.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      try {
+        encoded[k] = Encode(images[k], "." + records[k].file_format);
+      } catch (const Error& e) {
+        failed[k] = e.what();
+      }
+    }
+  });
+  for (const std::string& f : failed) {
+    if (!f.empty()) throw IoError(records.front().device_id, f);
+  }
+  std::set<fs::path> folders;
+  for (std::size_t k = 0; k < records.size(); ++k) {
+    records[k] = StoreFile(std::move(records[k]), encoded[k], /*sync_folder=*/false);
+    folders.insert((dir_ / records[k].file_path).parent_path());
+  }
+  for (const fs::path& folder : folders) SyncDirectory(folder);  // the renames are durable before the rows
   Transaction transaction(*db_);
-  InsertFrame(depth);
-  InsertFrame(color);
+  std::map<std::string, std::string> new_geometry;
+  std::vector<std::pair<FrameRecord, FrameRecord>> out;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    FrameRecord& depth = records[2 * i];
+    FrameRecord& color = records[2 * i + 1];
+    InsertFrame(depth);
+    InsertFrame(color);
+    const std::string geometry = RgbdGeometryToJson(frames[i]);
+    const auto in_batch = new_geometry.find(frames[i].device_id);
+    const auto known = rgbd_geometry_.find(frames[i].device_id);
+    const std::string* last = in_batch != new_geometry.end()  ? &in_batch->second
+                              : known != rgbd_geometry_.end() ? &known->second
+                                                              : nullptr;
+    if (!last || *last != geometry) {
+      AddCalibration(
+          {0, frames[i].depth_timing.host_utc, kRgbdGeometryKind, frames[i].device_id, geometry, {depth.id, color.id}});
+      new_geometry[frames[i].device_id] = geometry;
+    }
+    out.emplace_back(depth, color);
+  }
   transaction.Commit();
-  return {depth, color};
+  for (auto& [device, geometry] : new_geometry) rgbd_geometry_[device] = geometry;
+  return out;
 }
 
 std::int64_t SessionWriter::AddEvent(const EventRecord& event) {
@@ -476,13 +536,19 @@ std::vector<CalibrationRecord> SessionReader::Calibrations() const {
   return calibrations;
 }
 
-namespace {
-cv::Mat DecodeVerified(const fs::path& dir, const FrameRecord& frame, bool verify_checksum) {
-  const fs::path path = dir / frame.file_path;
-  const std::vector<std::uint8_t> bytes = ReadFile(path);
+std::vector<std::uint8_t> SessionReader::ReadFrameFile(const FrameRecord& frame, bool verify_checksum) const {
+  const fs::path path = dir_ / frame.file_path;
+  std::vector<std::uint8_t> bytes = ReadFile(path);
   if (verify_checksum && Sha256Hex(bytes) != frame.sha256) {
     throw IoError(path.string(), "checksum mismatch: the file changed after it was recorded");
   }
+  return bytes;
+}
+
+namespace {
+cv::Mat DecodeVerified(const SessionReader& reader, const FrameRecord& frame, bool verify_checksum) {
+  const fs::path path = reader.dir() / frame.file_path;
+  const std::vector<std::uint8_t> bytes = reader.ReadFrameFile(frame, verify_checksum);
   if (frame.file_format != "png" && frame.file_format != "tiff" && frame.file_format != "jpeg" &&
       frame.file_format != "jpg") {
     throw InvalidArgumentError(path.string() + ": '" + frame.file_format +
@@ -497,7 +563,7 @@ cv::Mat DecodeVerified(const fs::path& dir, const FrameRecord& frame, bool verif
 
 CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_checksum) const {
   CameraImage image;
-  image.pixels = DecodeVerified(dir_, frame, verify_checksum);
+  image.pixels = DecodeVerified(*this, frame, verify_checksum);
   image.layout = frame.layout;
   image.encoding = frame.encoding;
   image.bits_per_sample = frame.bits_per_sample;
@@ -507,7 +573,7 @@ CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_check
 }
 
 cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {
-  const cv::Mat mm = DecodeVerified(dir_, frame, verify_checksum);
+  const cv::Mat mm = DecodeVerified(*this, frame, verify_checksum);
   if (mm.type() != CV_16UC1) throw IoError((dir_ / frame.file_path).string(), "depth file is not 16-bit mono");
   cv::Mat depth_m(mm.size(), CV_32FC1);
   for (int y = 0; y < mm.rows; ++y) {

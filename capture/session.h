@@ -18,8 +18,10 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -113,8 +115,14 @@ class SessionWriter {
   // Store durably, then return the committed row (the frame is then acknowledged).
   FrameRecord WriteStillFrame(const drivers::StillFrame& frame, std::optional<std::int64_t> bracket_id = std::nullopt,
                               int bracket_index = 0);
-  // Two rows: depth and colour, committed together.
+  // Two rows: depth and colour, committed together; with them, when the device's stream
+  // geometry (intrinsics, registration) is new or changed, a calibration row of kind
+  // "rgbd_geometry" (capture/rgbd_geometry.h) naming the two frames.
   std::pair<FrameRecord, FrameRecord> WriteRgbdFrame(const drivers::RgbdFrame& frame);
+  // Several RGB-D frames acknowledged together (group commit): their images are encoded in
+  // parallel, each file written and fsynced, each folder fsynced once, and all rows committed
+  // in one transaction. Same durability as one at a time, far fewer fsyncs per frame.
+  std::vector<std::pair<FrameRecord, FrameRecord>> WriteRgbdFrames(std::span<const drivers::RgbdFrame> frames);
 
   std::int64_t AddEvent(const EventRecord& event);
   std::int64_t AddCalibration(const CalibrationRecord& calibration);
@@ -125,7 +133,7 @@ class SessionWriter {
 
  private:
   SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site);
-  FrameRecord StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes);
+  FrameRecord StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder = true);
   void InsertFrame(FrameRecord& record);
 
   std::filesystem::path dir_;
@@ -134,6 +142,7 @@ class SessionWriter {
   SunTrack sun_;
   std::uint64_t bytes_written_ = 0;
   std::int64_t file_counter_ = 0;
+  std::map<std::string, std::string> rgbd_geometry_;  // per device: the last geometry stored
 };
 
 // Reads a session (what calibration, processing and the player use).
@@ -150,6 +159,9 @@ class SessionReader {
   std::vector<EventRecord> Events() const;
   std::vector<CalibrationRecord> Calibrations() const;
 
+  // The frame's file, byte for byte. Throws IoError when it is missing or its checksum does not
+  // match (when verify_checksum).
+  std::vector<std::uint8_t> ReadFrameFile(const FrameRecord& frame, bool verify_checksum = true) const;
   // Decodes a still or colour frame's pixels. Throws IoError when the file is missing or its
   // checksum does not match (when verify_checksum).
   CameraImage LoadImage(const FrameRecord& frame, bool verify_checksum = true) const;

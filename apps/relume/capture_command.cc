@@ -3,15 +3,19 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
 
+#include "apps/relume/device_backends.h"
 #include "apps/relume/rig_config.h"
+#include "capture/playback.h"
 #include "capture/session.h"
 #include "core/clock.h"
 #include "core/error.h"
+#include "drivers/device_error.h"
 
 namespace relume::app {
 
@@ -32,7 +36,81 @@ std::string HumanBytes(std::uint64_t bytes) {
   return text;
 }
 
+// Every backend the rig's devices need, and no other (no discovery on networks the rig does
+// not use).
+std::shared_ptr<drivers::DeviceRegistry> BuildRigRegistry(const RigConfig& rig, const std::shared_ptr<Clock>& clock) {
+  DeviceBackendOptions options;
+  if (!rig.devices.empty()) {
+    options.sim_devices = rig.devices;
+    options.sim_truth = rig.world;
+    options.sim_clock = clock;
+  }
+  auto uses = [&](const char* backend) {
+    return std::any_of(rig.registry_devices.begin(), rig.registry_devices.end(),
+                       [&](const RegistryDeviceSpec& d) { return d.backend == backend; });
+  };
+  options.gphoto2 = uses("gphoto2");
+  options.openni2 = uses("openni2");
+  options.aravis = uses("aravis");
+  options.usb = false;
+  for (const RegistryDeviceSpec& d : rig.registry_devices) {
+    // Ports libgphoto2 cannot autodetect (PTP/IP, disk) are opened by model and port.
+    if (d.backend == "gphoto2" && !d.model.empty() && !d.port.empty() && d.port.rfind("usb:", 0) != 0) {
+      options.gphoto2_cameras.push_back(d.model + "@" + d.port);
+    }
+  }
+  std::vector<std::string> problems;
+  auto registry = BuildDeviceRegistry(options, &problems);
+  for (const std::string& problem : problems) std::cerr << "relume capture: " << problem << "\n";
+  for (const RegistryDeviceSpec& d : rig.registry_devices) {
+    if (d.backend != "playback") continue;
+    registry->Add(std::make_shared<capture::PlaybackBackend>(d.session));
+    break;  // one session per rig (LoadRigConfig checks)
+  }
+  return registry;
+}
+
 }  // namespace
+
+drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, const RegistryDeviceSpec& spec) {
+  drivers::Backend* backend = nullptr;
+  for (const auto& b : registry.backends()) {
+    if (b->name() == spec.backend) backend = b.get();
+  }
+  if (!backend) {
+    std::string why = "the " + spec.backend + " backend did not start (see the message above)";
+    for (const std::string& left_out : LeftOutBackends()) {
+      if (left_out.rfind(spec.backend + " ", 0) == 0) why = "not part of this build: " + left_out;
+    }
+    throw drivers::DeviceError(drivers::DeviceErrorKind::kNotFound, spec.Describe(), why);
+  }
+  const std::vector<drivers::DeviceInfo> devices = backend->Enumerate();
+  std::vector<drivers::DeviceInfo> matches;
+  std::string seen;
+  for (const drivers::DeviceInfo& info : devices) {
+    seen += (seen.empty() ? "" : ", ") + info.FullId();
+    const bool match = spec.backend == "playback"
+                           ? info.id == spec.device
+                           : (spec.id.empty() || info.id == spec.id) &&
+                                 (spec.model.empty() || info.model == spec.model) &&
+                                 (spec.serial.empty() || info.serial == spec.serial) &&
+                                 (spec.port.empty() || info.address == spec.port) &&
+                                 (spec.uri.empty() || info.address == spec.uri || info.id == spec.uri);
+    if (match) matches.push_back(info);
+  }
+  if (matches.size() == 1) return matches.front();
+  if (matches.empty()) {
+    throw drivers::DeviceError(
+        drivers::DeviceErrorKind::kNotFound, spec.Describe(),
+        "not present; " + spec.backend + " sees " + (seen.empty() ? std::string("no devices") : seen) +
+            ". Check that it is plugged in, powered and not held by another program, and that the rig's keys match "
+            "what `relume devices` lists");
+  }
+  std::string which;
+  for (const auto& m : matches) which += (which.empty() ? "" : ", ") + m.FullId();
+  throw drivers::DeviceError(drivers::DeviceErrorKind::kNotFound, spec.Describe(),
+                             "matches several devices (" + which + "); add serial or port to the rig file");
+}
 
 int RunCapture(const CaptureRequest& request) {
   RigConfig rig = LoadRigConfig(request.rig_path);
@@ -42,17 +120,18 @@ int RunCapture(const CaptureRequest& request) {
   }
   if (request.speedup > 0.0) rig.clock_speedup = request.speedup;
   std::shared_ptr<Clock> clock;
-  if (rig.clock_speedup > 0.0) {
+  if (rig.host_clock) {
+    clock = std::make_shared<SystemClock>();
+  } else if (rig.clock_speedup > 0.0) {
     clock = std::make_shared<SimulatedClock>(rig.clock_start, rig.clock_speedup);
   } else {
     clock = std::make_shared<ManualClock>(
         rig.clock_start, "simulated, event-driven, from " + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0));
   }
-
-  auto backend = std::make_shared<sim::SimBackend>(rig.devices, rig.world, clock);
-  auto registry = std::make_shared<drivers::DeviceRegistry>();
-  registry->Add(backend);
-
+  const std::shared_ptr<drivers::DeviceRegistry> registry = BuildRigRegistry(rig, clock);
+  // Every named device must be present before a session folder is made.
+  std::vector<drivers::DeviceInfo> resolved;
+  for (const RegistryDeviceSpec& spec : rig.registry_devices) resolved.push_back(ResolveRigDevice(*registry, spec));
   capture::SessionInfo info;
   info.name = rig.name;
   info.site = rig.site;
@@ -64,18 +143,30 @@ int RunCapture(const CaptureRequest& request) {
   StoreRigWithSession(rig, request.out_dir);  // processing finds the geometry and cameras here
 
   capture::Recorder recorder(*writer, *clock, rig.recorder);
-  for (const drivers::DeviceInfo& device : registry->Enumerate()) {
-    const std::string id = device.FullId();
+  auto add = [&](const drivers::DeviceInfo& device, auto find_again) {
     if (device.kind == drivers::DeviceKind::kStillCamera) {
       recorder.AddStillCamera(registry->OpenStillCamera(device),
-                              [registry, id]() { return registry->OpenStillCamera(registry->Find(id)); });
+                              [registry, find_again]() { return registry->OpenStillCamera(find_again()); });
     } else {
       auto sensor = registry->OpenRgbdSensor(device);
       drivers::RgbdStreamConfig config = sensor->SupportedConfigs().front();
       recorder.AddRgbdSensor(
-          std::move(sensor), [registry, id]() { return registry->OpenRgbdSensor(registry->Find(id)); }, config,
+          std::move(sensor), [registry, find_again]() { return registry->OpenRgbdSensor(find_again()); }, config,
           rig.rgbd_burst_frames);
     }
+  };
+  if (!rig.devices.empty()) {
+    for (const auto& backend : registry->backends()) {
+      if (backend->name() != "sim") continue;
+      for (const drivers::DeviceInfo& device : backend->Enumerate()) {
+        const std::string id = device.FullId();
+        add(device, [registry, id]() { return registry->Find(id); });
+      }
+    }
+  }
+  for (std::size_t i = 0; i < rig.registry_devices.size(); ++i) {
+    const RegistryDeviceSpec spec = rig.registry_devices[i];
+    add(resolved[i], [registry, spec]() { return ResolveRigDevice(*registry, spec); });
   }
 
   g_stop = false;

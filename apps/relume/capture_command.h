@@ -3,6 +3,9 @@
 
 #include <string>
 
+#include "apps/relume/rig_config.h"
+#include "drivers/backend.h"
+
 namespace CLI {
 class App;
 }
@@ -16,6 +19,10 @@ struct CaptureRequest {
   double speedup = 0.0;           // 0 = the rig's
   bool progress = true;
 };
+
+// The enumerated device a rig entry names (every key given must match). Throws
+// DeviceError(kNotFound) naming the entry, what its backend sees and what to check.
+drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, const RegistryDeviceSpec& spec);
 
 // Returns the process exit code: 0 done, 3 storage failed (acknowledged frames are safe).
 int RunCapture(const CaptureRequest& request);

@@ -8,6 +8,7 @@
 #include "apps/relume/bench_command.h"
 #include "apps/relume/calibrate_command.h"
 #include "apps/relume/capture_command.h"
+#include "apps/relume/devices_command.h"
 #include "apps/relume/hdr_command.h"
 #include "apps/relume/process_command.h"
 #include "apps/relume/session_command.h"
@@ -27,6 +28,7 @@ int main(int argc, char** argv) {
   relume::app::AddHdrCommand(app);
   relume::app::AddBenchCommand(app);
   relume::app::AddProcessCommand(app);
+  relume::app::AddDevicesCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,11 +1,13 @@
 #include "apps/relume/rig_config.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "capture/durable_file.h"
+#include "capture/session.h"
 #include "core/error.h"
 #include "core/yaml_file.h"
 #include "sim/world/scene_yaml.h"
@@ -42,12 +44,53 @@ YAML::Node ExpandSceneCamera(const YamlFile& file, const YAML::Node& device, con
   return expanded;
 }
 
+RegistryDeviceSpec ParseRegistryDevice(const YamlFile& file, const YAML::Node& device) {
+  file.RejectUnknownKeys(device, {"backend", "id", "model", "serial", "port", "uri", "session", "device"});
+  RegistryDeviceSpec spec;
+  spec.backend = file.RequireString(device, "backend");
+  spec.line = device.Mark().line + 1;
+  const std::vector<std::string> backends = {"gphoto2", "aravis", "openni2", "playback"};
+  if (std::find(backends.begin(), backends.end(), spec.backend) == backends.end()) {
+    file.Fail(device["backend"], "backend", "expected sim, gphoto2, aravis, openni2 or playback");
+  }
+  auto optional = [&](const char* key) { return device[key] ? file.RequireString(device, key) : std::string(); };
+  spec.id = optional("id");
+  spec.model = optional("model");
+  spec.serial = optional("serial");
+  spec.port = optional("port");
+  spec.uri = optional("uri");
+  if (spec.backend == "playback") {
+    spec.session = (std::filesystem::path(file.path()).parent_path() / file.RequireString(device, "session")).string();
+    spec.device = file.RequireString(device, "device");
+  } else if (device["session"] || device["device"]) {
+    file.Fail(device, "session", "session and device are for `backend: playback` only");
+  } else if (spec.id.empty() && spec.model.empty() && spec.serial.empty() && spec.port.empty() && spec.uri.empty()) {
+    file.Fail(device, "backend", "say which device: give at least one of id, model, serial, port, uri");
+  }
+  return spec;
+}
+
 }  // namespace
+
+std::string RegistryDeviceSpec::Describe() const {
+  std::string keys;
+  auto add = [&](const char* key, const std::string& value) {
+    if (!value.empty()) keys += std::string(keys.empty() ? "" : ", ") + key + " \"" + value + "\"";
+  };
+  add("id", id);
+  add("model", model);
+  add("serial", serial);
+  add("port", port);
+  add("uri", uri);
+  add("session", session);
+  add("device", device);
+  return backend + " device (" + keys + ")" + (line > 0 ? " at line " + std::to_string(line) : "");
+}
 
 RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override) {
   const YamlFile file(path);
   const YAML::Node& root = file.root();
-  file.RejectUnknownKeys(root, {"name", "scene", "clock", "schedule", "duration_minutes", "bracket", "retry",
+  file.RejectUnknownKeys(root, {"name", "scene", "site", "clock", "schedule", "duration_minutes", "bracket", "retry",
                                 "rgbd_burst_frames", "devices"});
   RigConfig rig;
   rig.path = path;
@@ -58,20 +101,65 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     text << stream.rdbuf();
     rig.yaml_text = text.str();
   }
-  if (!root["scene"]) {
-    file.Fail(root, "scene",
-              "this build records simulated rigs only: name the simulated world (e.g. scene: "
-              "../scenes/outdoor-building.yaml)");
+  // Devices: simulated ones (no `backend:` or `backend: sim`) and registry ones.
+  const YAML::Node devices = root["devices"];
+  if (!devices || !devices.IsSequence() || devices.size() == 0) {
+    file.Fail(root, "devices", "expected a list of devices");
   }
-  const std::filesystem::path scene_path =
-      scene_override ? std::filesystem::path(*scene_override)
-                     : std::filesystem::path(path).parent_path() / file.RequireString(root, "scene");
-  rig.scene_path = scene_path.string();
-  rig.world = std::make_shared<sim::World>(sim::LoadScene(scene_path.string()));
-  rig.site = rig.world->scene().site;
+  YAML::Node sim_devices(YAML::NodeType::Sequence);
+  for (const YAML::Node& device : devices) {
+    if (device.IsMap() && device["backend"] && device["backend"].as<std::string>() != "sim") {
+      rig.registry_devices.push_back(ParseRegistryDevice(file, device));
+    } else {
+      sim_devices.push_back(device);
+    }
+  }
+  const bool real_devices = std::any_of(rig.registry_devices.begin(), rig.registry_devices.end(),
+                                        [](const RegistryDeviceSpec& d) { return d.backend != "playback"; });
+  if (real_devices && sim_devices.size() > 0) {
+    file.Fail(devices, "devices",
+              "a rig cannot mix simulated and real devices (simulated ones run on a simulated clock, real ones on "
+              "the host's); split it into two rigs");
+  }
+  std::optional<std::string> playback_session;
+  for (const RegistryDeviceSpec& d : rig.registry_devices) {
+    if (d.backend != "playback") continue;
+    if (playback_session && *playback_session != d.session) {
+      file.Fail(devices, "devices", "all playback devices of a rig must come from one session");
+    }
+    playback_session = d.session;
+  }
+
+  if (sim_devices.size() > 0 && !root["scene"]) {
+    file.Fail(root, "scene",
+              "simulated devices need the simulated world: name it (e.g. scene: ../scenes/outdoor-building.yaml)");
+  }
+  if (root["scene"] || scene_override) {
+    const std::filesystem::path scene_path =
+        scene_override ? std::filesystem::path(*scene_override)
+                       : std::filesystem::path(path).parent_path() / file.RequireString(root, "scene");
+    rig.scene_path = scene_path.string();
+    rig.world = std::make_shared<sim::World>(sim::LoadScene(scene_path.string()));
+    rig.site = rig.world->scene().site;
+    rig.clock_start = rig.world->scene().time;
+  }
+  if (const YAML::Node site = root["site"]) {
+    const std::filesystem::path site_path =
+        std::filesystem::path(path).parent_path() / file.RequireString(root, "site");
+    rig.site = LoadSiteConfig(site_path.string()).site;
+  } else if (!rig.world && playback_session) {
+    const capture::SessionReader session(*playback_session);
+    rig.site = session.info().site;
+    rig.clock_start = session.info().created_utc;
+  } else if (!rig.world) {
+    file.Fail(root, "site", "a rig without a simulated world needs its site: site: ../sites/NAME.yaml");
+  }
+  rig.host_clock = real_devices;
+  if (rig.host_clock && root["clock"]) {
+    file.Fail(root["clock"], "clock", "a rig with real devices runs on the host's clock; remove `clock:`");
+  }
 
   // Simulated clock.
-  rig.clock_start = rig.world->scene().time;
   if (const YAML::Node clock = root["clock"]) {
     file.RejectUnknownKeys(clock, {"start", "speedup", "mode"});
     if (clock["mode"] && file.RequireString(clock, "mode") != "event") {
@@ -149,15 +237,11 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     rig.rgbd_burst_frames = static_cast<int>(file.RequireDouble(root, "rgbd_burst_frames"));
     if (rig.rgbd_burst_frames < 0) file.Fail(root["rgbd_burst_frames"], "rgbd_burst_frames", "must be >= 0");
   }
-  const YAML::Node devices = root["devices"];
-  if (!devices || !devices.IsSequence() || devices.size() == 0) {
-    file.Fail(root, "devices", "expected a list of devices");
-  }
   YAML::Node expanded(YAML::NodeType::Sequence);
-  for (const YAML::Node& device : devices) expanded.push_back(ExpandSceneCamera(file, device, *rig.world));
+  for (const YAML::Node& device : sim_devices) expanded.push_back(ExpandSceneCamera(file, device, *rig.world));
   YAML::Node wrapper;
   wrapper["devices"] = expanded;
-  rig.devices = sim::ParseSimDeviceSpecs(file, wrapper);
+  if (expanded.size() > 0) rig.devices = sim::ParseSimDeviceSpecs(file, wrapper);
   std::string why;
   if (!rig.recorder.IsValid(&why)) throw ConfigError(path, 0, "", why);
   return rig;

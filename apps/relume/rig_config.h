@@ -14,6 +14,14 @@
 //     - id: dslr                             # `scene_camera: NAME` may replace `camera:` to take
 //       scene_camera: street                 # the pose, size and field of view of a scene camera
 //       ...
+//     - backend: gphoto2                     # a real device, opened through the registry and
+//       model: "Nikon DSC D750"              # matched by the keys given: id, model, port,
+//       port: "usb:001,007"                  # serial, uri (see RegistryDeviceSpec); a rig with
+//     - backend: openni2                     # real devices runs on the host clock and needs
+//       uri: "1d27/0601@1/5"                 # `site: FILE` (no simulated world to take it from)
+//     - backend: playback                    # a recorded session's device played back
+//       session: ../sessions/monday          # (capture/playback.h), relative to this file
+//       device: sim:dslr
 #pragma once
 
 #include <filesystem>
@@ -29,6 +37,18 @@
 
 namespace relume::app {
 
+// A device of the rig that is opened through the device registry (not simulated here).
+struct RegistryDeviceSpec {
+  std::string backend;  // "gphoto2", "aravis", "openni2", "playback"
+  // Match keys: every one given must equal the enumerated device's (port and uri compare with
+  // DeviceInfo::address, id with DeviceInfo::id).
+  std::string id, model, serial, port, uri;
+  std::string session;           // playback: the recorded session folder (resolved against the rig file)
+  std::string device;            // playback: the recorded device's full id ("sim:dslr")
+  int line = 0;                  // in the rig file, for messages
+  std::string Describe() const;  // "gphoto2 device (model \"X\", port \"Y\") at rig.yaml:12"
+};
+
 struct RigConfig {
   std::string path;
   std::string scene_path;  // the simulated world's scene file
@@ -40,7 +60,11 @@ struct RigConfig {
   double clock_speedup = 0.0;  // 0: event-driven clock
   capture::RecorderOptions recorder;
   int rgbd_burst_frames = 30;
-  std::vector<sim::SimDeviceSpec> devices;
+  std::vector<sim::SimDeviceSpec> devices;  // simulated devices (need `scene:`)
+  std::vector<RegistryDeviceSpec> registry_devices;
+  // Which clock: simulated rigs and playback-only rigs run on a simulated clock; rigs with
+  // real devices on the host's clock (`clock:` is then refused).
+  bool host_clock = false;
 };
 
 // Throws ConfigError / IoError naming the file, line and key. `scene_override` replaces the

@@ -14,8 +14,9 @@ struct CliResult {
   std::string output;  // standard output and standard error, interleaved
 };
 
-inline CliResult RunRelume(const std::string& arguments) {
-  const std::string command = std::string(RELUME_BINARY) + " " + arguments + " 2>&1";
+// Runs a shell command line (standard error joined to standard output).
+inline CliResult RunCommand(const std::string& command_line) {
+  const std::string command = command_line + " 2>&1";
   CliResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return result;
@@ -24,6 +25,10 @@ inline CliResult RunRelume(const std::string& arguments) {
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+inline CliResult RunRelume(const std::string& arguments) {
+  return RunCommand(std::string(RELUME_BINARY) + " " + arguments);
 }
 
 }  // namespace relume::testing

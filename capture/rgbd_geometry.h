@@ -1,0 +1,21 @@
+// The geometry of an RGB-D stream (both cameras' intrinsics, whether depth was registered to
+// colour, the colour-from-depth transform) as JSON. SessionWriter stores it as a calibration
+// row of kind kRgbdGeometryKind when a device's first frame arrives and whenever it changes,
+// so a session holds what the player (capture/playback.h) and processing need to use its
+// depth frames. Transform as a row-major 4x4 matrix, metres.
+#pragma once
+
+#include <string>
+
+#include "drivers/frame.h"
+
+namespace relume::capture {
+
+inline constexpr const char* kRgbdGeometryKind = "rgbd_geometry";
+
+std::string RgbdGeometryToJson(const drivers::RgbdFrame& frame);
+// Sets depth_intrinsics, color_intrinsics, registered_to_color and color_from_depth of
+// `frame`. Throws IoError when the JSON is not such a record.
+void ApplyRgbdGeometryJson(const std::string& json, drivers::RgbdFrame* frame);
+
+}  // namespace relume::capture

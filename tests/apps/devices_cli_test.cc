@@ -1,0 +1,265 @@
+// `relume devices` through the binary: the sim backend from a rig file, and each real backend
+// through its real library with the library-level simulations (libgphoto2 + simcam.so through
+// CAMLIBS, libOpenNI2 + the simulated driver through LD_LIBRARY_PATH, Aravis's in-process
+// Fake camera, libusb under umockdev). CTest sets the environment (tests/apps/CMakeLists.txt).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "capture/session.h"
+#include "tests/apps/cli_runner.h"
+
+namespace relume {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RunRelume;
+
+bool Has(const testing::CliResult& r, const std::string& text) {
+  return r.output.find(text) != std::string::npos;
+}
+
+// Tests of a backend this build left out skip, saying so.
+#define RELUME_SKIP_UNLESS(compiled, what) \
+  if (!(compiled)) GTEST_SKIP() << what << " is not part of this build"
+
+// Every backend but the ones named, so a test sees only what it is about.
+std::string Only(const std::string& backend) {
+  std::string skip;
+  for (const char* b : {"gphoto2", "openni2", "aravis", "usb"}) {
+    if (backend != b) skip += std::string(" --skip ") + b;
+  }
+  return skip + " --no-gige-discovery";
+}
+
+TEST(DevicesCliTest, ListsTheRigsSimulatedDevicesWithCapabilities) {
+  const auto r = RunRelume("devices --rig config/rigs/sim-outdoor.yaml" + Only("sim"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "sim: 2 devices")) << r.output;
+  EXPECT_TRUE(Has(r, "sim:dslr  still_camera  model \"Sim DSLR (14-bit raw, shutter list)\"")) << r.output;
+  EXPECT_TRUE(Has(r, "exposure: shutter_list, 52 speeds 1/4000 s .. 30 s")) << r.output;
+  EXPECT_TRUE(Has(r, "aperture: f/2.8 .. f/22 (19 values)")) << r.output;
+  EXPECT_TRUE(Has(r, "sim:rgbd  rgbd_sensor")) << r.output;
+  EXPECT_TRUE(Has(r, "streams: 8")) << r.output;
+  EXPECT_TRUE(Has(r, "depth 320x240 + colour 320x240 @ 30 fps, registered, synced")) << r.output;
+}
+
+TEST(DevicesCliTest, WithoutARigTheSimBackendSaysWhatToGive) {
+  const auto r = RunRelume("devices" + Only("sim"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "sim: no simulated devices (--rig FILE")) << r.output;
+}
+
+TEST(DevicesCliTest, ChecksASimulatedStillCameraAndRgbdSensor) {
+  auto r = RunRelume("devices --rig config/rigs/sim-outdoor.yaml --check sim:dslr" + Only("sim"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "checking sim:dslr (still_camera")) << r.output;
+  EXPECT_TRUE(Has(r, "  open: ")) << r.output;
+  EXPECT_TRUE(Has(r, "  capture + download: ")) << r.output;
+  EXPECT_TRUE(Has(r, "frame: 640x480 rgb 14-bit, camera file tiff")) << r.output;
+  EXPECT_TRUE(Has(r, "  close: ")) << r.output;
+  EXPECT_TRUE(Has(r, "\nOK\n")) << r.output;
+
+  r = RunRelume("devices --rig config/rigs/sim-outdoor.yaml --check rgbd" + Only("sim"));  // bare id
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "checking sim:rgbd (rgbd_sensor")) << r.output;
+  EXPECT_TRUE(Has(r, "  start (depth 640x480 + colour 640x480 @ 30 fps, registered, synced): ")) << r.output;
+  EXPECT_TRUE(Has(r, "  first frame: ")) << r.output;
+  EXPECT_TRUE(Has(r, "frame: depth 640x480 (")) << r.output;
+  EXPECT_TRUE(Has(r, "  stop: ")) << r.output;
+  EXPECT_TRUE(Has(r, "\nOK\n")) << r.output;
+}
+
+TEST(DevicesCliTest, AnAbsentDeviceIsNamedWithWhatToDo) {
+  auto r = RunRelume("devices --rig config/rigs/sim-outdoor.yaml --check sim:nope" + Only("sim"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r,
+                  "relume: error: sim:nope: not found: not present; sim sees sim:dslr, sim:rgbd. Check that it "
+                  "is plugged in, powered"))
+      << r.output;
+  r = RunRelume("devices --check sim:dslr" + Only("sim"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "sim:dslr: not found: the sim backend needs the rig that defines its devices: add --rig FILE"))
+      << r.output;
+  r = RunRelume("devices --check usb:04a9:3218@1-2" + Only("sim"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "USB entries are listed only")) << r.output;
+}
+
+class DevicesGphoto2Test : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    RELUME_SKIP_UNLESS(RELUME_TEST_GPHOTO2, "the gphoto2 backend");
+    card_ = fs::path(::testing::TempDir()) / "devices_cli_card";
+    fs::remove_all(card_);
+    fs::create_directories(card_);
+  }
+  std::string Camera() const { return "Relume Simulated DSLR@disk:" + card_.string(); }
+  fs::path card_;
+};
+
+TEST_F(DevicesGphoto2Test, ListsAndChecksTheSimulatedDslrThroughLibgphoto2) {
+  auto r = RunRelume("devices --gphoto2 \"" + Camera() + "\"" + Only("gphoto2"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "gphoto2: 1 device")) << r.output;
+  EXPECT_TRUE(Has(r, "gphoto2:" + Camera() + "  still_camera  model \"Relume Simulated DSLR\"  serial SIM0001"))
+      << r.output;
+  EXPECT_TRUE(Has(r, "exposure: shutter_list, 52 speeds 1/4000 s .. 30 s")) << r.output;
+  EXPECT_TRUE(Has(r, "ISO: 100 .. 6400 (7 values)")) << r.output;
+
+  r = RunRelume("devices --check \"gphoto2:" + Camera() + "\"" + Only("gphoto2"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "frame: 240x160 rgb 16-bit, camera file tiff")) << r.output;
+  EXPECT_TRUE(Has(r, "exposure 1/60 s f/8 ISO 100")) << r.output;
+  EXPECT_TRUE(Has(r, "\nOK\n")) << r.output;
+}
+
+TEST_F(DevicesGphoto2Test, AnAbsentDslrIsReportedWithLibgphoto2sReason) {
+  const std::string absent = "Relume Simulated DSLR@disk:" + (card_ / "unplugged").string();
+  const auto r = RunRelume("devices --check \"gphoto2:" + absent + "\"" + Only("gphoto2"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "relume: error: gphoto2:" + absent + ": not found: not present (opening it: ")) << r.output;
+  EXPECT_TRUE(Has(r, "gphoto2 sees no devices. Check that it is plugged in")) << r.output;
+}
+
+TEST(DevicesOpenNI2Test, ListsAndChecksTheSimulatedSensorThroughLibOpenNI2) {
+  RELUME_SKIP_UNLESS(RELUME_TEST_OPENNI2, "the openni2 backend");
+  auto r = RunRelume("devices" + Only("openni2"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "openni2: 1 device")) << r.output;
+  EXPECT_TRUE(Has(r, "openni2:relume-sim://rgbd/0  rgbd_sensor  model \"Simulated RGB-D\"")) << r.output;
+  EXPECT_TRUE(Has(r, "streams: 16")) << r.output;
+  EXPECT_TRUE(Has(r, "depth 320x240 + colour 320x240 @ 30 fps, registered, synced")) << r.output;
+
+  r = RunRelume("devices --check openni2:relume-sim://rgbd/0" + Only("openni2"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "  first frame: ")) << r.output;
+  EXPECT_TRUE(Has(r, "frame: depth 640x480 (")) << r.output;
+  EXPECT_TRUE(Has(r, "colour 640x480")) << r.output;
+  EXPECT_TRUE(Has(r, "\nOK\n")) << r.output;
+}
+
+TEST(DevicesOpenNI2Test, NoSensorAttachedIsReportedWithOpenNI2sReason) {
+  RELUME_SKIP_UNLESS(RELUME_TEST_OPENNI2, "the openni2 backend");
+  setenv("RELUME_SIM_RGBD_DEVICES", "0", 1);  // the simulated driver then reports no sensor
+  const auto r = RunRelume("devices --check openni2:relume-sim://rgbd/0" + Only("openni2"));
+  unsetenv("RELUME_SIM_RGBD_DEVICES");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "relume: error: openni2:relume-sim://rgbd/0: not found: not present (opening it: ")) << r.output;
+  EXPECT_TRUE(Has(r, "no devices found")) << r.output;
+  EXPECT_TRUE(Has(r, "openni2 sees no devices")) << r.output;
+}
+
+TEST(DevicesAravisTest, ListsAndChecksAravissFakeCamera) {
+  RELUME_SKIP_UNLESS(RELUME_TEST_ARAVIS, "the aravis backend");
+  auto r = RunRelume("devices --aravis-fake" + Only("aravis"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "aravis: 1 device")) << r.output;
+  EXPECT_TRUE(Has(r, "aravis:Fake_1  still_camera  model \"Aravis Fake\"")) << r.output;
+  EXPECT_TRUE(Has(r, "exposure: continuous 10 us .. 10 s")) << r.output;
+
+  r = RunRelume("devices --aravis-fake --check aravis:Fake_1" + Only("aravis"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "frame: 512x512 mono 8-bit")) << r.output;
+  EXPECT_TRUE(Has(r, "\nOK\n")) << r.output;
+
+  r = RunRelume("devices --check aravis:Fake_1" + Only("aravis"));  // the fake is off: absent
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "aravis:Fake_1: not found: not present; aravis sees no devices")) << r.output;
+}
+
+// A Canon DSLR (04a9:3218 on bus 1, address 5) presented to libusb by umockdev.
+TEST(DevicesUsbTest, RecognisesAKnownUsbDevice) {
+  RELUME_SKIP_UNLESS(RELUME_TEST_USB, "the usb backend with umockdev-run");
+  const std::string command = std::string("ASAN_OPTIONS=\"${ASAN_OPTIONS}:verify_asan_link_order=0\" ") +
+                              RELUME_UMOCKDEV_RUN + " --device tests/data/usb/canon-dslr.umockdev -- " + RELUME_BINARY +
+                              " devices" + Only("usb");
+  const auto r = testing::RunCommand(command);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "usb (known devices, listing only): 1 device")) << r.output;
+  EXPECT_TRUE(Has(r, "usb:04a9:3218@1-2  still_camera  model \"Canon DSLR\"")) << r.output;
+  EXPECT_TRUE(Has(r, "backend: gphoto2")) << r.output;
+}
+
+// `relume capture` with real backends: a rig naming the simulated DSLR (libgphoto2 + simcam.so)
+// and the simulated RGB-D sensor (libOpenNI2 + its driver), on the host clock; then the
+// recorded session played back through a `backend: playback` rig into a new session.
+class CaptureRealDevicesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    RELUME_SKIP_UNLESS(RELUME_TEST_GPHOTO2 && RELUME_TEST_OPENNI2, "the gphoto2 and openni2 backends");
+    root_ = fs::path(::testing::TempDir()) / "capture_real_devices";
+    fs::remove_all(root_);
+    fs::create_directories(root_ / "card");
+  }
+  fs::path WriteRig(const std::string& name, const std::string& text) const {
+    const fs::path path = root_ / name;
+    std::ofstream(path) << text;
+    return path;
+  }
+  std::string RealRig(const std::string& port) const {
+    return "name: real\nsite: " + fs::absolute("config/sites/athens-acropolis.yaml").string() +
+           "\nschedule: {count: 1}\nrgbd_burst_frames: 3\ndevices:\n"
+           "  - {backend: gphoto2, model: Relume Simulated DSLR, port: \"disk:" +
+           port + "\"}\n  - {backend: openni2, uri: \"relume-sim://rgbd/0\"}\n";
+  }
+  static std::vector<std::string> Checksums(const fs::path& session) {
+    std::vector<std::string> out;
+    for (const auto& f : capture::SessionReader(session).Frames()) out.push_back(f.stream + " " + f.sha256);
+    return out;
+  }
+  fs::path root_;
+};
+
+TEST_F(CaptureRealDevicesTest, RecordsThroughTheRealLibrariesAndReplaysThroughPlayback) {
+  const fs::path rig = WriteRig("real.yaml", RealRig((root_ / "card").string()));
+  auto r = RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "recorded").string() + " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "(clock system)")) << r.output;
+  EXPECT_TRUE(Has(r, "1 brackets (0 partial), 3 RGB-D frames, 0 faults")) << r.output;
+  const capture::SessionReader recorded(root_ / "recorded");
+  ASSERT_EQ(recorded.Devices().size(), 2u);
+  EXPECT_EQ(recorded.Devices()[0].FullId(), "gphoto2:Relume Simulated DSLR@disk:" + (root_ / "card").string());
+  EXPECT_EQ(recorded.Devices()[1].FullId(), "openni2:relume-sim://rgbd/0");
+  int tiffs = 0;
+  for (const auto& f : recorded.Frames()) tiffs += f.file_format == "tiff" && f.stream == "still" ? 1 : 0;
+  EXPECT_GE(tiffs, 1);  // the camera's own 16-bit TIFF, kept byte for byte
+
+  const fs::path replay = WriteRig("replay.yaml",
+                                   "name: replay\nschedule: {count: 1}\nrgbd_burst_frames: 3\ndevices:\n"
+                                   "  - {backend: playback, session: recorded, device: \"" +
+                                       recorded.Devices()[0].FullId() +
+                                       "\"}\n  - {backend: playback, session: recorded, device: "
+                                       "\"openni2:relume-sim://rgbd/0\"}\n");
+  r = RunRelume("capture --rig " + replay.string() + " --out " + (root_ / "replayed").string() + " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(Checksums(root_ / "replayed"), Checksums(root_ / "recorded"));
+}
+
+TEST_F(CaptureRealDevicesTest, AnAbsentDeviceStopsTheCaptureWithWhatToDo) {
+  const fs::path rig = WriteRig("absent.yaml", RealRig((root_ / "unplugged").string()));
+  const auto r =
+      RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "absent").string() + " --no-progress");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "relume: error: gphoto2 device (model \"Relume Simulated DSLR\", port \"disk:" +
+                         (root_ / "unplugged").string() +
+                         "\") at line 6: not found: not present; gphoto2 sees no devices"))
+      << r.output;
+  EXPECT_TRUE(Has(r, "Check that it is plugged in, powered")) << r.output;
+  EXPECT_FALSE(fs::exists(root_ / "absent")) << "no session folder for a capture that cannot start";
+}
+
+TEST_F(CaptureRealDevicesTest, RigsCannotMixSimulatedAndRealDevices) {
+  const fs::path rig =
+      WriteRig("mixed.yaml", "name: mixed\nscene: " + fs::absolute("config/scenes/outdoor-building.yaml").string() +
+                                 "\ndevices:\n  - {id: cam, kind: still_camera}\n"
+                                 "  - {backend: openni2, uri: \"relume-sim://rgbd/0\"}\n");
+  const auto r = RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "mixed").string() + " --no-progress");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "a rig cannot mix simulated and real devices")) << r.output;
+}
+
+}  // namespace
+}  // namespace relume
