@@ -2,6 +2,8 @@
 // through its real library with the library-level simulations (libgphoto2 + simcam.so through
 // CAMLIBS, libOpenNI2 + the simulated driver through LD_LIBRARY_PATH, Aravis's in-process
 // Fake camera, libusb under umockdev). CTest sets the environment (tests/apps/CMakeLists.txt).
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -92,7 +94,7 @@ class DevicesGphoto2Test : public ::testing::Test {
  protected:
   void SetUp() override {
     RELUME_SKIP_UNLESS(RELUME_TEST_GPHOTO2, "the gphoto2 backend");
-    card_ = fs::path(::testing::TempDir()) / "devices_cli_card";
+    card_ = fs::path(::testing::TempDir()) / ("devices_cli_card_" + std::to_string(::getpid()));
     fs::remove_all(card_);
     fs::create_directories(card_);
   }
@@ -190,7 +192,7 @@ class CaptureRealDevicesTest : public ::testing::Test {
  protected:
   void SetUp() override {
     RELUME_SKIP_UNLESS(RELUME_TEST_GPHOTO2 && RELUME_TEST_OPENNI2, "the gphoto2 and openni2 backends");
-    root_ = fs::path(::testing::TempDir()) / "capture_real_devices";
+    root_ = fs::path(::testing::TempDir()) / ("capture_real_devices_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_ / "card");
   }

@@ -175,8 +175,13 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   fs::remove_all(dir);
 }
 
+// The radiometric calibrations of a session (capture itself records others, e.g. RGB-D geometry).
 std::vector<capture::CalibrationRecord> Calibrations(const fs::path& session) {
-  return capture::SessionReader(session).Calibrations();
+  std::vector<capture::CalibrationRecord> radiometric;
+  for (const capture::CalibrationRecord& c : capture::SessionReader(session).Calibrations()) {
+    if (c.kind == "response" || c.kind == "profile") radiometric.push_back(c);
+  }
+  return radiometric;
 }
 
 TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {

@@ -1,3 +1,5 @@
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,7 +15,7 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(SessionCliTest, VerifyRecoverInfo) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "session_cli";
+  const fs::path dir = fs::path(::testing::TempDir()) / ("session_cli_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   {
     capture::SessionInfo info;

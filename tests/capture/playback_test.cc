@@ -2,6 +2,8 @@
 // into a new session with the recorder, and compare the two frame by frame.
 #include "capture/playback.h"
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -54,7 +56,7 @@ bool SameDouble(double a, double b) {
 class PlaybackTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    root_ = fs::path(::testing::TempDir()) / "playback_test";
+    root_ = fs::path(::testing::TempDir()) / ("playback_test_" + std::to_string(::getpid()));  // ctest runs cases in parallel
     fs::remove_all(root_);
     // A shutter-list camera (14-bit raw, stored as TIFF) and an RGB-D sensor at 320x240
     // recording 3 frames per trigger, two triggers an hour apart on an event-driven clock.
