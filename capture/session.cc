@@ -326,6 +326,7 @@ std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers:
   FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
   depth.file_format = "png";
   FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
+  color.exposure = frame.color_exposure;
   color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
   const std::vector<std::uint8_t> depth_bytes = Encode(depth_mm, ".png");
   const std::vector<std::uint8_t> color_bytes = Encode(frame.color.pixels, "." + color.file_format);
