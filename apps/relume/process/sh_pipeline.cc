@@ -377,7 +377,9 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   g.normals = LoadFloat(g.dir / "normals.exr");
   g.mask = LoadMask(g.dir / "mask.png");
   g.normals_from_frame = info["normals_from_frame"].get<std::int64_t>();
-  if (info.contains("depth_changed_fraction")) {
+  if (info.contains("normals_from_truth")) {
+    run.Decide("normals", "choose", "frame " + id + ": the world's true normals (diagnostic: --set true_normals=true)");
+  } else if (info.contains("depth_changed_fraction")) {
     const double changed = info["depth_changed_fraction"].get<double>();
     if (g.normals_from_frame != pair.color.id) {
       run.Decide("normals", "skip",
