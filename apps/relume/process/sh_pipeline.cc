@@ -1,6 +1,7 @@
 #include "apps/relume/process/sh_pipeline.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -775,7 +776,11 @@ void RunShPipeline(PipelineRun& run) {
     if (compare) {
       truth = run.rig()->world->Render(camera, pairs[i].color.utc);
       m.update(IrradianceError(fits[i].light, truth, camera_from_world, geometry[i].mask, !known_albedo));
-      irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
+      if (m["irradiance_pixels"].get<int>() > 0) {
+        irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
+      } else {
+        m.erase("irradiance_relative_rms");  // no pixel with truth to compare: no figure, not 0
+      }
     }
     if (!is_source[i]) {
       frames_json.push_back(m);
