@@ -344,6 +344,7 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
     FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
     depth.file_format = "png";
     FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
+    color.exposure = frame.color_exposure;
     color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
     records.push_back(std::move(depth));
     images.push_back(depth_image.pixels);

@@ -56,6 +56,10 @@ struct RgbdFrame {
   Eigen::Isometry3d color_from_depth = Eigen::Isometry3d::Identity();
   FrameTiming depth_timing;
   FrameTiming color_timing;
+  // The colour image's exposure where the device reports it (NaN fields otherwise): auto
+  // exposure changes it from frame to frame, so radiance is comparable across frames only
+  // through it.
+  ExposureRecord color_exposure;
 };
 
 }  // namespace relume::drivers

@@ -49,11 +49,6 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
   result.valid = cv::Mat::zeros(size, CV_8UC1);
   RelightSummary& summary = result.summary;
 
-  // Per-channel floor: a fraction of the source light's mean irradiance. A light whose mean
-  // is not positive cannot be divided by anywhere.
-  const Eigen::Vector3d mean = ShMeanIrradiance(src_light);
-  const Eigen::Vector3d floor = mean * options.min_irradiance_fraction;
-  const bool light_ok = mean.minCoeff() > 0.0;
   // Single-precision kernels for speed: 9 x 3 coefficients, pre-multiplied by A_l.
   Eigen::Matrix<float, 3, kShCount> src_k, dst_k;
   for (int k = 0; k < kShCount; ++k) {
@@ -61,6 +56,26 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
     src_k.col(k) = (src_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
     dst_k.col(k) = (dst_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
   }
+  // Per-channel floor: a fraction of the source irradiance averaged over the pixels to relight
+  // (not over the whole sphere: a light fitted to the normals a camera sees is extrapolated
+  // behind the object, and its sphere mean L00 can be negative while every visible normal is
+  // well lit). A light whose mean over those pixels is not positive cannot be divided by.
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (int y = 0; y < size.height; ++y) {
+    const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
+    const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
+    const cv::Vec3f* in = src.pixels.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < size.width; ++x) {
+      if ((m && !m[x]) || !std::isfinite(n[x][0] + n[x][1] + n[x][2] + in[x][0] + in[x][1] + in[x][2])) continue;
+      const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
+      sum += (src_k * BasisF(nf)).cast<double>();
+      ++count;
+    }
+  }
+  const Eigen::Vector3d mean = count > 0 ? Eigen::Vector3d(sum / count) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d floor = mean * options.min_irradiance_fraction;
+  const bool light_ok = mean.minCoeff() > 0.0;
   const Eigen::Vector3f floor_f = floor.cast<float>();
 
   for (int y = 0; y < size.height; ++y) {
@@ -90,7 +105,8 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
     }
   }
   if (!light_ok)
-    summary.message = "source light has no positive mean irradiance in some channel: nothing relit";
+    summary.message =
+        "source light has no positive mean irradiance over the pixels to relight in some channel: nothing relit";
   else if (summary.guarded_pixel_count > 0) {
     summary.message = std::to_string(summary.guarded_pixel_count) +
                       " pixel(s) not relit: source irradiance below the guard (min_irradiance_fraction)";

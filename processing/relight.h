@@ -3,9 +3,9 @@
 // per channel, with both lights in the camera frame (processing/sh.h). Albedo cancels.
 //
 // Near-zero denominators: a pixel whose source irradiance in any channel is below
-// min_irradiance_fraction times that channel's mean irradiance (ShMeanIrradiance) is not
-// divided: it is left out of the valid mask, set to NaN in the relit image, and counted in
-// the summary. So are pixels without a finite normal or colour.
+// min_irradiance_fraction times that channel's mean source irradiance over the pixels to
+// relight (mask, finite normal and colour) is not divided: it is left out of the valid mask, set to NaN in the relit
+// image, and counted in the summary. So are pixels without a finite normal or colour.
 #pragma once
 
 #include <opencv2/core/mat.hpp>

@@ -65,6 +65,24 @@ TEST(RelightTest, NearZeroSourceIrradianceIsGuardedNotDivided) {
   EXPECT_NE(none.summary.message.find("no positive mean"), std::string::npos);
 }
 
+TEST(RelightTest, GuardIsRelativeToThePixelsRelitNotToTheWholeSphere) {
+  // Fitted to camera-facing normals only, a light can have a negative sphere mean (L00 < 0)
+  // and still light every visible normal well: those pixels must be relit.
+  ShRgb src = ShRgb::Zero();
+  src.row(0).setConstant(-0.1);
+  src.row(ShIndex(1, 0)).setConstant(-1.0);  // z term: bright toward the camera (n.z < 0)
+  ASSERT_LT(ShMeanIrradiance(src).maxCoeff(), 0.0);
+  cv::Mat normals(1, 2, CV_32FC3);
+  normals.at<cv::Vec3f>(0, 0) = cv::Vec3f(0, 0, -1);
+  normals.at<cv::Vec3f>(0, 1) = cv::Vec3f(0.6f, 0, -0.8f);
+  RadianceImage src_image = MakeRadianceImage(2, 1);
+  src_image.pixels.setTo(cv::Scalar(0.3, 0.3, 0.3));
+  const RelightResult r = RelightSh(src_image, normals, {}, src, src);
+  EXPECT_EQ(r.summary.relit_pixel_count, 2);
+  EXPECT_EQ(r.summary.guarded_pixel_count, 0);
+  EXPECT_NEAR(r.relit.pixels.at<cv::Vec3f>(0, 1)[0], 0.3f, 1e-6f);  // same light: unchanged
+}
+
 TEST(RelightTest, CompositeTakesTheForegroundInsideTheMaskOnly) {
   RadianceImage fg = MakeRadianceImage(3, 1), bg = MakeRadianceImage(3, 1);
   fg.pixels.setTo(cv::Scalar(1, 1, 1));

@@ -149,7 +149,19 @@ int RunCapture(const CaptureRequest& request) {
                               [registry, find_again]() { return registry->OpenStillCamera(find_again()); });
     } else {
       auto sensor = registry->OpenRgbdSensor(device);
+      // The stream at the device's native size when it offers one (registered, synchronised),
+      // so a rig's `camera:` size is what gets recorded; otherwise the sensor's first stream.
       drivers::RgbdStreamConfig config = sensor->SupportedConfigs().front();
+      for (const sim::SimDeviceSpec& spec : rig.devices) {
+        if (spec.id != device.id) continue;
+        for (const drivers::RgbdStreamConfig& c : sensor->SupportedConfigs()) {
+          if (c.depth_width == spec.camera.intrinsics.width && c.depth_height == spec.camera.intrinsics.height &&
+              c.register_depth_to_color && c.sync_depth_and_color) {
+            config = c;
+            break;
+          }
+        }
+      }
       recorder.AddRgbdSensor(
           std::move(sensor), [registry, find_again]() { return registry->OpenRgbdSensor(find_again()); }, config,
           rig.rgbd_burst_frames);

@@ -235,7 +235,7 @@ CameraModelOptions ParseSensor(const YamlFile& file, const YAML::Node& node, Cam
 void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgbd) {
   file.RejectUnknownKeys(node, {"min_range_m", "max_range_m", "max_incidence_deg", "edge_jump_fraction", "noise",
                                 "disparity_step_px", "depth_step_m", "color_horizontal_fov_deg", "baseline_m",
-                                "frame_jitter_s", "queue_capacity", "queue_full", "pacing", "seed"});
+                                "frame_jitter_s", "queue_capacity", "queue_full", "pacing", "seed", "color_noise"});
   rgbd.depth.min_range_m = Optional(file, node, "min_range_m", rgbd.depth.min_range_m);
   rgbd.depth.max_range_m = Optional(file, node, "max_range_m", rgbd.depth.max_range_m);
   rgbd.depth.max_incidence_rad =
@@ -244,6 +244,7 @@ void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgb
   rgbd.depth.noise = OptionalBool(file, node, "noise", rgbd.depth.noise);
   rgbd.depth.disparity_step_px = Optional(file, node, "disparity_step_px", rgbd.depth.disparity_step_px);
   rgbd.depth.depth_step_m = Optional(file, node, "depth_step_m", rgbd.depth.depth_step_m);
+  rgbd.color_noise = OptionalBool(file, node, "color_noise", rgbd.color_noise);
   rgbd.color_horizontal_fov_rad =
       DegToRad(Optional(file, node, "color_horizontal_fov_deg", RadToDeg(rgbd.color_horizontal_fov_rad)));
   if (node["baseline_m"]) {

@@ -229,6 +229,10 @@ RgbdFrame SimRgbdSensor::MakeFrame(std::uint64_t frame_number, MonotonicTime exp
   frame.device_id = info_.FullId();
   frame.color = EncodedFromElectrons(electrons, exposure, options_.color_model);
   frame.color_intrinsics = color_camera_.intrinsics;
+  frame.color_exposure.exposure_time_s = exposure.exposure_time_s;
+  frame.color_exposure.aperture_f = exposure.aperture_f;
+  frame.color_exposure.iso = exposure.iso;
+  frame.color_exposure.gain_db = exposure.gain_db;
   if (config_.register_depth_to_color) {
     frame.depth_m =
         RegisterDepthToColor(depth, depth_camera_.intrinsics, color_camera_.intrinsics, options_.color_from_depth);

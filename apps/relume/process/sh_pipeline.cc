@@ -1,0 +1,878 @@
+#include "apps/relume/process/sh_pipeline.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+
+#include "apps/relume/process/radiance.h"
+#include "calibration/image_file.h"
+#include "core/error.h"
+#include "processing/depth_filter.h"
+#include "processing/normals.h"
+#include "processing/relight.h"
+#include "processing/segmentation.h"
+#include "processing/sh_display.h"
+#include "processing/sh_fit.h"
+#include "sim/devices/camera_model.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+using processing::ShRgb;
+
+nlohmann::json ShLightToJson(const ShRgb& light, int order) {
+  nlohmann::json coefficients = nlohmann::json::array();
+  for (int k = 0; k < processing::kShCount; ++k) coefficients.push_back({light(k, 0), light(k, 1), light(k, 2)});
+  return {{"convention",
+           "real orthonormal SH radiance coefficients L_k, k = l(l+1)+m, no Condon-Shortley phase (processing/sh.h); "
+           "E(n) = sum A_l L_k Y_k(n)"},
+          {"frame", "camera (x right, y down, z forward)"},
+          {"order", order},
+          {"coefficients", coefficients}};
+}
+
+ShRgb ShLightFromJson(const nlohmann::json& json, const std::string& what) {
+  const auto fail = [&](const std::string& why) {
+    throw InvalidArgumentError(what + ": " + why +
+                               " (expected {\"coefficients\": [[R, G, B] x 9]} as written by `relume process "
+                               "--pipeline sh` in lights/*.json)");
+  };
+  if (!json.is_object() || !json.contains("coefficients")) fail("no \"coefficients\"");
+  const nlohmann::json& c = json["coefficients"];
+  if (!c.is_array() || (c.size() != 1 && c.size() != 4 && c.size() != 9))
+    fail("\"coefficients\" must hold 1, 4 or 9 rows");
+  ShRgb light = ShRgb::Zero();
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    if (!c[k].is_array() || c[k].size() != 3) fail("row " + std::to_string(k) + " is not [R, G, B]");
+    for (int ch = 0; ch < 3; ++ch) {
+      if (!c[k][ch].is_number()) fail("row " + std::to_string(k) + " holds a non-number");
+      light(static_cast<int>(k), ch) = c[k][ch].get<double>();
+      if (!std::isfinite(light(static_cast<int>(k), ch))) fail("row " + std::to_string(k) + " is not finite");
+    }
+  }
+  return light;
+}
+
+namespace {
+
+struct RgbdPair {
+  capture::FrameRecord depth;
+  capture::FrameRecord color;
+};
+
+struct Knobs {
+  bool filter_depth = true;
+  processing::BilateralDepthOptions bilateral;
+  processing::TemporalDepthOptions temporal;
+  processing::NormalOptions normals;
+  bool normals_reuse = true;
+  double reuse_sigmas = 3.0;
+  double reuse_max_changed_fraction = 0.005;
+  processing::ShAlbedoFitOptions fit;
+  processing::SegmentationOptions segmentation;
+  processing::SamplePointOptions samples;
+  std::string albedo = "auto";
+  processing::RelightOptions relight;
+  double pair_max_gap_ms = 16.0;
+  bool compare_truth = true;
+  bool true_normals = false;  // diagnostic: the world's normals instead of the estimated ones
+};
+
+Knobs ReadKnobs(PipelineRun& run) {
+  Knobs k;
+  k.filter_depth = run.Setting("filter_depth", k.filter_depth);
+  k.bilateral.radius_px = run.Setting("bilateral_radius", k.bilateral.radius_px);
+  k.bilateral.range_sigma_at_1m_m = run.Setting("range_sigma_at_1m_m", k.bilateral.range_sigma_at_1m_m);
+  k.temporal.range_sigma_at_1m_m = k.bilateral.range_sigma_at_1m_m;
+  k.temporal.weight = run.Setting("temporal_weight", k.temporal.weight);
+  k.normals.window_radius_px = run.Setting("normal_window", k.normals.window_radius_px);
+  k.normals_reuse = run.Setting("normals_reuse", k.normals_reuse);
+  k.reuse_sigmas = run.Setting("normals_reuse_sigmas", k.reuse_sigmas);
+  k.reuse_max_changed_fraction = run.Setting("normals_reuse_max_changed_fraction", k.reuse_max_changed_fraction);
+  k.fit.fit.max_order = run.Setting("sh_order", k.fit.fit.max_order);
+  k.fit.fit.max_condition_number = run.Setting("max_condition_number", k.fit.fit.max_condition_number);
+  k.fit.fit.min_solid_angle_order2_sr = run.Setting("min_solid_angle_order2_sr", k.fit.fit.min_solid_angle_order2_sr);
+  k.fit.max_iterations = run.Setting("max_iterations", k.fit.max_iterations);
+  k.segmentation.segment_count = run.Setting("segments", k.segmentation.segment_count);
+  k.samples.count = run.Setting("samples", k.samples.count);
+  k.albedo = run.Setting("albedo", k.albedo);
+  k.relight.min_irradiance_fraction = run.Setting("min_irradiance_fraction", k.relight.min_irradiance_fraction);
+  k.pair_max_gap_ms = run.Setting("pair_max_gap_ms", k.pair_max_gap_ms);
+  k.compare_truth = run.Setting("compare_truth", k.compare_truth);
+  k.true_normals = run.Setting("true_normals", k.true_normals);
+  std::string why;
+  if (!k.bilateral.IsValid(&why)) throw InvalidArgumentError("--set bilateral_radius / range_sigma_at_1m_m: " + why);
+  if (!k.temporal.IsValid(&why)) throw InvalidArgumentError("--set temporal_weight: " + why);
+  if (!k.normals.IsValid(&why)) throw InvalidArgumentError("--set normal_window: " + why);
+  if (!k.fit.IsValid(&why)) throw InvalidArgumentError("--set sh_order / max_condition_number / ...: " + why);
+  if (!k.segmentation.IsValid(&why)) throw InvalidArgumentError("--set segments: " + why);
+  if (!k.samples.IsValid(&why)) throw InvalidArgumentError("--set samples: " + why);
+  if (!k.relight.IsValid(&why)) throw InvalidArgumentError("--set min_irradiance_fraction: " + why);
+  if (k.albedo != "auto" && k.albedo != "known" && k.albedo != "unknown")
+    throw InvalidArgumentError("--set albedo=" + k.albedo + ": expected auto, known or unknown");
+  if (!(k.reuse_sigmas > 0.0) || !(k.reuse_max_changed_fraction >= 0.0 && k.reuse_max_changed_fraction <= 1.0))
+    throw InvalidArgumentError(
+        "--set normals_reuse_sigmas must be > 0 and normals_reuse_max_changed_fraction in [0, 1]");
+  return k;
+}
+
+// Depth and colour frames of one device, paired by time (nearest colour frame within the gap).
+std::vector<RgbdPair> PairFrames(PipelineRun& run, double max_gap_ms) {
+  std::vector<capture::FrameRecord> depth, color;
+  for (const capture::FrameRecord& f : run.session().Frames()) {
+    if (f.stream == "depth") depth.push_back(f);
+    if (f.stream == "color") color.push_back(f);
+  }
+  std::vector<RgbdPair> pairs;
+  int unpaired = 0;
+  for (const capture::FrameRecord& d : depth) {
+    const capture::FrameRecord* best = nullptr;
+    double best_gap = max_gap_ms;
+    for (const capture::FrameRecord& c : color) {
+      if (c.device_id != d.device_id) continue;
+      const double gap = std::abs(std::chrono::duration<double, std::milli>(c.utc - d.utc).count());
+      if (gap <= best_gap) {
+        best_gap = gap;
+        best = &c;
+      }
+    }
+    if (best == nullptr) {
+      ++unpaired;
+    } else {
+      pairs.push_back({d, *best});
+    }
+  }
+  if (unpaired > 0)
+    run.Decide("pair", "skip",
+               std::to_string(unpaired) + " depth frame(s) without a colour frame within " +
+                   std::to_string(max_gap_ms) + " ms");
+  return pairs;
+}
+
+PinholeCamera ColorCamera(const sim::SimDeviceSpec& spec, const capture::FrameRecord& color) {
+  PinholeCamera camera;
+  camera.intrinsics =
+      PinholeIntrinsics::FromHorizontalFov(color.width, color.height, spec.rgbd.color_horizontal_fov_rad);
+  camera.world_from_camera = spec.camera.world_from_camera * spec.rgbd.color_from_depth.inverse();
+  return camera;
+}
+
+void WriteJson(const fs::path& path, const nlohmann::json& json) {
+  std::ofstream out(path);
+  out << json.dump(2) << "\n";
+  if (!out) throw IoError(path.string(), "cannot be written");
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path.string(), "cannot be read");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidArgumentError(path.string() + ": not JSON: " + e.what());
+  }
+}
+
+void SaveFloat(const cv::Mat& m, const fs::path& path) {
+  RadianceImage r;
+  r.pixels = m;
+  calibration::SaveRadianceExr(r, path.string());
+}
+
+cv::Mat LoadFloat(const fs::path& path) {
+  return calibration::LoadRadianceExr(path.string()).pixels;
+}
+
+cv::Mat LoadMask(const fs::path& path) {
+  cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty()) throw IoError(path.string(), "cannot be read");
+  return m;
+}
+
+std::string Number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", value);
+  return text;
+}
+
+std::string Percent(double fraction) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f %%", 100.0 * fraction);
+  return text;
+}
+
+// ---- radiance of one colour frame --------------------------------------------------------
+
+struct FrameRadiance {
+  RadianceImage radiance;
+  StageKey key;
+};
+
+bool HasResponse(const capture::SessionReader& session, const std::string& device_id) {
+  for (const capture::CalibrationRecord& c : session.Calibrations()) {
+    if (c.device_id == device_id && (c.kind == "response" || c.kind == "profile")) return true;
+  }
+  return false;
+}
+
+FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::SimDeviceSpec& spec,
+                            const PinholeCamera& camera) {
+  if (HasResponse(run.session(), pair.color.device_id)) {
+    const BracketRadiance b = LinearRadiance(run, {pair.color});
+    return {b.radiance, b.key};
+  }
+  FrameRadiance out;
+  const capture::FrameRecord& f = pair.color;
+  sim::ExposureParams exposure;
+  exposure.exposure_time_s = f.exposure.exposure_time_s;
+  exposure.aperture_f = f.exposure.aperture_f;
+  exposure.iso = std::isfinite(f.exposure.iso) ? f.exposure.iso : 100.0;
+  exposure.gain_db = std::isfinite(f.exposure.gain_db) ? f.exposure.gain_db : 0.0;
+  std::string why;
+  if (!exposure.IsValid(&why))
+    throw InvalidArgumentError("colour frame " + std::to_string(f.id) + " records no usable exposure (" + why +
+                               "): record a response with `relume calibrate response`");
+  out.key.Add("stage", "sh-color-radiance-v1").Add("frame", f.sha256);
+  out.key.Add("exposure_time_s", exposure.exposure_time_s).Add("aperture_f", exposure.aperture_f);
+  out.key.Add("iso", exposure.iso).Add("gain_db", exposure.gain_db);
+  out.key.Add("rig", run.rig()->yaml_text);
+  const StageCache::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
+    const RadianceImage radiance =
+        sim::RadianceFromCameraImage(run.session().LoadImage(f), camera.intrinsics, exposure, spec.rgbd.color_model);
+    calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
+  });
+  out.radiance = calibration::LoadRadianceExr((stage.dir / "radiance.exr").string());
+  return out;
+}
+
+// ---- geometry: depth filter + normals -----------------------------------------------------
+
+struct FrameGeometry {
+  fs::path dir;
+  StageKey key;
+  cv::Mat normals;  // CV_32FC3, camera frame
+  cv::Mat mask;     // CV_8UC1: depth, a valid normal
+  std::int64_t normals_from_frame = 0;
+};
+
+// Fraction of pixels (with depth in either frame) whose depth appeared, vanished, or moved by
+// more than `sigmas` range sigmas (sigma grows as z^2, like the sensor's noise).
+double ChangedFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas) {
+  int considered = 0, changed = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    for (int x = 0; x < a.cols; ++x) {
+      const bool va = std::isfinite(pa[x]) && pa[x] > 0.0f;
+      const bool vb = std::isfinite(pb[x]) && pb[x] > 0.0f;
+      if (!va && !vb) continue;
+      ++considered;
+      if (va != vb) {
+        ++changed;
+        continue;
+      }
+      const double z = pa[x];
+      if (std::abs(pa[x] - pb[x]) > sigmas * sigma_at_1m * z * z) ++changed;
+    }
+  }
+  return considered == 0 ? 0.0 : static_cast<double>(changed) / considered;
+}
+
+FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeCamera& camera,
+                       const FrameGeometry* previous) {
+  FrameGeometry g;
+  const PinholeIntrinsics& K = camera.intrinsics;
+  g.key.Add("stage", "sh-geometry-v1").Add("depth", pair.depth.sha256);
+  g.key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
+  g.key.Add("filter_depth", k.filter_depth);
+  if (k.filter_depth) {
+    g.key.Add("bilateral_radius", k.bilateral.radius_px).Add("range_sigma", k.bilateral.range_sigma_at_1m_m);
+    g.key.Add("temporal_weight", k.temporal.weight);
+  }
+  g.key.Add("normal_window", k.normals.window_radius_px);
+  g.key.Add("normals_reuse", k.normals_reuse);
+  if (k.normals_reuse) g.key.Add("reuse_sigmas", k.reuse_sigmas).Add("reuse_fraction", k.reuse_max_changed_fraction);
+  if (previous != nullptr) g.key.AddKey("previous", previous->key);
+  if (k.true_normals) {
+    g.key.Add("true_normals", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+    g.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
+  }
+
+  const std::string id = std::to_string(pair.color.id);
+  const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
+    const cv::Mat depth = run.session().LoadDepth(pair.depth);
+    if (depth.cols != K.width || depth.rows != K.height) {
+      throw InvalidArgumentError("depth frame " + std::to_string(pair.depth.id) + " is " + std::to_string(depth.cols) +
+                                 "x" + std::to_string(depth.rows) + " but its colour frame is " +
+                                 std::to_string(K.width) + "x" + std::to_string(K.height) +
+                                 ": the SH pipeline needs depth registered to colour");
+    }
+    cv::Mat bilateral = k.filter_depth ? processing::BilateralFilterDepth(depth, k.bilateral) : depth.clone();
+    cv::Mat filtered = bilateral;
+    int blended = 0;
+    if (k.filter_depth && previous != nullptr && k.temporal.weight > 0.0) {
+      filtered =
+          processing::TemporalFilterDepth(bilateral, LoadFloat(previous->dir / "bilateral.exr"), k.temporal, &blended);
+    }
+    nlohmann::json info = {
+        {"depth_frame", pair.depth.id}, {"color_frame", pair.color.id}, {"temporal_blended", blended}};
+    bool reuse = false;
+    if (k.normals_reuse && previous != nullptr) {
+      const double changed = ChangedFraction(filtered, LoadFloat(previous->dir / "depth.exr"),
+                                             k.bilateral.range_sigma_at_1m_m, k.reuse_sigmas);
+      info["depth_changed_fraction"] = changed;
+      reuse = changed <= k.reuse_max_changed_fraction;
+    }
+    cv::Mat normals, valid;
+    if (k.true_normals) {
+      if (!run.rig()->world) throw InvalidArgumentError("--set true_normals=true needs a simulated session (a world)");
+      const sim::GroundTruth truth = run.rig()->world->Render(camera, pair.color.utc);
+      const Eigen::Matrix3f camera_from_world = camera.world_from_camera.rotation().transpose().cast<float>();
+      normals = cv::Mat(truth.normal_in_world.size(), CV_32FC3);
+      valid = cv::Mat::zeros(normals.size(), CV_8UC1);
+      for (int y = 0; y < normals.rows; ++y) {
+        for (int x = 0; x < normals.cols; ++x) {
+          const cv::Vec3f n = truth.normal_in_world.at<cv::Vec3f>(y, x);
+          const Eigen::Vector3f c = camera_from_world * Eigen::Vector3f(n[0], n[1], n[2]);
+          normals.at<cv::Vec3f>(y, x) = cv::Vec3f(c.x(), c.y(), c.z());
+          if (std::isfinite(c.x())) valid.at<std::uint8_t>(y, x) = 255;
+        }
+      }
+      info["normals_from_frame"] = pair.color.id;
+      info["normals_from_truth"] = true;
+    } else if (reuse) {
+      normals = LoadFloat(previous->dir / "normals.exr");
+      valid = LoadMask(previous->dir / "valid.png");
+      info["normals_from_frame"] = previous->normals_from_frame;
+    } else {
+      const processing::NormalMap map = processing::EstimateNormals(filtered, K, k.normals);
+      normals = map.normal_in_camera;
+      valid = map.valid;
+      info["normals_from_frame"] = pair.color.id;
+      info["normals_integral"] = map.integral_count;
+      info["normals_cross"] = map.cross_count;
+      info["normals_invalid"] = map.invalid_count;
+    }
+    cv::Mat mask = valid.clone();
+    for (int y = 0; y < mask.rows; ++y) {
+      const float* z = filtered.ptr<float>(y);
+      for (int x = 0; x < mask.cols; ++x) {
+        if (!(std::isfinite(z[x]) && z[x] > 0.0f)) mask.at<std::uint8_t>(y, x) = 0;
+      }
+    }
+    info["mask_pixels"] = cv::countNonZero(mask);
+    SaveFloat(bilateral, dir / "bilateral.exr");
+    SaveFloat(filtered, dir / "depth.exr");
+    SaveFloat(normals, dir / "normals.exr");
+    calibration::SaveImage(valid, (dir / "valid.png").string());
+    calibration::SaveImage(mask, (dir / "mask.png").string());
+    WriteJson(dir / "geometry.json", info);
+  });
+  g.dir = stage.dir;
+  const nlohmann::json info = ReadJson(g.dir / "geometry.json");
+  g.normals = LoadFloat(g.dir / "normals.exr");
+  g.mask = LoadMask(g.dir / "mask.png");
+  g.normals_from_frame = info["normals_from_frame"].get<std::int64_t>();
+  if (info.contains("normals_from_truth")) {
+    run.Decide("normals", "choose", "frame " + id + ": the world's true normals (diagnostic: --set true_normals=true)");
+  } else if (info.contains("depth_changed_fraction")) {
+    const double changed = info["depth_changed_fraction"].get<double>();
+    if (g.normals_from_frame != pair.color.id) {
+      run.Decide("normals", "skip",
+                 "frame " + id + ": depth unchanged (" + Percent(changed) + " of pixels moved beyond " +
+                     Number(k.reuse_sigmas) + " range sigmas, tolerance " + Percent(k.reuse_max_changed_fraction) +
+                     "); normals of frame " + std::to_string(g.normals_from_frame) + " reused");
+    } else {
+      run.Decide("normals", "run",
+                 "frame " + id + ": depth changed in " + Percent(changed) + " of pixels (tolerance " +
+                     Percent(k.reuse_max_changed_fraction) + "); normals recomputed");
+    }
+  }
+  return g;
+}
+
+// ---- SH fit ---------------------------------------------------------------------------------
+
+struct FrameFit {
+  fs::path dir;
+  StageKey key;
+  ShRgb light = ShRgb::Zero();
+  nlohmann::json summary;
+};
+
+FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair& pair, const PinholeCamera& camera,
+             const FrameRadiance& radiance, const FrameGeometry& geometry) {
+  FrameFit f;
+  f.key.Add("stage", "sh-fit-v1").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
+  f.key.Add("sh_order", k.fit.fit.max_order).Add("max_condition", k.fit.fit.max_condition_number);
+  f.key.Add("min_solid_angle", k.fit.fit.min_solid_angle_order2_sr).Add("samples", k.samples.count);
+  f.key.Add("sample_seed", static_cast<std::int64_t>(k.samples.seed)).Add("known_albedo", known_albedo);
+  if (known_albedo) {
+    f.key.Add("scene", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+    f.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
+  } else {
+    f.key.Add("segments", k.segmentation.segment_count).Add("max_iterations", k.fit.max_iterations);
+  }
+  const std::string id = std::to_string(pair.color.id);
+  const StageCache::Result stage = run.RunStage("fit-" + id, f.key, [&](const fs::path& dir) {
+    cv::Mat allowed = geometry.mask.clone();
+    for (int y = 0; y < allowed.rows; ++y) {
+      const auto* p = radiance.radiance.pixels.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < allowed.cols; ++x) {
+        if (!(std::isfinite(p[x][0]) && std::isfinite(p[x][1]) && std::isfinite(p[x][2])))
+          allowed.at<std::uint8_t>(y, x) = 0;
+      }
+    }
+    processing::ShFitSummary summary;
+    nlohmann::json extra;
+    if (known_albedo) {
+      const cv::Mat albedo = run.rig()->world->Render(camera, pair.color.utc).albedo;
+      processing::SamplePointSelector selector(k.samples);
+      const std::vector<cv::Point>& points = selector.Update(allowed);
+      const processing::ShFitResult fit = processing::FitShKnownAlbedo(
+          processing::GatherObservations(radiance.radiance, geometry.normals, albedo, {}, points), k.fit.fit);
+      f.light = fit.light;
+      summary = fit.summary;
+      extra["albedo"] = "known (the rig's world)";
+    } else {
+      const processing::Segmentation seg =
+          processing::SegmentByColor(radiance.radiance, allowed, geometry.normals, k.segmentation);
+      processing::SamplePointSelector selector(k.samples);
+      const std::vector<cv::Point>& points = selector.Update(seg.labels >= 0);
+      const processing::ShAlbedoFitResult fit = processing::FitShUnknownAlbedo(
+          processing::GatherObservations(radiance.radiance, geometry.normals, {}, seg.labels, points), k.fit);
+      f.light = fit.light;
+      summary = fit.summary;
+      extra["albedo"] = "unknown (k-means segments, alternating fit; scale fixed by the largest segment = 0.5)";
+      extra["segments"] = seg.segment_count();
+      for (const Eigen::Vector3d& a : fit.segment_albedo) extra["segment_albedo"].push_back({a.x(), a.y(), a.z()});
+    }
+    nlohmann::json light = ShLightToJson(f.light, summary.order_used);
+    light["fit"] = {{"usable", summary.usable},
+                    {"order_used", summary.order_used},
+                    {"order_reduced", summary.order_reduced},
+                    {"observations", summary.observation_count},
+                    {"condition_number", summary.condition_number},
+                    {"condition_number_order2", summary.condition_number_order2},
+                    {"normal_solid_angle_sr", summary.normal_solid_angle_sr},
+                    {"relative_rms_residual", summary.relative_rms_residual},
+                    {"iterations", summary.iterations},
+                    {"converged", summary.converged},
+                    {"message", summary.message}};
+    light["fit"].update(extra);
+    WriteJson(dir / "light.json", light);
+    const cv::Mat latlong =
+        processing::ShToLatLong(f.light, 128, 64, processing::ShDisplayQuantity::kRadiance,
+                                camera.world_from_camera.rotation().transpose());  // map +z = world up
+    const cv::Mat cube = processing::ShToCubeCross(f.light, 32, processing::ShDisplayQuantity::kRadiance);
+    RadianceImage l, c;
+    l.pixels = latlong;
+    c.pixels = cube;
+    calibration::SaveRadianceExr(l, (dir / "latlong.exr").string());
+    calibration::SaveImage(RadiancePreview(l), (dir / "latlong.png").string());
+    calibration::SaveImage(RadiancePreview(c), (dir / "cube.png").string());
+  });
+  f.dir = stage.dir;
+  const nlohmann::json light = ReadJson(f.dir / "light.json");
+  f.light = ShLightFromJson(light, (f.dir / "light.json").string());
+  f.summary = light["fit"];
+  if (!f.summary["usable"].get<bool>()) {
+    throw InvalidArgumentError("frame " + id +
+                               ": no SH light could be estimated: " + f.summary["message"].get<std::string>() +
+                               " (the object mask has too few pixels with depth and normals?)");
+  }
+  if (f.summary["order_reduced"].get<bool>()) {
+    run.Decide("sh-order", "choose",
+               "frame " + id + ": order " + std::to_string(f.summary["order_used"].get<int>()) + " instead of " +
+                   std::to_string(k.fit.fit.max_order) + ": " + f.summary["message"].get<std::string>());
+  }
+  return f;
+}
+
+// ---- destination light ----------------------------------------------------------------------
+
+struct Destination {
+  ShRgb light = ShRgb::Zero();
+  std::string kind;  // "frame", "json", "envmap"
+  std::string description;
+  std::optional<std::size_t> frame_index;  // kind "frame"
+  RadianceImage envmap;                    // kind "envmap"
+  Eigen::Matrix3d camera_from_map = Eigen::Matrix3d::Identity();
+};
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  std::string tail = s.substr(s.size() - suffix.size());
+  std::transform(tail.begin(), tail.end(), tail.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  return tail == suffix;
+}
+
+Destination ChooseDestination(PipelineRun& run, const std::vector<RgbdPair>& pairs, const PinholeCamera& camera) {
+  Destination d;
+  const std::optional<std::string>& target = run.request().target_light;
+  if (!target) {
+    d.kind = "frame";
+    d.frame_index = pairs.size() - 1;
+    d.description = "frame " + std::to_string(pairs.back().color.id) + " (the last; no --target-light given)";
+    run.Decide("target-light", "choose",
+               "no --target-light: relighting to the estimate of the last frame (" +
+                   std::to_string(pairs.back().color.id) + ")");
+    return d;
+  }
+  if (EndsWith(*target, ".json")) {
+    d.kind = "json";
+    d.light = ShLightFromJson(ReadJson(*target), *target);
+    d.description = "SH light " + *target;
+    run.Decide("target-light", "choose", "SH coefficients from " + *target + " (camera frame)");
+    return d;
+  }
+  if (EndsWith(*target, ".exr") || EndsWith(*target, ".hdr")) {
+    d.kind = "envmap";
+    d.envmap = calibration::LoadRadianceExr(*target);
+    if (d.envmap.pixels.channels() != 3 || d.envmap.width() != 2 * d.envmap.height()) {
+      throw InvalidArgumentError(
+          *target + ": an environment map must be an RGB lat-long image twice as wide as tall (" +
+          std::to_string(d.envmap.width()) + "x" + std::to_string(d.envmap.height()) + " given)");
+    }
+    // The map's +z is the world's up (ENU), column 0 faces east: into the camera frame.
+    d.camera_from_map = camera.world_from_camera.rotation().transpose();
+    d.light = processing::ProjectEnvironmentMap(d.envmap, d.camera_from_map);
+    d.description = "environment map " + *target + " projected to SH order 2";
+    run.Decide("target-light", "choose",
+               "environment map " + *target + " (lat-long, +z = up, u = 0 east) projected to SH");
+    return d;
+  }
+  const std::vector<capture::FrameRecord> selected = SelectFrames(run.session(), *target);
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    for (const capture::FrameRecord& f : selected) {
+      if (f.id == pairs[i].color.id || f.id == pairs[i].depth.id) {
+        d.kind = "frame";
+        d.frame_index = i;
+        d.description = "frame " + std::to_string(pairs[i].color.id);
+        run.Decide("target-light", "choose", "the light estimated in frame " + std::to_string(pairs[i].color.id));
+        return d;
+      }
+    }
+  }
+  throw InvalidArgumentError("--target-light " + *target +
+                             ": selects no RGB-D frame of the session; give an RGB-D frame id, an SH .json "
+                             "or an environment map (.exr)");
+}
+
+// ---- errors against the world's truth -------------------------------------------------------
+
+struct Rms {
+  double sum_sq_diff = 0.0;
+  double sum_sq_truth = 0.0;
+  int pixels = 0;
+  double Relative() const { return sum_sq_truth > 0.0 ? std::sqrt(sum_sq_diff / sum_sq_truth) : 0.0; }
+};
+
+double Srgb8(double v) {
+  v = std::clamp(v, 0.0, 1.0);
+  return 255.0 * (v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055);
+}
+
+nlohmann::json CompareFrame(const processing::RelightResult& relit, const RadianceImage& source, const cv::Mat& truth,
+                            double white) {
+  Rms relit_rms, base_rms;
+  double relit8 = 0.0, base8 = 0.0;
+  for (int y = 0; y < truth.rows; ++y) {
+    const auto* r = relit.relit.pixels.ptr<cv::Vec3f>(y);
+    const auto* s = source.pixels.ptr<cv::Vec3f>(y);
+    const auto* t = truth.ptr<cv::Vec3f>(y);
+    const std::uint8_t* v = relit.valid.ptr<std::uint8_t>(y);
+    for (int x = 0; x < truth.cols; ++x) {
+      if (v[x] == 0) continue;
+      bool ok = true;
+      for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(t[x][c]) && std::isfinite(s[x][c]);
+      if (!ok) continue;
+      for (int c = 0; c < 3; ++c) {
+        relit_rms.sum_sq_diff += (r[x][c] - t[x][c]) * (r[x][c] - t[x][c]);
+        base_rms.sum_sq_diff += (s[x][c] - t[x][c]) * (s[x][c] - t[x][c]);
+        relit_rms.sum_sq_truth += t[x][c] * t[x][c];
+        const double tt = Srgb8(t[x][c] / white);
+        relit8 += (Srgb8(r[x][c] / white) - tt) * (Srgb8(r[x][c] / white) - tt);
+        base8 += (Srgb8(s[x][c] / white) - tt) * (Srgb8(s[x][c] / white) - tt);
+      }
+      ++relit_rms.pixels;
+    }
+  }
+  base_rms.sum_sq_truth = relit_rms.sum_sq_truth;
+  const double n = std::max(1, 3 * relit_rms.pixels);
+  return {{"relit_relative_rms", relit_rms.Relative()},
+          {"baseline_relative_rms", base_rms.Relative()},
+          {"relit_rms_8bit", std::sqrt(relit8 / n)},
+          {"baseline_rms_8bit", std::sqrt(base8 / n)},
+          {"compared_pixels", relit_rms.pixels}};
+}
+
+// Fitted irradiance at the true normals against the true irradiance, over the mask. With
+// `fit_scale` (unknown albedo: the light carries a per-channel scale) one least-squares scale
+// per channel is taken out first.
+nlohmann::json IrradianceError(const ShRgb& light, const sim::GroundTruth& truth,
+                               const Eigen::Matrix3d& camera_from_world, const cv::Mat& mask, bool fit_scale) {
+  std::vector<Eigen::Vector3d> fitted, real;
+  for (int y = 0; y < mask.rows; ++y) {
+    for (int x = 0; x < mask.cols; ++x) {
+      if (mask.at<std::uint8_t>(y, x) == 0) continue;
+      const cv::Vec3f n = truth.normal_in_world.at<cv::Vec3f>(y, x);
+      const cv::Vec3f e = truth.irradiance.at<cv::Vec3f>(y, x);
+      if (!(std::isfinite(n[0]) && std::isfinite(e[0]) && std::isfinite(e[1]) && std::isfinite(e[2]))) continue;
+      const Eigen::Vector3d n_cam = camera_from_world * Eigen::Vector3d(n[0], n[1], n[2]);
+      fitted.push_back(processing::ShIrradiance(light, n_cam.normalized()));
+      real.emplace_back(e[0], e[1], e[2]);
+    }
+  }
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  if (fit_scale) {
+    Eigen::Vector3d ft = Eigen::Vector3d::Zero(), ff = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < fitted.size(); ++i) {
+      ft += fitted[i].cwiseProduct(real[i]);
+      ff += fitted[i].cwiseProduct(fitted[i]);
+    }
+    for (int c = 0; c < 3; ++c) scale[c] = ff[c] > 0.0 ? ft[c] / ff[c] : 1.0;
+  }
+  double diff = 0.0, sum = 0.0;
+  for (std::size_t i = 0; i < fitted.size(); ++i) {
+    diff += (fitted[i].cwiseProduct(scale) - real[i]).squaredNorm();
+    sum += real[i].squaredNorm();
+  }
+  return {{"irradiance_relative_rms", sum > 0.0 ? std::sqrt(diff / sum) : 0.0},
+          {"irradiance_pixels", static_cast<int>(fitted.size())},
+          {"irradiance_scale_removed", fit_scale}};
+}
+
+// The source geometry under the destination light, from the world's truth. Returns an empty
+// Mat (and says why) when the world cannot give it.
+// `dst_frame_truth` caches the destination frame's render across source frames.
+cv::Mat DestinationTruth(PipelineRun& run, const Destination& dst, const std::vector<RgbdPair>& pairs,
+                         const PinholeCamera& camera, const sim::GroundTruth& src_truth,
+                         std::optional<sim::GroundTruth>* dst_frame_truth, std::string* how) {
+  if (dst.kind == "frame") {
+    if (!*dst_frame_truth) *dst_frame_truth = run.rig()->world->Render(camera, pairs[*dst.frame_index].color.utc);
+    const sim::GroundTruth& t = **dst_frame_truth;
+    double max_dz = 0.0;
+    for (int y = 0; y < t.depth_m.rows; ++y) {
+      for (int x = 0; x < t.depth_m.cols; ++x) {
+        const float a = t.depth_m.at<float>(y, x), b = src_truth.depth_m.at<float>(y, x);
+        if (std::isfinite(a) != std::isfinite(b)) max_dz = std::numeric_limits<double>::infinity();
+        if (std::isfinite(a) && std::isfinite(b)) max_dz = std::max(max_dz, static_cast<double>(std::abs(a - b)));
+      }
+    }
+    if (max_dz > 1e-4) {
+      *how =
+          "none: the scene moved between the source and destination frames, so the world cannot show the source "
+          "geometry under the destination light";
+      return {};
+    }
+    *how = "the world rendered at the destination frame's time (static geometry)";
+    return t.radiance.pixels;
+  }
+  // albedo * E_dst(true normal) / pi: what the renderer computes for a Lambertian surface.
+  const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
+  cv::Mat truth(src_truth.albedo.size(), CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+  for (int y = 0; y < truth.rows; ++y) {
+    for (int x = 0; x < truth.cols; ++x) {
+      const cv::Vec3f n = src_truth.normal_in_world.at<cv::Vec3f>(y, x);
+      const cv::Vec3f a = src_truth.albedo.at<cv::Vec3f>(y, x);
+      if (!(std::isfinite(n[0]) && std::isfinite(a[0]))) continue;
+      const Eigen::Vector3d n_cam = (camera_from_world * Eigen::Vector3d(n[0], n[1], n[2])).normalized();
+      const Eigen::Vector3d e = dst.kind == "envmap"
+                                    ? processing::IntegrateIrradiance(dst.envmap, dst.camera_from_map, n_cam)
+                                    : processing::ShIrradiance(dst.light, n_cam);
+      for (int c = 0; c < 3; ++c) truth.at<cv::Vec3f>(y, x)[c] = static_cast<float>(a[c] * e[c] / std::numbers::pi);
+    }
+  }
+  *how = dst.kind == "envmap" ? "true albedo x irradiance integrated from the environment map at the true normal / pi"
+                              : "true albedo x E_dst(true normal) / pi";
+  return truth;
+}
+
+}  // namespace
+
+void RunShPipeline(PipelineRun& run) {
+  const Knobs k = ReadKnobs(run);
+  const std::vector<RgbdPair> pairs = PairFrames(run, k.pair_max_gap_ms);
+  if (pairs.empty()) {
+    throw InvalidArgumentError("session " + run.session().dir().string() +
+                               " has no RGB-D frames (depth + color streams); the SH pipeline needs an RGB-D "
+                               "sensor's frames (a rig with an rgbd_sensor, see tests/data/rigs/sim-sh-*.yaml)");
+  }
+  const std::string device = pairs.front().color.device_id;
+  const sim::SimDeviceSpec* spec = FindDeviceSpec(run.rig(), device);
+  if (spec == nullptr) {
+    throw InvalidArgumentError("the session does not record the geometry of RGB-D device " + device +
+                               " (its rig, with the colour camera's intrinsics, is stored only for simulated rigs "
+                               "so far); the SH pipeline cannot place normals without it");
+  }
+  const PinholeCamera camera = ColorCamera(*spec, pairs.front().color);
+  // Frames relit: --source (default all); the fits run on every pair (temporal filter chain).
+  std::vector<bool> is_source(pairs.size(), !run.request().source.has_value());
+  if (run.request().source) {
+    for (const capture::FrameRecord& f : SelectFrames(run.session(), *run.request().source)) {
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        if (f.id == pairs[i].color.id || f.id == pairs[i].depth.id) is_source[i] = true;
+      }
+    }
+  }
+  const bool has_world = run.rig()->world != nullptr;
+  const bool known_albedo = k.albedo == "known" || (k.albedo == "auto" && has_world);
+  if (k.albedo == "known" && !has_world)
+    throw InvalidArgumentError("--set albedo=known: the session's rig has no world to give the albedo; use unknown");
+  run.Decide("albedo", "choose",
+             known_albedo
+                 ? "known: per-pixel albedo from the rig's world (Ogura et al., colour SH with known reflectance)"
+                 : "unknown: k-means segments + alternating light/albedo fit (Ogura & Saito)");
+  if (!HasResponse(run.session(), device)) {
+    run.Decide("radiance", "choose",
+               "no response recorded for " + device + ": inverting the simulated sensor's own colour model");
+  }
+  run.Decide("sh", "plan", std::to_string(pairs.size()) + " RGB-D frame pair(s) of " + device);
+  const Destination dst = ChooseDestination(run, pairs, camera);
+  if (run.request().explain) return;
+
+  std::vector<FrameRadiance> radiance;
+  std::vector<FrameGeometry> geometry;
+  std::vector<FrameFit> fits;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const RgbdPair& pair = pairs[i];
+    radiance.push_back(ColorRadiance(run, pair, *spec, camera));
+    geometry.push_back(Geometry(run, k, pair, camera, i == 0 ? nullptr : &geometry.back()));
+    fits.push_back(Fit(run, k, known_albedo, pair, camera, radiance.back(), geometry.back()));
+    run.AddOutput(fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));
+    run.AddOutput(fits.back().dir / "latlong.png", "SH light of frame " + std::to_string(pair.color.id) + ", lat-long");
+    run.AddOutput(fits.back().dir / "cube.png", "SH light of frame " + std::to_string(pair.color.id) + ", cube cross");
+    run.Progress("sh fit", static_cast<std::int64_t>(i + 1), static_cast<std::int64_t>(pairs.size()));
+  }
+  const ShRgb dst_light = dst.kind == "frame" ? fits[*dst.frame_index].light : dst.light;
+  {
+    nlohmann::json dst_json = ShLightToJson(dst_light, 2);
+    dst_json["source"] = dst.description;
+    WriteJson(run.out_dir() / "target_light.json", dst_json);
+    run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
+  }
+
+  const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
+  nlohmann::json& frames_json = run.metrics()["frames"];
+  frames_json = nlohmann::json::array();
+  std::vector<double> relit_errors, baseline_errors, irradiance_errors, relit8, base8;
+  std::optional<sim::GroundTruth> dst_frame_truth;
+  std::int64_t guarded = 0;
+  std::int64_t relit_pixels = 0;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const std::string id = std::to_string(pairs[i].color.id);
+    nlohmann::json m = {{"color_frame", pairs[i].color.id},
+                        {"depth_frame", pairs[i].depth.id},
+                        {"fit", fits[i].summary},
+                        {"normals_from_frame", geometry[i].normals_from_frame}};
+    sim::GroundTruth truth;
+    const bool compare = k.compare_truth && has_world;
+    if (compare) {
+      truth = run.rig()->world->Render(camera, pairs[i].color.utc);
+      m.update(IrradianceError(fits[i].light, truth, camera_from_world, geometry[i].mask, !known_albedo));
+      if (m["irradiance_pixels"].get<int>() > 0) {
+        irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
+      } else {
+        m.erase("irradiance_relative_rms");  // no pixel with truth to compare: no figure, not 0
+      }
+    }
+    if (!is_source[i]) {
+      frames_json.push_back(m);
+      continue;
+    }
+    if (dst.kind == "frame" && *dst.frame_index == i) {
+      run.Decide("relight", "skip", "frame " + id + " is the destination light's own frame");
+      frames_json.push_back(m);
+      continue;
+    }
+    StageKey key;
+    key.Add("stage", "sh-relight-v2").AddKey("radiance", radiance[i].key).AddKey("geometry", geometry[i].key);
+    key.AddKey("fit", fits[i].key).Add("min_irradiance_fraction", k.relight.min_irradiance_fraction);
+    for (int row = 0; row < processing::kShCount; ++row)
+      for (int c = 0; c < 3; ++c) key.Add("dst", dst_light(row, c));
+    processing::RelightResult relit;
+    const StageCache::Result stage = run.RunStage("relight-" + id, key, [&](const fs::path& dir) {
+      const processing::RelightResult r = processing::RelightSh(radiance[i].radiance, geometry[i].normals,
+                                                                geometry[i].mask, fits[i].light, dst_light, k.relight);
+      calibration::SaveRadianceExr(r.relit, (dir / "relit.exr").string());
+      calibration::SaveImage(r.valid, (dir / "valid.png").string());
+      const RadianceImage composite = processing::Composite(r.relit, r.valid, radiance[i].radiance);
+      calibration::SaveRadianceExr(composite, (dir / "composite.exr").string());
+      calibration::SaveImage(RadiancePreview(composite), (dir / "composite.png").string());
+      calibration::SaveImage(RadiancePreview(radiance[i].radiance), (dir / "source.png").string());
+      WriteJson(dir / "relight.json", {{"requested", r.summary.requested_pixel_count},
+                                       {"relit", r.summary.relit_pixel_count},
+                                       {"guarded", r.summary.guarded_pixel_count},
+                                       {"invalid_input", r.summary.invalid_input_count},
+                                       {"message", r.summary.message}});
+    });
+    relit.relit = calibration::LoadRadianceExr((stage.dir / "relit.exr").string());
+    relit.valid = LoadMask(stage.dir / "valid.png");
+    const nlohmann::json rj = ReadJson(stage.dir / "relight.json");
+    m["relight"] = rj;
+    guarded += rj["guarded"].get<std::int64_t>();
+    relit_pixels += rj["relit"].get<std::int64_t>();
+    if (rj["guarded"].get<int>() > 0) {
+      run.Decide("relight", "skip",
+                 "frame " + id + ": " + std::to_string(rj["guarded"].get<int>()) +
+                     " pixel(s) not divided (source irradiance below " + Percent(k.relight.min_irradiance_fraction) +
+                     " of its mean over the object): masked, kept from the source in the composite");
+    }
+    run.AddOutput(stage.dir / "relit.exr", "frame " + id + " relit (linear radiance, NaN where not relit)");
+    run.AddOutput(stage.dir / "composite.png", "frame " + id + " relit over the source (preview)");
+    if (compare) {
+      std::string how;
+      const cv::Mat dst_truth = DestinationTruth(run, dst, pairs, camera, truth, &dst_frame_truth, &how);
+      m["truth_under_destination"] = how;
+      if (!dst_truth.empty()) {
+        std::vector<float> lum;
+        for (int y = 0; y < dst_truth.rows; ++y)
+          for (int x = 0; x < dst_truth.cols; ++x)
+            if (geometry[i].mask.at<std::uint8_t>(y, x) && std::isfinite(dst_truth.at<cv::Vec3f>(y, x)[1]))
+              lum.push_back(dst_truth.at<cv::Vec3f>(y, x)[1]);
+        double white = 1.0;
+        if (!lum.empty()) {
+          std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(lum.size() * 99 / 100), lum.end());
+          white = std::max(1e-12, static_cast<double>(lum[lum.size() * 99 / 100]));
+        }
+        m.update(CompareFrame(relit, radiance[i].radiance, dst_truth, white));
+        if (m["compared_pixels"].get<int>() == 0) {
+          m["truth_under_destination"] = how + "; no relit pixel to compare";
+          frames_json.push_back(m);
+          continue;
+        }
+        relit_errors.push_back(m["relit_relative_rms"].get<double>());
+        baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
+        relit8.push_back(m["relit_rms_8bit"].get<double>());
+        base8.push_back(m["baseline_rms_8bit"].get<double>());
+      }
+    }
+    frames_json.push_back(m);
+  }
+  const auto mean = [](const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+  };
+  nlohmann::json& metrics = run.metrics();
+  metrics["destination"] = dst.description;
+  metrics["albedo"] = known_albedo ? "known" : "unknown";
+  metrics["guarded_pixels"] = guarded;
+  metrics["relit_pixels"] = relit_pixels;
+  if (!irradiance_errors.empty()) metrics["irradiance_relative_rms_mean"] = mean(irradiance_errors);
+  if (!relit_errors.empty()) {
+    metrics["relit_relative_rms_mean"] = mean(relit_errors);
+    metrics["baseline_relative_rms_mean"] = mean(baseline_errors);
+    metrics["relit_rms_8bit_mean"] = mean(relit8);
+    metrics["baseline_rms_8bit_mean"] = mean(base8);
+    metrics["compared_frames"] = static_cast<int>(relit_errors.size());
+  }
+}
+
+}  // namespace relume::app::process
