@@ -3,6 +3,7 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 
+#include "apps/relume/process/irm_pipeline.h"
 #include "apps/relume/process/pipeline.h"
 #include "apps/relume/process/radiance.h"
 #include "calibration/image_file.h"
@@ -78,6 +79,8 @@ void RunRadiancePipeline(PipelineRun& run) {
 const std::vector<PipelineEntry>& Pipelines() {
   static const std::vector<PipelineEntry> pipelines = {
       {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline},
+      {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
+       RunIrmPipeline},
   };
   return pipelines;
 }
