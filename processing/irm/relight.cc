@@ -139,12 +139,29 @@ std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const Pinhol
   return visible;
 }
 
+std::vector<std::uint8_t> VerticesNearView(const TriangleMesh& mesh, const PinholeCamera& camera) {
+  const Eigen::Isometry3d camera_from_world = camera.world_from_camera.inverse();
+  const double w = camera.intrinsics.width, h = camera.intrinsics.height;
+  std::vector<std::uint8_t> near(mesh.vertex_count(), 0);
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    const Eigen::Vector3d in_camera = camera_from_world * mesh.positions[i].cast<double>();
+    if (in_camera.z() <= 0.0) continue;
+    const Eigen::Vector2d uv = camera.intrinsics.Project(in_camera);
+    near[i] = uv.x() >= -0.5 * w && uv.x() <= 1.5 * w && uv.y() >= -0.5 * h && uv.y() <= 1.5 * h;
+  }
+  return near;
+}
+
 std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
-                                      float angular_radius_rad, int threads) {
+                                      float angular_radius_rad, int threads, const std::vector<std::uint8_t>* needed) {
   const TriangleMesh& mesh = caster.mesh();
   std::vector<float> fractions(mesh.vertex_count(), 1.0f);
   const Eigen::Vector3f sun = sun_dir.normalized();
   ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
+    if (needed != nullptr && (*needed)[static_cast<std::size_t>(i)] == 0) {
+      fractions[static_cast<std::size_t>(i)] = std::numeric_limits<float>::quiet_NaN();
+      return;
+    }
     const Eigen::Vector3f& n = mesh.normals[static_cast<std::size_t>(i)];
     if (n.dot(sun) <= 0.0f) return;  // attached shadow: reported as 1 (the sun term is zero)
     fractions[static_cast<std::size_t>(i)] =
@@ -182,10 +199,13 @@ ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, cons
   const auto start = std::chrono::steady_clock::now();
   ViewGeometry geometry;
   geometry.visible = VertexVisibility(caster, view.camera);
-  geometry.sun_fraction =
-      VertexSunFractions(caster, view.sun_dir, options.sun_samples, options.sun_angular_radius_rad, options.threads);
+  const std::vector<std::uint8_t> near = VerticesNearView(caster.mesh(), view.camera);
+  geometry.sun_fraction = VertexSunFractions(caster, view.sun_dir, options.sun_samples, options.sun_angular_radius_rad,
+                                             options.threads, &near);
   if (!options.use_penumbra_fractions) {
-    for (float& f : geometry.sun_fraction) f = f >= 0.5f ? 1.0f : 0.0f;
+    for (float& f : geometry.sun_fraction) {
+      if (!std::isnan(f)) f = f >= 0.5f ? 1.0f : 0.0f;
+    }
   }
   for (std::size_t i = 0; i < geometry.visible.size(); ++i) {
     if (geometry.visible[i] && geometry.sun_fraction[i] < options.irm.lit_threshold) ++geometry.visible_in_cast_shadow;
@@ -283,7 +303,17 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
       const Eigen::Vector3f normal = caster.Interpolate(mesh.normals, hit).normalized();
       float fs = caster.Interpolate(sun_source, hit);
       float ft = caster.Interpolate(sun_target, hit);
-      if (options.exact_shadow_edges) {
+      if (std::isnan(fs) || std::isnan(ft)) {
+        // A vertex of this triangle is far outside a photograph's view (no per-vertex fraction):
+        // both fractions from the pixel's own rays.
+        const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
+        fs = SunFractionAt(caster, point, normal, source.sun_dir.normalized(), options);
+        ft = SunFractionAt(caster, point, normal, target.sun_dir.normalized(), options);
+        if (!options.use_penumbra_fractions) {
+          fs = fs >= 0.5f ? 1.0f : 0.0f;
+          ft = ft >= 0.5f ? 1.0f : 0.0f;
+        }
+      } else if (options.exact_shadow_edges) {
         const Eigen::Vector3i& tri = mesh.triangles[static_cast<std::size_t>(hit.triangle)];
         auto mixed = [&](const std::vector<float>& f) {
           const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],

@@ -81,16 +81,23 @@ struct RelightResult {
 
 // Per-vertex: 1 when the vertex is inside the image, faces the camera and nothing blocks it.
 std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const PinholeCamera& camera);
-// Per-vertex sun fractions (see the top of this file).
+// Per-vertex sun fractions (see the top of this file); with `needed`, only where needed[i] is
+// non-zero (NaN elsewhere).
 std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
-                                      float angular_radius_rad, int threads);
+                                      float angular_radius_rad, int threads,
+                                      const std::vector<std::uint8_t>* needed = nullptr);
+// Vertices in front of the camera whose projection falls within the image widened by half its
+// size on every side: the vertices a photograph's pixels can interpolate from.
+std::vector<std::uint8_t> VerticesNearView(const TriangleMesh& mesh, const PinholeCamera& camera);
 
 // What one photograph says about every vertex: the first stage, cached per photograph by
 // `relume process --pipeline irm`. Sun fractions are rounded to 0/1 when the options ask for
 // the paper's bits (use_penumbra_fractions = false).
 struct ViewGeometry {
   std::vector<std::uint8_t> visible;  // VertexVisibility
-  std::vector<float> sun_fraction;    // VertexSunFractions
+  // VertexSunFractions for the vertices near the view (VerticesNearView), NaN elsewhere: a
+  // pixel whose triangle has a NaN vertex casts its own sun rays.
+  std::vector<float> sun_fraction;
   // Visible vertices in cast shadow (sun fraction below the IRM's lit threshold): when both
   // photographs have none, one IRM is enough (the planner's decision).
   int visible_in_cast_shadow = 0;

@@ -193,5 +193,86 @@ TEST(IrmAccuracyTest, NoiseFreeRelightingBeatsTheBaselineInEveryRegion) {
   EXPECT_LT(bits.relit.all, 0.2 * bits.baseline.all);
 }
 
+// Counts the decisions of a run with this action, per stage prefix.
+int Count(const nlohmann::json& summary, const std::string& action, const std::string& stage_prefix = "") {
+  int n = 0;
+  for (const nlohmann::json& d : summary["decisions"]) {
+    n += d["action"] == action && d["stage"].get<std::string>().rfind(stage_prefix, 0) == 0;
+  }
+  return n;
+}
+
+TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
+  const fs::path dir = TempDir("cli");
+  const fs::path session = dir / "session";
+  const testing::CliResult capture =
+      testing::RunRelume("capture --rig " + kSource + "/tests/data/rigs/sim-tiny-irm.yaml --out " + session.string());
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  const fs::path out = dir / "irm";
+  const std::string base = "process " + session.string() + " --pipeline irm --source bracket:1 --target bracket:2";
+  const std::string command = base + " --out " + out.string();
+
+  const testing::CliResult first = testing::RunRelume(command);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const nlohmann::json summary = ReadJson(out / "summary.json");
+  EXPECT_EQ(Count(summary, "run", "irm-"), 4) << first.output;  // two views, the build, the relighting
+  EXPECT_NE(first.output.find("four IRMs:"), std::string::npos) << first.output;
+  for (const nlohmann::json& o : summary["outputs"]) {
+    EXPECT_TRUE(fs::exists(out / o["path"].get<std::string>())) << o.dump();
+  }
+  std::string outputs = summary["outputs"].dump();
+  for (const char* name : {"relit.exr", "relit.png", "status.png", "seam_difference.exr", "irm_lit_to_lit.exr",
+                           "irm_shadow_to_lit.exr", "truth_error.png"}) {
+    EXPECT_NE(outputs.find(name), std::string::npos) << name;
+  }
+  const nlohmann::json& m = summary["metrics"];
+  const nlohmann::json& relit = m["truth"]["relit"];
+  const nlohmann::json& baseline = m["truth"]["no_relighting"];
+  // With sensor noise (14-bit raw, 160x120): lit within a few per cent, every region far better
+  // than not relighting (docs/irm.md has the numbers).
+  EXPECT_LT(relit["relative_rms_lit"].get<double>(), 0.04) << m.dump(1);
+  EXPECT_LT(relit["relative_rms_all"].get<double>(), 0.3 * baseline["relative_rms_all"].get<double>()) << m.dump(1);
+  EXPECT_LT(relit["relative_rms_shadow"].get<double>(), baseline["relative_rms_shadow"].get<double>()) << m.dump(1);
+  EXPECT_GT(relit["lit_pixels"].get<int>(), 3000);
+  EXPECT_GT(m["irm"]["pixels_without_geometry"].get<int>(), 1000);  // the sky, untouched
+  EXPECT_LT(m["irm"]["seam"]["overlap_relative_rms_after"].get<double>(),
+            0.3 * m["irm"]["seam"]["overlap_relative_rms_before"].get<double>())
+      << m["irm"].dump(1);
+  EXPECT_LT(m["truth"]["target_sun_direction_error_deg"].get<double>(), 0.05);
+
+  // Unchanged: everything reused. A new bin count: views reused, build and relighting redone.
+  // New sun-disk samples: views too.
+  ASSERT_EQ(testing::RunRelume(command).exit_code, 0);
+  const nlohmann::json again = ReadJson(out / "summary.json");
+  EXPECT_EQ(Count(again, "reuse"), 6) << again["decisions"].dump(1);  // 2 radiance + 4 irm
+  EXPECT_EQ(Count(again, "run"), 0);
+  ASSERT_EQ(testing::RunRelume(command + " --set bins=16").exit_code, 0);
+  const nlohmann::json bins = ReadJson(out / "summary.json");
+  EXPECT_EQ(Count(bins, "reuse", "irm-view"), 2) << bins["decisions"].dump(1);
+  EXPECT_EQ(Count(bins, "run", "irm-"), 2) << bins["decisions"].dump(1);
+  ASSERT_EQ(testing::RunRelume(command + " --set sun_samples=4").exit_code, 0);
+  const nlohmann::json samples = ReadJson(out / "summary.json");
+  EXPECT_EQ(Count(samples, "run", "irm-"), 4) << samples["decisions"].dump(1);
+  EXPECT_EQ(Count(samples, "reuse", "radiance"), 2) << samples["decisions"].dump(1);
+
+  // Errors a user can make, each named.
+  const testing::CliResult no_target =
+      testing::RunRelume("process " + session.string() + " --pipeline irm --source bracket:1");
+  EXPECT_NE(no_target.exit_code, 0);
+  EXPECT_NE(no_target.output.find("needs --target FRAME"), std::string::npos) << no_target.output;
+  const testing::CliResult two =
+      testing::RunRelume("process " + session.string() + " --pipeline irm --source all --target bracket:2");
+  EXPECT_NE(two.exit_code, 0);
+  EXPECT_NE(two.output.find("selects 2 still brackets"), std::string::npos) << two.output;
+  const testing::CliResult no_mesh = testing::RunRelume(command + " --mesh " + (dir / "none.obj").string());
+  EXPECT_NE(no_mesh.exit_code, 0);
+  EXPECT_NE(no_mesh.output.find("does not exist"), std::string::npos) << no_mesh.output;
+  const testing::CliResult bad_frame = testing::RunRelume(
+      command + " --mesh " + kSource + "/config/scenes/meshes/building-utm.obj --set mesh_frame=gps");
+  EXPECT_NE(bad_frame.exit_code, 0);
+  EXPECT_NE(bad_frame.output.find("mesh_frame=gps: expected enu or utm"), std::string::npos) << bad_frame.output;
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace relume::app::process

@@ -151,7 +151,7 @@ SceneGeometry LoadGeometry(PipelineRun& run) {
 
 irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const RayCaster& caster, const irm::View& view,
                             const irm::RelightOptions& options, const StageKey& mesh_key, StageKey* key) {
-  key->Add("stage", "irm-view-v1").AddKey("mesh", mesh_key);
+  key->Add("stage", "irm-view-v2").AddKey("mesh", mesh_key);
   AddCamera(*key, "camera", view.camera);
   for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
   key->Add("sun_samples", options.sun_samples).Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
