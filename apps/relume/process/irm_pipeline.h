@@ -12,8 +12,8 @@
 // from the frames' recorded azimuth and elevation.
 //
 // Knobs (--set): bins (32), sun_samples (16), penumbra (true), exact_shadow_edges (true),
-// mesh_spacing_m (0.5), mesh_frame (enu|utm), mesh_utm_zone (site's), threads (2),
-// compare_truth (true).
+// model_correction (true), mesh_spacing_m (0.5), mesh_frame (enu|utm), mesh_utm_zone (site's),
+// threads (2), compare_truth (true).
 #pragma once
 
 #include <nlohmann/json.hpp>
