@@ -97,6 +97,16 @@ int RatioMap::BinOf(const Eigen::Vector3f& normal) const {
 }
 
 Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal) const {
+  return Interpolate(normal, [](const Eigen::Vector3f&) { return Eigen::Vector3f::Ones().eval(); });
+}
+
+template <typename Correction>
+Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal, const Correction& correction) const {
+  auto value = [&](std::size_t b) -> Eigen::Vector3f {
+    if (b >= mean_normal.size() || !mean_normal[b].allFinite()) return ratio[b];
+    const Eigen::Vector3f c = correction(mean_normal[b]);
+    return c.allFinite() ? ratio[b].cwiseProduct(c).eval() : ratio[b];
+  };
   const Eigen::Vector2f uv =
       OctahedralFromDirection(normal) * static_cast<float>(bins) - Eigen::Vector2f::Constant(0.5f);
   const int i0 = static_cast<int>(std::floor(uv.x())), j0 = static_cast<int>(std::floor(uv.y()));
@@ -111,13 +121,13 @@ Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal) const {
         const std::size_t b = static_cast<std::size_t>(j * bins + i);
         if (!ratio[b].allFinite() || (measured_only && source[b] != 1)) continue;
         const float w = std::max(1e-4f, (di ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy));
-        sum += w * ratio[b];
+        sum += w * value(b);
         weight += w;
       }
     }
     if (weight > 0.0f) return sum / weight;
   }
-  return ratio[static_cast<std::size_t>(BinOf(normal))];
+  return value(static_cast<std::size_t>(BinOf(normal)));
 }
 
 int RatioMap::measured_bins() const {
@@ -267,6 +277,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     set.maps[static_cast<std::size_t>(k)].ratio.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
     set.maps[static_cast<std::size_t>(k)].count.assign(bin_count, 0);
     set.maps[static_cast<std::size_t>(k)].source.assign(bin_count, 0);
+    set.maps[static_cast<std::size_t>(k)].mean_normal.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
     per_bin[static_cast<std::size_t>(k)].resize(bin_count);
     normal_sum[static_cast<std::size_t>(k)].assign(bin_count, Eigen::Vector3f::Zero());
   }
@@ -300,10 +311,12 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       if (static_cast<int>(values.size()) >= options.min_samples_per_bin) {
         map.ratio[b] = TrimmedMean(values, options.trim_fraction);
         map.source[b] = 1;
+        map.mean_normal[b] = normal_sum[static_cast<std::size_t>(k)][b].normalized();
       }
     }
   }
   set.single_map = !any_shadow;
+  set.model_correction = options.model_correction;
   // One row per measured bin: its mean normal, its robust ratio, its pure sun states.
   std::vector<Sample> bin_rows;
   std::vector<double> bin_counts;
@@ -352,11 +365,12 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
         if (map.source[b] != 0) continue;
         const int i = static_cast<int>(b) % options.bins;
         const int j = static_cast<int>(b) / options.bins;
-        const Eigen::Vector3f ratio =
-            set.model.Ratio(DirectionFromOctahedral({(i + 0.5f) / options.bins, (j + 0.5f) / options.bins}), fs, ft);
+        const Eigen::Vector3f centre = DirectionFromOctahedral({(i + 0.5f) / options.bins, (j + 0.5f) / options.bins});
+        const Eigen::Vector3f ratio = set.model.Ratio(centre, fs, ft);
         if (Finite(ratio)) {
           map.ratio[b] = ratio;
           map.source[b] = 3;
+          map.mean_normal[b] = centre;
         }
       }
     } else if (options.fill != FillMethod::kNone) {
@@ -384,7 +398,19 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
 }
 
 Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const {
-  auto at = [&](MapKind kind) { return maps[static_cast<std::size_t>(kind)].Interpolate(normal); };
+  auto at = [&](MapKind kind) {
+    const RatioMap& map = maps[static_cast<std::size_t>(kind)];
+    if (!model_correction || !model.valid) return map.Interpolate(normal);
+    // The map's own pure states: the correction compares normals, not sun fractions.
+    const float fs = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
+    const float ft = (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
+    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft);
+    return map.Interpolate(normal, [&](const Eigen::Vector3f& bin_normal) -> Eigen::Vector3f {
+      const Eigen::Vector3f at_bin = model.Ratio(bin_normal, fs, ft);
+      if (!Finite(at_normal) || !Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) return Eigen::Vector3f::Constant(kNaN);
+      return at_normal.cwiseQuotient(at_bin);
+    });
+  };
   if (single_map) {
     const Eigen::Vector3f r = at(MapKind::kLitToLit);
     return Finite(r) ? r : model.Ratio(normal, source_sun, target_sun);

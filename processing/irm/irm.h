@@ -47,6 +47,11 @@ struct IrmOptions {
   float trim_fraction = 0.2f;         // robust mean: drop this share at each end
   float min_source_radiance = 1e-6f;  // smaller source radiance gives no ratio (no division by ~0)
   FillMethod fill = FillMethod::kSunSkyModel;
+  // A measured bin's ratio is what its samples' normals saw; a pixel's normal elsewhere in the
+  // bin (near the terminator, on curved surfaces) gets it times model(n) / model(bin's mean
+  // normal) when the sun + sky model is valid: the maps keep what the model misses, the model
+  // carries the variation inside a bin (beyond the paper).
+  bool model_correction = true;
   float smoothing_sigma_rad = 0.2f;  // kSmoothing kernel width
   bool IsValid(std::string* why) const;
 };
@@ -65,14 +70,18 @@ Eigen::Vector3f DirectionFromOctahedral(const Eigen::Vector2f& uv);
 
 struct RatioMap {
   int bins = 0;
-  std::vector<Eigen::Vector3f> ratio;  // bins * bins; NaN where empty
-  std::vector<int> count;              // samples per bin
-  std::vector<std::uint8_t> source;    // 0 empty, 1 measured, 2 smoothing, 3 model
+  std::vector<Eigen::Vector3f> ratio;        // bins * bins; NaN where empty
+  std::vector<int> count;                    // samples per bin
+  std::vector<std::uint8_t> source;          // 0 empty, 1 measured, 2 smoothing, 3 model
+  std::vector<Eigen::Vector3f> mean_normal;  // measured: mean sample normal; model: bin centre; else NaN
   int BinOf(const Eigen::Vector3f& normal) const;
   int measured_bins() const;
   // Bilinear interpolation between the centres of the four nearest bins that hold a value
   // (weights renormalised over those); NaN when none does.
   Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal) const;
+  // The same, each bin's value times correction(bin's mean normal) where it has one.
+  template <typename Correction>
+  Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal, const Correction& correction) const;
 };
 
 // Per-channel sun + sky model of source and target irradiance (see the top of this file).
@@ -99,6 +108,7 @@ struct IrmSet {
   std::string summary;          // what was built and why
   float lit_threshold = 0.99f;  // copied from the options that built the set
   float shadow_threshold = 0.01f;
+  bool model_correction = true;
   // The ratio for a normal and the two sun fractions (penumbrae interpolate exactly between
   // maps). NaN when nothing covers that normal.
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const;

@@ -65,8 +65,8 @@ void BM_Relight(benchmark::State& state) {
   options.sun_samples = static_cast<int>(state.range(2));
   RelightSummary last;
   for (auto _ : state) {
-    const RelightResult result = RelightImage(f.caster, {&source, camera, f.source_light.sun_dir},
-                                              {&source, camera, f.target_light.sun_dir}, options);
+    const RelightResult result = RelightImage(f.caster, {&source, camera, f.source_light.sun_dir, {}},
+                                              {&source, camera, f.target_light.sun_dir, {}}, options);
     last = result.summary;
   }
   state.counters["preprocess_s"] = last.preprocess_s;

@@ -66,6 +66,16 @@ bool ConsistentSample(const RayCaster& caster, const View& view, const Eigen::Is
   const Eigen::Vector3d in_camera = camera_from_world * p.cast<double>();
   const Eigen::Vector2d uv = view.camera.intrinsics.Project(in_camera);
   const int x0 = static_cast<int>(std::floor(uv.x() - 0.5)), y0 = static_cast<int>(std::floor(uv.y() - 0.5));
+  if (!view.mask.empty()) {
+    for (int dy = 0; dy <= 1; ++dy) {
+      for (int dx = 0; dx <= 1; ++dx) {
+        const int x = x0 + dx, y = y0 + dy;
+        if (x < 0 || y < 0 || x >= view.mask.cols || y >= view.mask.rows || view.mask.at<std::uint8_t>(y, x) != 0) {
+          return false;
+        }
+      }
+    }
+  }
   const float footprint = static_cast<float>(in_camera.z() / view.camera.intrinsics.fx);
   const Eigen::Vector3f eye = view.camera.world_from_camera.translation().cast<float>();
   for (int dy = 0; dy <= 1; ++dy) {
@@ -129,12 +139,29 @@ std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const Pinhol
   return visible;
 }
 
+std::vector<std::uint8_t> VerticesNearView(const TriangleMesh& mesh, const PinholeCamera& camera) {
+  const Eigen::Isometry3d camera_from_world = camera.world_from_camera.inverse();
+  const double w = camera.intrinsics.width, h = camera.intrinsics.height;
+  std::vector<std::uint8_t> near(mesh.vertex_count(), 0);
+  for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
+    const Eigen::Vector3d in_camera = camera_from_world * mesh.positions[i].cast<double>();
+    if (in_camera.z() <= 0.0) continue;
+    const Eigen::Vector2d uv = camera.intrinsics.Project(in_camera);
+    near[i] = uv.x() >= -0.5 * w && uv.x() <= 1.5 * w && uv.y() >= -0.5 * h && uv.y() <= 1.5 * h;
+  }
+  return near;
+}
+
 std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
-                                      float angular_radius_rad, int threads) {
+                                      float angular_radius_rad, int threads, const std::vector<std::uint8_t>* needed) {
   const TriangleMesh& mesh = caster.mesh();
   std::vector<float> fractions(mesh.vertex_count(), 1.0f);
   const Eigen::Vector3f sun = sun_dir.normalized();
   ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
+    if (needed != nullptr && (*needed)[static_cast<std::size_t>(i)] == 0) {
+      fractions[static_cast<std::size_t>(i)] = std::numeric_limits<float>::quiet_NaN();
+      return;
+    }
     const Eigen::Vector3f& n = mesh.normals[static_cast<std::size_t>(i)];
     if (n.dot(sun) <= 0.0f) return;  // attached shadow: reported as 1 (the sun term is zero)
     fractions[static_cast<std::size_t>(i)] =
@@ -143,8 +170,8 @@ std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vect
   return fractions;
 }
 
-RelightResult RelightImage(const RayCaster& caster, const View& source, const View& target,
-                           const RelightOptions& options) {
+void CheckRelightInputs(const RayCaster& caster, const View& source, const View& target,
+                        const RelightOptions& options) {
   ThrowIfInvalid(options, "IRM relighting options");
   const TriangleMesh& mesh = caster.mesh();
   if (mesh.normals.size() != mesh.vertex_count())
@@ -162,42 +189,54 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
     if (!view->sun_dir.allFinite() || view->sun_dir.norm() < 0.5f) {
       throw InvalidArgumentError("IRM relighting: the sun direction must be a unit vector");
     }
+    if (!view->mask.empty() && (view->mask.type() != CV_8UC1 || view->mask.size() != view->image->pixels.size())) {
+      throw InvalidArgumentError("IRM relighting: a mask must be 8-bit, one channel, of the image's size");
+    }
   }
-  RelightResult result;
-  RelightSummary& summary = result.summary;
-  summary.vertices = static_cast<int>(mesh.vertex_count());
+}
 
-  // 1. Pre-processing: visibility and sun fractions per vertex, for each photograph.
-  auto start = std::chrono::steady_clock::now();
-  const std::vector<std::uint8_t> seen_source = VertexVisibility(caster, source.camera);
-  const std::vector<std::uint8_t> seen_target = VertexVisibility(caster, target.camera);
-  std::vector<float> sun_source =
-      VertexSunFractions(caster, source.sun_dir, options.sun_samples, options.sun_angular_radius_rad, options.threads);
-  std::vector<float> sun_target =
-      VertexSunFractions(caster, target.sun_dir, options.sun_samples, options.sun_angular_radius_rad, options.threads);
+ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  ViewGeometry geometry;
+  geometry.visible = VertexVisibility(caster, view.camera);
+  const std::vector<std::uint8_t> near = VerticesNearView(caster.mesh(), view.camera);
+  geometry.sun_fraction = VertexSunFractions(caster, view.sun_dir, options.sun_samples, options.sun_angular_radius_rad,
+                                             options.threads, &near);
   if (!options.use_penumbra_fractions) {
-    for (float& f : sun_source) f = f >= 0.5f ? 1.0f : 0.0f;
-    for (float& f : sun_target) f = f >= 0.5f ? 1.0f : 0.0f;
+    for (float& f : geometry.sun_fraction) {
+      if (!std::isnan(f)) f = f >= 0.5f ? 1.0f : 0.0f;
+    }
   }
-  summary.preprocess_s = SecondsSince(start);
+  for (std::size_t i = 0; i < geometry.visible.size(); ++i) {
+    if (geometry.visible[i] && geometry.sun_fraction[i] < options.irm.lit_threshold) ++geometry.visible_in_cast_shadow;
+  }
+  geometry.seconds = SecondsSince(start);
+  return geometry;
+}
 
-  // 2. IRMs from the vertices seen in both photographs.
-  start = std::chrono::steady_clock::now();
+IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const View& target,
+                          const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
+                          const RelightOptions& options, RelightSummary* summary) {
+  const auto start = std::chrono::steady_clock::now();
+  const TriangleMesh& mesh = caster.mesh();
+  RELUME_CHECK(source_geometry.visible.size() == mesh.vertex_count() &&
+               target_geometry.visible.size() == mesh.vertex_count());
+  summary->vertices = static_cast<int>(mesh.vertex_count());
   const Eigen::Isometry3d source_from_world = source.camera.world_from_camera.inverse();
   const Eigen::Isometry3d target_from_world = target.camera.world_from_camera.inverse();
   std::vector<std::size_t> both;
   for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
-    if (seen_source[i] && seen_target[i]) both.push_back(i);
+    if (source_geometry.visible[i] && target_geometry.visible[i]) both.push_back(i);
   }
-  summary.visible_in_both = static_cast<int>(both.size());
+  summary->visible_in_both = static_cast<int>(both.size());
   std::vector<Sample> candidates(both.size());
   std::vector<std::uint8_t> keep(both.size(), 0);
   ParallelFor(static_cast<int>(both.size()), options.threads, [&](int k) {
     const std::size_t i = both[static_cast<std::size_t>(k)];
     Sample& s = candidates[static_cast<std::size_t>(k)];
     s.normal = mesh.normals[i];
-    s.source_sun = sun_source[i];
-    s.target_sun = sun_target[i];
+    s.source_sun = source_geometry.sun_fraction[i];
+    s.target_sun = target_geometry.sun_fraction[i];
     keep[static_cast<std::size_t>(k)] =
         ConsistentSample(caster, source, source_from_world, i, s.source_sun, options, &s.source_rgb) &&
         ConsistentSample(caster, target, target_from_world, i, s.target_sun, options, &s.target_rgb);
@@ -206,27 +245,37 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
   for (std::size_t k = 0; k < both.size(); ++k) {
     if (keep[k]) samples.push_back(candidates[k]);
   }
-  summary.consistent_samples = static_cast<int>(samples.size());
-  result.irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm);
-  summary.irm_summary = result.irms.summary;
+  summary->consistent_samples = static_cast<int>(samples.size());
+  IrmSet irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm);
+  summary->irm_summary = irms.summary;
   double before = 0.0, after = 0.0;
   int compared = 0;
   for (const Sample& s : samples) {
     if (!s.source_rgb.allFinite() || !s.target_rgb.allFinite() || s.target_rgb.minCoeff() <= 0.0f) continue;
-    const Eigen::Vector3f ratio = result.irms.Ratio(s.normal, s.source_sun, s.target_sun);
+    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun);
     if (!ratio.allFinite()) continue;
     before += (s.source_rgb - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
     after += (s.source_rgb.cwiseProduct(ratio) - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
     ++compared;
   }
   if (compared > 0) {
-    summary.overlap_rms_before = std::sqrt(before / compared);
-    summary.overlap_rms_after = std::sqrt(after / compared);
+    summary->overlap_rms_before = std::sqrt(before / compared);
+    summary->overlap_rms_after = std::sqrt(after / compared);
   }
-  summary.build_s = SecondsSince(start);
+  summary->build_s = SecondsSince(start);
+  return irms;
+}
 
-  // 3. Per-pixel relighting of the source photograph.
-  start = std::chrono::steady_clock::now();
+RelightResult RelightPixels(const RayCaster& caster, const View& source, const View& target,
+                            const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
+                            const IrmSet& irms, const RelightOptions& options, RelightSummary summary) {
+  const auto start = std::chrono::steady_clock::now();
+  const TriangleMesh& mesh = caster.mesh();
+  const std::vector<float>& sun_source = source_geometry.sun_fraction;
+  const std::vector<float>& sun_target = target_geometry.sun_fraction;
+  RELUME_CHECK(sun_source.size() == mesh.vertex_count() && sun_target.size() == mesh.vertex_count());
+  RelightResult result;
+  result.irms = irms;
   const int width = source.image->width(), height = source.image->height();
   result.relit.pixels = source.image->pixels.clone();
   result.relit.unit = source.image->unit;
@@ -234,8 +283,9 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
   result.source_sun = cv::Mat(height, width, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   result.target_sun = result.source_sun.clone();
   std::vector<std::int64_t> relit_rows(static_cast<std::size_t>(height), 0),
-      missing_rows(static_cast<std::size_t>(height), 0);
+      missing_rows(static_cast<std::size_t>(height), 0), masked_rows(static_cast<std::size_t>(height), 0);
   ParallelFor(height, options.threads, [&](int y) {
+    const std::uint8_t* mask = source.mask.empty() ? nullptr : source.mask.ptr<std::uint8_t>(y);
     std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(width));
     caster.IntersectCameraRow(source.camera, y, 0, width, hits);
     cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
@@ -245,10 +295,25 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
     for (int x = 0; x < width; ++x) {
       const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
       if (!hit.valid) continue;
+      if (mask != nullptr && mask[x] != 0) {
+        status[x] = kMasked;
+        ++masked_rows[static_cast<std::size_t>(y)];
+        continue;
+      }
       const Eigen::Vector3f normal = caster.Interpolate(mesh.normals, hit).normalized();
       float fs = caster.Interpolate(sun_source, hit);
       float ft = caster.Interpolate(sun_target, hit);
-      if (options.exact_shadow_edges) {
+      if (std::isnan(fs) || std::isnan(ft)) {
+        // A vertex of this triangle is far outside a photograph's view (no per-vertex fraction):
+        // both fractions from the pixel's own rays.
+        const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
+        fs = SunFractionAt(caster, point, normal, source.sun_dir.normalized(), options);
+        ft = SunFractionAt(caster, point, normal, target.sun_dir.normalized(), options);
+        if (!options.use_penumbra_fractions) {
+          fs = fs >= 0.5f ? 1.0f : 0.0f;
+          ft = ft >= 0.5f ? 1.0f : 0.0f;
+        }
+      } else if (options.exact_shadow_edges) {
         const Eigen::Vector3i& tri = mesh.triangles[static_cast<std::size_t>(hit.triangle)];
         auto mixed = [&](const std::vector<float>& f) {
           const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],
@@ -268,7 +333,7 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
       }
       fs_row[x] = fs;
       ft_row[x] = ft;
-      const Eigen::Vector3f ratio = result.irms.Ratio(normal, fs, ft);
+      const Eigen::Vector3f ratio = irms.Ratio(normal, fs, ft);
       if (!ratio.allFinite()) {
         status[x] = kNoRatio;
         ++missing_rows[static_cast<std::size_t>(y)];
@@ -279,14 +344,30 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
       ++relit_rows[static_cast<std::size_t>(y)];
     }
   });
+  summary.pixels_relit = 0;
+  summary.pixels_without_ratio = 0;
+  summary.pixels_masked = 0;
   for (int y = 0; y < height; ++y) {
     summary.pixels_relit += relit_rows[static_cast<std::size_t>(y)];
     summary.pixels_without_ratio += missing_rows[static_cast<std::size_t>(y)];
+    summary.pixels_masked += masked_rows[static_cast<std::size_t>(y)];
   }
-  summary.pixels_without_geometry =
-      static_cast<std::int64_t>(width) * height - summary.pixels_relit - summary.pixels_without_ratio;
+  summary.pixels_without_geometry = static_cast<std::int64_t>(width) * height - summary.pixels_relit -
+                                    summary.pixels_without_ratio - summary.pixels_masked;
   summary.relight_s = SecondsSince(start);
+  result.summary = summary;
   return result;
+}
+
+RelightResult RelightImage(const RayCaster& caster, const View& source, const View& target,
+                           const RelightOptions& options) {
+  CheckRelightInputs(caster, source, target, options);
+  RelightSummary summary;
+  const ViewGeometry source_geometry = ComputeViewGeometry(caster, source, options);
+  const ViewGeometry target_geometry = ComputeViewGeometry(caster, target, options);
+  summary.preprocess_s = source_geometry.seconds + target_geometry.seconds;
+  const IrmSet irms = BuildIrmsFromViews(caster, source, target, source_geometry, target_geometry, options, &summary);
+  return RelightPixels(caster, source, target, source_geometry, target_geometry, irms, options, summary);
 }
 
 }  // namespace relume::irm

@@ -46,6 +46,10 @@ struct View {
   const RadianceImage* image = nullptr;
   PinholeCamera camera;
   Eigen::Vector3f sun_dir = Eigen::Vector3f::UnitZ();
+  // CV_8UC1, non-zero where the radiance is not to be trusted (saturated or black in every
+  // exposure): never sampled for the IRMs, and left untouched (kMasked) in a relit source.
+  // Empty: every pixel is usable.
+  cv::Mat mask;
 };
 
 struct RelightSummary {
@@ -56,6 +60,7 @@ struct RelightSummary {
   std::int64_t pixels_relit = 0;
   std::int64_t pixels_without_geometry = 0;  // sky, background: left untouched
   std::int64_t pixels_without_ratio = 0;     // geometry but no IRM value or model: left untouched
+  std::int64_t pixels_masked = 0;            // View::mask of the source: left untouched
   double overlap_rms_before = 0.0;           // relative RMS target vs source at vertices seen in both
   double overlap_rms_after = 0.0;            // ... vs relit source
   double preprocess_s = 0.0;
@@ -63,7 +68,7 @@ struct RelightSummary {
   double relight_s = 0.0;
 };
 
-enum PixelStatus : std::uint8_t { kNoGeometry = 0, kRelit = 1, kNoRatio = 2 };
+enum PixelStatus : std::uint8_t { kNoGeometry = 0, kRelit = 1, kNoRatio = 2, kMasked = 3 };
 
 struct RelightResult {
   RadianceImage relit;  // the source under the target's light; untouched where status != kRelit
@@ -76,11 +81,47 @@ struct RelightResult {
 
 // Per-vertex: 1 when the vertex is inside the image, faces the camera and nothing blocks it.
 std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const PinholeCamera& camera);
-// Per-vertex sun fractions (see the top of this file).
+// Per-vertex sun fractions (see the top of this file); with `needed`, only where needed[i] is
+// non-zero (NaN elsewhere).
 std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
-                                      float angular_radius_rad, int threads);
+                                      float angular_radius_rad, int threads,
+                                      const std::vector<std::uint8_t>* needed = nullptr);
+// Vertices in front of the camera whose projection falls within the image widened by half its
+// size on every side: the vertices a photograph's pixels can interpolate from.
+std::vector<std::uint8_t> VerticesNearView(const TriangleMesh& mesh, const PinholeCamera& camera);
 
-// The mesh needs per-vertex normals. Throws InvalidArgumentError for invalid inputs.
+// What one photograph says about every vertex: the first stage, cached per photograph by
+// `relume process --pipeline irm`. Sun fractions are rounded to 0/1 when the options ask for
+// the paper's bits (use_penumbra_fractions = false).
+struct ViewGeometry {
+  std::vector<std::uint8_t> visible;  // VertexVisibility
+  // VertexSunFractions for the vertices near the view (VerticesNearView), NaN elsewhere: a
+  // pixel whose triangle has a NaN vertex casts its own sun rays.
+  std::vector<float> sun_fraction;
+  // Visible vertices in cast shadow (sun fraction below the IRM's lit threshold): when both
+  // photographs have none, one IRM is enough (the planner's decision).
+  int visible_in_cast_shadow = 0;
+  double seconds = 0.0;
+};
+ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options);
+
+// The second stage: samples from the vertices seen in both photographs, then the IRMs. Fills
+// the summary's sample counts, overlap errors and build_s.
+IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const View& target,
+                          const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
+                          const RelightOptions& options, RelightSummary* summary);
+
+// The third stage: every source pixel times the ratio for its surface (relit, status, per-pixel
+// sun fractions). Fills the summary's pixel counts and relight_s. `irms` is copied into the result.
+RelightResult RelightPixels(const RayCaster& caster, const View& source, const View& target,
+                            const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
+                            const IrmSet& irms, const RelightOptions& options, RelightSummary summary);
+
+// Checks the inputs (InvalidArgumentError saying what is wrong): options, images, cameras,
+// sun directions, vertex normals.
+void CheckRelightInputs(const RayCaster& caster, const View& source, const View& target, const RelightOptions& options);
+
+// All three stages. The mesh needs per-vertex normals. Throws InvalidArgumentError for invalid inputs.
 RelightResult RelightImage(const RayCaster& caster, const View& source, const View& target,
                            const RelightOptions& options);
 

@@ -58,8 +58,8 @@ TEST_F(RelightTest, RelitSourceMatchesTheTargetLight) {
 
   RelightOptions options;
   options.irm.bins = 24;
-  const RelightResult result = RelightImage(caster_, {&source, source_camera_, source_light_.sun_dir},
-                                            {&target, target_camera_, target_light_.sun_dir}, options);
+  const RelightResult result = RelightImage(caster_, {&source, source_camera_, source_light_.sun_dir, {}},
+                                            {&target, target_camera_, target_light_.sun_dir, {}}, options);
   EXPECT_FALSE(result.irms.single_map);
   EXPECT_GT(result.summary.visible_in_both, 1000);
   EXPECT_LT(result.summary.overlap_rms_after, 0.25 * result.summary.overlap_rms_before);
@@ -118,19 +118,19 @@ TEST_F(RelightTest, NoCastShadowMeansOneMap) {
   const RadianceImage source = testing::Render(caster, camera, a);
   const RadianceImage target = testing::Render(caster, camera, b);
   const RelightResult result =
-      RelightImage(caster, {&source, camera, a.sun_dir}, {&target, camera, b.sun_dir}, RelightOptions{});
+      RelightImage(caster, {&source, camera, a.sun_dir, {}}, {&target, camera, b.sun_dir, {}}, RelightOptions{});
   EXPECT_TRUE(result.irms.single_map) << result.summary.irm_summary;
 }
 
 TEST_F(RelightTest, RejectsInconsistentInputs) {
   const RadianceImage small = MakeRadianceImage(10, 10);
   RelightOptions options;
-  EXPECT_THROW(RelightImage(caster_, {&small, source_camera_, source_light_.sun_dir},
-                            {&small, target_camera_, target_light_.sun_dir}, options),
+  EXPECT_THROW(RelightImage(caster_, {&small, source_camera_, source_light_.sun_dir, {}},
+                            {&small, target_camera_, target_light_.sun_dir, {}}, options),
                InvalidArgumentError);
   options.sun_samples = 0;
-  EXPECT_THROW(RelightImage(caster_, {&small, source_camera_, source_light_.sun_dir},
-                            {&small, target_camera_, target_light_.sun_dir}, options),
+  EXPECT_THROW(RelightImage(caster_, {&small, source_camera_, source_light_.sun_dir, {}},
+                            {&small, target_camera_, target_light_.sun_dir, {}}, options),
                InvalidArgumentError);
 }
 

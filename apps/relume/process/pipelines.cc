@@ -3,6 +3,7 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 
+#include "apps/relume/process/irm_pipeline.h"
 #include "apps/relume/process/pipeline.h"
 #include "apps/relume/process/radiance.h"
 #include "apps/relume/process/sh_pipeline.h"
@@ -81,6 +82,8 @@ const std::vector<PipelineEntry>& Pipelines() {
       {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline},
       {"sh", "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
        RunShPipeline},
+      {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
+       RunIrmPipeline},
   };
   return pipelines;
 }

@@ -1,0 +1,713 @@
+#include "apps/relume/process/irm_pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "apps/relume/process/irm_scene.h"
+#include "apps/relume/process/radiance.h"
+#include "calibration/image_file.h"
+#include "core/error.h"
+#include "core/frames.h"
+#include "processing/geometry/ray_caster.h"
+#include "processing/irm/relight.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// ---------------------------------------------------------------------------------------
+// JSON helpers
+
+nlohmann::json VecJson(const Eigen::Vector3f& v) {
+  if (!v.allFinite()) return nullptr;
+  return nlohmann::json::array({v.x(), v.y(), v.z()});
+}
+
+Eigen::Vector3f VecFromJson(const nlohmann::json& j) {
+  if (j.is_null()) return Eigen::Vector3f::Constant(kNaN);
+  return {j.at(0).get<float>(), j.at(1).get<float>(), j.at(2).get<float>()};
+}
+
+nlohmann::json ReadJsonFile(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path.string(), "cannot be read (a stage output is missing; run with --force)");
+  return nlohmann::json::parse(in);
+}
+
+void WriteJsonFile(const fs::path& path, const nlohmann::json& json) {
+  std::ofstream out(path);
+  out << json.dump(1) << "\n";
+  if (!out) throw IoError(path.string(), "cannot be written");
+}
+
+// ---------------------------------------------------------------------------------------
+// Inputs: brackets, cameras, sun, mesh
+
+std::vector<capture::FrameRecord> OneBracket(const PipelineRun& run, const std::optional<std::string>& selector,
+                                             const char* role) {
+  if (!selector) {
+    throw InvalidArgumentError(std::string("the irm pipeline needs --") + role +
+                               " FRAME: a still bracket of the session (e.g. --source bracket:1 --target bracket:2; "
+                               "`relume session info` lists them)");
+  }
+  const auto brackets = StillBrackets(run.session(), selector);
+  if (brackets.size() != 1) {
+    throw InvalidArgumentError(std::string("--") + role + " " + *selector + " selects " +
+                               std::to_string(brackets.size()) +
+                               " still brackets; the irm pipeline relights one photograph: select one bracket "
+                               "(bracket:N) or one frame id");
+  }
+  return brackets.front();
+}
+
+Eigen::Vector3f SunDirection(const BracketRadiance& r, const char* role) {
+  if (!(r.sun_elevation_deg > 0.0)) {
+    throw InvalidArgumentError(std::string("the ") + role + " photograph was taken with the sun at elevation " +
+                               std::to_string(r.sun_elevation_deg) +
+                               " deg (below the horizon): IRMs relight sunlit scenes; choose a daytime bracket");
+  }
+  return EnuDirectionFromAzimuthElevation(DegToRad(r.sun_azimuth_deg), DegToRad(r.sun_elevation_deg)).cast<float>();
+}
+
+void AddCamera(StageKey& key, const std::string& name, const PinholeCamera& camera) {
+  const PinholeIntrinsics& k = camera.intrinsics;
+  key.Add(name + ".size", static_cast<std::int64_t>(k.width) * 100000 + k.height);
+  key.Add(name + ".fx", k.fx).Add(name + ".fy", k.fy).Add(name + ".cx", k.cx).Add(name + ".cy", k.cy);
+  const Eigen::Matrix4d m = camera.world_from_camera.matrix();
+  for (int i = 0; i < 12; ++i) key.Add(name + ".pose", m(i % 3, i / 3));
+}
+
+struct SceneGeometry {
+  TriangleMesh mesh;
+  StageKey key;
+  std::string origin;
+};
+
+SceneGeometry LoadGeometry(PipelineRun& run) {
+  IrmMeshOptions options;
+  options.spacing_m = run.Setting("mesh_spacing_m", options.spacing_m);
+  const std::string frame_name = run.Setting("mesh_frame", std::string("enu"));
+  const int zone = run.Setting("mesh_utm_zone", 0);
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgumentError("--set " + why);
+  SceneGeometry g;
+  g.key.Add("stage", "irm-mesh-v1").Add("spacing_m", options.spacing_m).Add("sphere_segments", options.sphere_segments);
+  if (run.request().mesh) {
+    const fs::path& path = *run.request().mesh;
+    if (!fs::exists(path)) throw IoError(path.string(), "does not exist (--mesh takes an OBJ or PLY file)");
+    if (frame_name != "enu" && frame_name != "utm") {
+      throw InvalidArgumentError("--set mesh_frame=" + frame_name + ": expected enu or utm");
+    }
+    const MeshFrame frame = frame_name == "utm" ? MeshFrame::kUtm : MeshFrame::kEnu;
+    if (frame == MeshFrame::kUtm && run.rig() == nullptr) {
+      throw InvalidArgumentError("--mesh in UTM needs the site to convert it, and the session has no stored rig");
+    }
+    const Site site = run.rig() ? run.rig()->site : Site{};
+    const LoadedSceneMesh loaded =
+        LoadSceneMesh(path.string(), frame, site, zone > 0 ? std::optional<int>(zone) : std::nullopt, options);
+    g.mesh = loaded.mesh;
+    g.key.AddFileContent("mesh", path).Add("frame", frame_name).Add("zone", loaded.utm_zone);
+    if (frame == MeshFrame::kUtm) {
+      g.key.Add("site.lat", site.latitude_deg()).Add("site.lon", site.longitude_deg()).Add("site.h", site.height_m);
+      run.Decide("mesh", "choose",
+                 "--mesh " + path.string() + " in UTM zone " + std::to_string(loaded.utm_zone) +
+                     ": converted to ENU through geodetic coordinates (meridian convergence " +
+                     std::to_string(loaded.convergence_rad * 180.0 / std::numbers::pi) + " deg)");
+    } else {
+      run.Decide("mesh", "choose", "--mesh " + path.string() + " (ENU at the site)");
+    }
+    g.origin = path.string();
+  } else if (run.rig() != nullptr && run.rig()->world) {
+    g.mesh = ProcessingMeshFromScene(run.rig()->world->scene(), options);
+    // The recorded world's files (rig.yaml, scene.yaml and its meshes) are what the mesh depends on.
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::recursive_directory_iterator(run.session().dir() / "rig")) {
+      if (entry.is_regular_file()) files.push_back(entry.path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) g.key.AddFileContent(fs::relative(f, run.session().dir()).string(), f);
+    run.Decide("mesh", "choose",
+               "the session's recorded world (rig/scene.yaml), split to " + std::to_string(options.spacing_m) + " m");
+    g.origin = "session world";
+  } else {
+    throw InvalidArgumentError(
+        "the irm pipeline needs the scene's geometry: the session recorded none; give --mesh FILE "
+        "(OBJ or PLY, ENU at the site, or UTM with --set mesh_frame=utm)");
+  }
+  if (g.mesh.triangles.empty()) throw InvalidArgumentError("the scene geometry (" + g.origin + ") has no triangles");
+  return g;
+}
+
+// ---------------------------------------------------------------------------------------
+// Stages
+
+irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const RayCaster& caster, const irm::View& view,
+                            const irm::RelightOptions& options, const StageKey& mesh_key, StageKey* key) {
+  key->Add("stage", "irm-view-v2").AddKey("mesh", mesh_key);
+  AddCamera(*key, "camera", view.camera);
+  for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
+  key->Add("sun_samples", options.sun_samples).Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
+  key->Add("penumbra", options.use_penumbra_fractions).Add("lit", static_cast<double>(options.irm.lit_threshold));
+  irm::ViewGeometry geometry;
+  bool computed = false;
+  const StageCache::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
+    geometry = irm::ComputeViewGeometry(caster, view, options);
+    computed = true;
+    std::ofstream out(dir / "vertices.bin", std::ios::binary);
+    out.write(reinterpret_cast<const char*>(geometry.visible.data()),
+              static_cast<std::streamsize>(geometry.visible.size()));
+    out.write(reinterpret_cast<const char*>(geometry.sun_fraction.data()),
+              static_cast<std::streamsize>(geometry.sun_fraction.size() * sizeof(float)));
+    if (!out) throw IoError((dir / "vertices.bin").string(), "cannot be written");
+    out.close();
+    WriteJsonFile(dir / "view.json", {{"vertices", geometry.visible.size()},
+                                      {"visible", std::count(geometry.visible.begin(), geometry.visible.end(), 1)},
+                                      {"visible_in_cast_shadow", geometry.visible_in_cast_shadow},
+                                      {"seconds", geometry.seconds}});
+  });
+  if (!computed) {
+    const std::size_t n = caster.mesh().vertex_count();
+    geometry.visible.resize(n);
+    geometry.sun_fraction.resize(n);
+    std::ifstream in(stage.dir / "vertices.bin", std::ios::binary);
+    in.read(reinterpret_cast<char*>(geometry.visible.data()), static_cast<std::streamsize>(n));
+    in.read(reinterpret_cast<char*>(geometry.sun_fraction.data()), static_cast<std::streamsize>(n * sizeof(float)));
+    if (!in) throw IoError((stage.dir / "vertices.bin").string(), "is short or unreadable; run with --force");
+    geometry.visible_in_cast_shadow = ReadJsonFile(stage.dir / "view.json")["visible_in_cast_shadow"].get<int>();
+  }
+  return geometry;
+}
+
+// One IRM as images: ratios (EXR, 0 where the bin is empty), a preview (PNG) and the sample
+// count per bin (16-bit PNG).
+void SaveMapImages(const irm::RatioMap& map, const std::string& name, const fs::path& dir) {
+  RadianceImage ratio = MakeRadianceImage(map.bins, map.bins);
+  cv::Mat count(map.bins, map.bins, CV_16UC1, cv::Scalar(0));
+  float largest = 0.0f;
+  for (int j = 0; j < map.bins; ++j) {
+    for (int i = 0; i < map.bins; ++i) {
+      const std::size_t b = static_cast<std::size_t>(j * map.bins + i);
+      const Eigen::Vector3f& r = map.ratio[b];
+      cv::Vec3f& out = ratio.pixels.at<cv::Vec3f>(j, i);
+      for (int c = 0; c < 3; ++c) out[c] = std::isfinite(r[c]) ? r[c] : 0.0f;
+      if (r.allFinite()) largest = std::max(largest, r.maxCoeff());
+      count.at<std::uint16_t>(j, i) = static_cast<std::uint16_t>(std::min(map.count[b], 65535));
+    }
+  }
+  calibration::SaveRadianceExr(ratio, (dir / (name + ".exr")).string());
+  calibration::SaveImage(RadiancePreview(ratio, largest > 0.0f ? largest : 1.0), (dir / (name + ".png")).string());
+  calibration::SaveImage(count, (dir / (name + "_count.png")).string());
+}
+
+double WhiteOf(const RadianceImage& image) {
+  std::vector<float> lum;
+  for (int y = 0; y < image.height(); ++y) {
+    const auto* p = image.pixels.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < image.width(); ++x) {
+      const float l = 0.2126f * p[x][0] + 0.7152f * p[x][1] + 0.0722f * p[x][2];
+      if (std::isfinite(l)) lum.push_back(l);
+    }
+  }
+  if (lum.empty()) return 1.0;
+  const std::size_t k = lum.size() * 99 / 100;
+  std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(k), lum.end());
+  return lum[k] > 0.0f ? lum[k] : 1.0;
+}
+
+Eigen::Vector3f SampleBilinear(const cv::Mat& image, const Eigen::Vector2d& point) {
+  const double x = point.x() - 0.5, y = point.y() - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= image.cols || y0 + 1 >= image.rows) return Eigen::Vector3f::Constant(kNaN);
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  auto at = [&](int yy, int xx) {
+    const cv::Vec3f& v = image.at<cv::Vec3f>(yy, xx);
+    return Eigen::Vector3f(v[0], v[1], v[2]);
+  };
+  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
+         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+}
+
+// The seam: where the source's relit surfaces meet the target photograph. For each relit
+// source pixel whose surface the target also sees (unoccluded, inside the image, well
+// exposed), the target's radiance there; the overlap's boundary pixels (a 4-neighbour outside
+// the overlap, or the image border) form the seam. Differences are relative, per channel,
+// against the target.
+struct SeamResult {
+  double overlap_before = 0.0, overlap_after = 0.0, seam_before = 0.0, seam_after = 0.0;
+  std::int64_t overlap_pixels = 0, seam_pixels = 0;
+  RadianceImage image;  // channel 0: |difference| before, 1: after, 2: 1 on the seam
+};
+
+SeamResult Seam(const RayCaster& caster, const irm::View& source, const irm::View& target,
+                const irm::RelightResult& relit) {
+  const int w = source.image->width(), h = source.image->height();
+  cv::Mat target_rgb(h, w, CV_32FC3, cv::Scalar::all(kNaN));
+  const Eigen::Isometry3d target_from_world = target.camera.world_from_camera.inverse();
+  const Eigen::Vector3f source_eye = source.camera.world_from_camera.translation().cast<float>();
+  const Eigen::Matrix3f source_rotation = source.camera.world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f target_eye = target.camera.world_from_camera.translation().cast<float>();
+  std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(w));
+  for (int y = 0; y < h; ++y) {
+    caster.IntersectCameraRow(source.camera, y, 0, w, hits);
+    for (int x = 0; x < w; ++x) {
+      const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
+      if (!hit.valid || relit.status.at<std::uint8_t>(y, x) != irm::kRelit) continue;
+      const Eigen::Vector3f d =
+          (source_rotation * source.camera.intrinsics.Unproject({x + 0.5, y + 0.5}).cast<float>()).normalized();
+      const Eigen::Vector3f p = source_eye + d * hit.t;
+      const Eigen::Vector3d in_target = target_from_world * p.cast<double>();
+      if (in_target.z() <= 0.0) continue;
+      const Eigen::Vector2d uv = target.camera.intrinsics.Project(in_target);
+      const int tx = static_cast<int>(uv.x()), ty = static_cast<int>(uv.y());
+      if (uv.x() < 0.0 || uv.y() < 0.0 || tx >= w || ty >= h) continue;
+      if (!target.mask.empty() && target.mask.at<std::uint8_t>(ty, tx) != 0) continue;
+      if (caster.Occluded(target_eye, p - target_eye, 0.0f, 0.999f)) continue;
+      const Eigen::Vector3f rgb = SampleBilinear(target.image->pixels, uv);
+      if (!rgb.allFinite() || rgb.minCoeff() <= 0.0f) continue;
+      target_rgb.at<cv::Vec3f>(y, x) = cv::Vec3f(rgb.x(), rgb.y(), rgb.z());
+    }
+  }
+  SeamResult seam;
+  seam.image = MakeRadianceImage(w, h);
+  auto in_overlap = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < w && y < h && std::isfinite(target_rgb.at<cv::Vec3f>(y, x)[0]);
+  };
+  double ob = 0, oa = 0, sb = 0, sa = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (!in_overlap(x, y)) continue;
+      const cv::Vec3f& t = target_rgb.at<cv::Vec3f>(y, x);
+      const cv::Vec3f& s = source.image->pixels.at<cv::Vec3f>(y, x);
+      const cv::Vec3f& r = relit.relit.pixels.at<cv::Vec3f>(y, x);
+      double before = 0, after = 0;
+      for (int c = 0; c < 3; ++c) {
+        before += std::pow((s[c] - t[c]) / t[c], 2) / 3.0;
+        after += std::pow((r[c] - t[c]) / t[c], 2) / 3.0;
+      }
+      const bool on_seam =
+          !in_overlap(x - 1, y) || !in_overlap(x + 1, y) || !in_overlap(x, y - 1) || !in_overlap(x, y + 1);
+      ob += before;
+      oa += after;
+      ++seam.overlap_pixels;
+      if (on_seam) {
+        sb += before;
+        sa += after;
+        ++seam.seam_pixels;
+      }
+      seam.image.pixels.at<cv::Vec3f>(y, x) =
+          cv::Vec3f(static_cast<float>(std::sqrt(before)), static_cast<float>(std::sqrt(after)), on_seam ? 1.0f : 0.0f);
+    }
+  }
+  if (seam.overlap_pixels > 0) {
+    seam.overlap_before = std::sqrt(ob / static_cast<double>(seam.overlap_pixels));
+    seam.overlap_after = std::sqrt(oa / static_cast<double>(seam.overlap_pixels));
+  }
+  if (seam.seam_pixels > 0) {
+    seam.seam_before = std::sqrt(sb / static_cast<double>(seam.seam_pixels));
+    seam.seam_after = std::sqrt(sa / static_cast<double>(seam.seam_pixels));
+  }
+  return seam;
+}
+
+nlohmann::json SummaryJson(const irm::RelightSummary& s) {
+  return {{"vertices", s.vertices},
+          {"visible_in_both", s.visible_in_both},
+          {"consistent_samples", s.consistent_samples},
+          {"irm_summary", s.irm_summary},
+          {"pixels_relit", s.pixels_relit},
+          {"pixels_without_geometry", s.pixels_without_geometry},
+          {"pixels_without_ratio", s.pixels_without_ratio},
+          {"pixels_masked", s.pixels_masked},
+          {"overlap_vertex_rms_before", s.overlap_rms_before},
+          {"overlap_vertex_rms_after", s.overlap_rms_after},
+          {"build_s", s.build_s},
+          {"relight_s", s.relight_s}};
+}
+
+irm::RelightSummary SummaryFromJson(const nlohmann::json& j) {
+  irm::RelightSummary s;
+  s.vertices = j.at("vertices").get<int>();
+  s.visible_in_both = j.at("visible_in_both").get<int>();
+  s.consistent_samples = j.at("consistent_samples").get<int>();
+  s.irm_summary = j.at("irm_summary").get<std::string>();
+  s.overlap_rms_before = j.at("overlap_vertex_rms_before").get<double>();
+  s.overlap_rms_after = j.at("overlap_vertex_rms_after").get<double>();
+  s.build_s = j.at("build_s").get<double>();
+  return s;
+}
+
+cv::Mat MaskFromStatus(const cv::Mat& status) {
+  if (status.empty()) return {};
+  cv::Mat mask;
+  cv::compare(status, cv::Scalar(0), mask, cv::CMP_NE);
+  return mask;
+}
+
+RadianceImage SunImage(const cv::Mat& fractions) {
+  RadianceImage image;
+  image.pixels = fractions.clone();
+  image.pixels.setTo(-1.0f, fractions != fractions);  // no geometry: -1 (NaN never leaves the stage)
+  return image;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+
+nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
+  nlohmann::json j;
+  j["single_map"] = set.single_map;
+  j["samples_used"] = set.samples_used;
+  j["samples_in_penumbra"] = set.samples_in_penumbra;
+  j["samples_too_dark"] = set.samples_too_dark;
+  j["summary"] = set.summary;
+  j["lit_threshold"] = set.lit_threshold;
+  j["shadow_threshold"] = set.shadow_threshold;
+  j["model_correction"] = set.model_correction;
+  for (int k = 0; k < 4; ++k) {
+    const irm::RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    nlohmann::json m;
+    m["kind"] = irm::ToString(static_cast<irm::MapKind>(k));
+    m["bins"] = map.bins;
+    m["count"] = map.count;
+    m["source"] = map.source;
+    nlohmann::json ratios = nlohmann::json::array();
+    for (const Eigen::Vector3f& r : map.ratio) ratios.push_back(VecJson(r));
+    m["ratio"] = std::move(ratios);
+    nlohmann::json normals = nlohmann::json::array();
+    for (const Eigen::Vector3f& n : map.mean_normal) normals.push_back(VecJson(n));
+    m["mean_normal"] = std::move(normals);
+    j["maps"].push_back(std::move(m));
+  }
+  const irm::SunSkyModel& model = set.model;
+  j["model"] = {{"valid", model.valid},
+                {"sun_source", VecJson(model.sun_source)},
+                {"sun_target", VecJson(model.sun_target)},
+                {"sky_target", VecJson(model.sky_target)},
+                {"sun_dir_source", VecJson(model.sun_dir_source)},
+                {"sun_dir_target", VecJson(model.sun_dir_target)},
+                {"rms_relative_residual", model.rms_relative_residual},
+                {"condition_number", model.condition_number},
+                {"reason", model.reason}};
+  return j;
+}
+
+irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
+  irm::IrmSet set;
+  set.single_map = j.at("single_map").get<bool>();
+  set.samples_used = j.at("samples_used").get<int>();
+  set.samples_in_penumbra = j.at("samples_in_penumbra").get<int>();
+  set.samples_too_dark = j.at("samples_too_dark").get<int>();
+  set.summary = j.at("summary").get<std::string>();
+  set.lit_threshold = j.at("lit_threshold").get<float>();
+  set.shadow_threshold = j.at("shadow_threshold").get<float>();
+  set.model_correction = j.at("model_correction").get<bool>();
+  for (int k = 0; k < 4; ++k) {
+    const nlohmann::json& m = j.at("maps").at(static_cast<std::size_t>(k));
+    irm::RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    map.bins = m.at("bins").get<int>();
+    map.count = m.at("count").get<std::vector<int>>();
+    map.source = m.at("source").get<std::vector<std::uint8_t>>();
+    for (const nlohmann::json& r : m.at("ratio")) map.ratio.push_back(VecFromJson(r));
+    for (const nlohmann::json& n : m.at("mean_normal")) map.mean_normal.push_back(VecFromJson(n));
+    const std::size_t bins = static_cast<std::size_t>(map.bins) * static_cast<std::size_t>(map.bins);
+    if (map.count.size() != bins || map.source.size() != bins || map.ratio.size() != bins ||
+        map.mean_normal.size() != bins) {
+      throw InvalidArgumentError("IRM file: map " + std::to_string(k) + " has the wrong number of bins");
+    }
+  }
+  const nlohmann::json& model = j.at("model");
+  set.model.valid = model.at("valid").get<bool>();
+  set.model.sun_source = VecFromJson(model.at("sun_source"));
+  set.model.sun_target = VecFromJson(model.at("sun_target"));
+  set.model.sky_target = VecFromJson(model.at("sky_target"));
+  set.model.sun_dir_source = VecFromJson(model.at("sun_dir_source"));
+  set.model.sun_dir_target = VecFromJson(model.at("sun_dir_target"));
+  set.model.rms_relative_residual = model.at("rms_relative_residual").get<double>();
+  set.model.condition_number = model.at("condition_number").get<double>();
+  set.model.reason = model.at("reason").get<std::string>();
+  return set;
+}
+
+nlohmann::json RegionErrors::ToJson() const {
+  return {{"scale", scale},
+          {"relative_rms_all", all},
+          {"relative_rms_lit", lit},
+          {"relative_rms_shadow", shadow},
+          {"relative_rms_penumbra", penumbra},
+          {"lit_pixels", lit_pixels},
+          {"shadow_pixels", shadow_pixels},
+          {"penumbra_pixels", penumbra_pixels}};
+}
+
+RegionErrors CompareRegions(const RadianceImage& estimate, const RadianceImage& truth, const cv::Mat& source_sun_truth,
+                            const cv::Mat& target_sun_truth, const cv::Mat& use, cv::Mat* error_image) {
+  RELUME_CHECK(estimate.pixels.size() == truth.pixels.size() && use.size() == truth.pixels.size());
+  auto usable = [&](int x, int y) {
+    if (use.at<std::uint8_t>(y, x) == 0) return false;
+    const cv::Vec3f& e = estimate.pixels.at<cv::Vec3f>(y, x);
+    const cv::Vec3f& t = truth.pixels.at<cv::Vec3f>(y, x);
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(e[c]) || !std::isfinite(t[c]) || !(t[c] > 0.0f)) return false;
+    }
+    return true;
+  };
+  // Scale: minimise sum (a q - 1)^2 with q = e / t: a = sum q / sum q^2.
+  double sq = 0, sqq = 0;
+  for (int y = 0; y < truth.height(); ++y) {
+    for (int x = 0; x < truth.width(); ++x) {
+      if (!usable(x, y)) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double q = estimate.pixels.at<cv::Vec3f>(y, x)[c] / truth.pixels.at<cv::Vec3f>(y, x)[c];
+        sq += q;
+        sqq += q * q;
+      }
+    }
+  }
+  RegionErrors errors;
+  if (!(sqq > 0.0)) return errors;
+  errors.scale = sq / sqq;
+  double lit = 0, shadow = 0, penumbra = 0;
+  if (error_image) *error_image = cv::Mat(truth.height(), truth.width(), CV_8UC3, cv::Scalar::all(0));
+  for (int y = 0; y < truth.height(); ++y) {
+    for (int x = 0; x < truth.width(); ++x) {
+      if (!usable(x, y)) continue;
+      double e2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double q = estimate.pixels.at<cv::Vec3f>(y, x)[c] / truth.pixels.at<cv::Vec3f>(y, x)[c];
+        e2 += (errors.scale * q - 1.0) * (errors.scale * q - 1.0) / 3.0;
+      }
+      const float fs = source_sun_truth.at<float>(y, x), ft = target_sun_truth.at<float>(y, x);
+      const bool penumbra_s = fs > 0.01f && fs<0.99f, penumbra_t = ft> 0.01f && ft < 0.99f;
+      if (error_image) {
+        // Brightness: the error (white at 10%); hue: the region (lit grey, shadow blue, penumbra red).
+        const double v = std::min(1.0, std::sqrt(e2) * 10.0) * 255.0;
+        const bool lit_both = fs >= 0.99f && ft >= 0.99f;
+        const bool penumbra_either = penumbra_s || penumbra_t;
+        const auto u8 = [](double value) { return static_cast<std::uint8_t>(std::min(255.0, value)); };
+        error_image->at<cv::Vec3b>(y, x) =
+            cv::Vec3b(u8(lit_both || penumbra_either ? v : 0.3 * v), u8(lit_both ? v : 0.3 * v),
+                      u8(lit_both ? v : (penumbra_either ? 0.3 * v : v + 40)));
+      }
+      if (penumbra_s || penumbra_t) {
+        penumbra += e2;
+        ++errors.penumbra_pixels;
+      } else if (fs >= 0.99f && ft >= 0.99f) {
+        lit += e2;
+        ++errors.lit_pixels;
+      } else {
+        shadow += e2;
+        ++errors.shadow_pixels;
+      }
+    }
+  }
+  auto rms = [](double sum, std::int64_t n) { return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0; };
+  errors.lit = rms(lit, errors.lit_pixels);
+  errors.shadow = rms(shadow, errors.shadow_pixels);
+  errors.penumbra = rms(penumbra, errors.penumbra_pixels);
+  errors.all = rms(lit + shadow + penumbra, errors.lit_pixels + errors.shadow_pixels + errors.penumbra_pixels);
+  return errors;
+}
+
+cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& truth_depth_m) {
+  const int w = camera.intrinsics.width, h = camera.intrinsics.height;
+  RELUME_CHECK(truth_depth_m.type() == CV_32FC1 && truth_depth_m.cols == w && truth_depth_m.rows == h);
+  cv::Mat agree(h, w, CV_8UC1, cv::Scalar(0));
+  std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(w));
+  for (int y = 0; y < h; ++y) {
+    caster.IntersectCameraRow(camera, y, 0, w, hits);
+    for (int x = 0; x < w; ++x) {
+      const float depth = truth_depth_m.at<float>(y, x);
+      const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
+      if (!hit.valid || !std::isfinite(depth)) continue;
+      const Eigen::Vector3d d = camera.intrinsics.Unproject({x + 0.5, y + 0.5});
+      const double truth_t = depth * d.norm();  // Unproject has z = 1
+      if (std::abs(hit.t - truth_t) <= 0.01 * truth_t) agree.at<std::uint8_t>(y, x) = 255;
+    }
+  }
+  return agree;
+}
+
+void RunIrmPipeline(PipelineRun& run) {
+  const auto source_bracket = OneBracket(run, run.request().source, "source");
+  const auto target_bracket = OneBracket(run, run.request().target, "target");
+
+  irm::RelightOptions options;
+  options.irm.bins = run.Setting("bins", options.irm.bins);
+  options.sun_samples = run.Setting("sun_samples", options.sun_samples);
+  options.use_penumbra_fractions = run.Setting("penumbra", options.use_penumbra_fractions);
+  options.exact_shadow_edges = run.Setting("exact_shadow_edges", options.exact_shadow_edges);
+  options.threads = run.Setting("threads", options.threads);
+  options.irm.model_correction = run.Setting("model_correction", options.irm.model_correction);
+  const bool compare_truth = run.Setting("compare_truth", true);
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgumentError("irm settings: " + why);
+
+  SceneGeometry geometry = LoadGeometry(run);
+  const sim::SimDeviceSpec* source_spec = FindDeviceSpec(run.rig(), source_bracket.front().device_id);
+  const sim::SimDeviceSpec* target_spec = FindDeviceSpec(run.rig(), target_bracket.front().device_id);
+  for (const auto& [spec, frame] :
+       {std::pair{source_spec, &source_bracket.front()}, {target_spec, &target_bracket.front()}}) {
+    if (spec == nullptr) {
+      throw InvalidArgumentError("no camera pose and intrinsics for " + frame->device_id +
+                                 ": the session's stored rig does not describe this device");
+    }
+  }
+  run.Decide("irm", "plan",
+             "relight " + source_bracket.front().device_id + " frame " + std::to_string(source_bracket.front().id) +
+                 " to the light of frame " + std::to_string(target_bracket.front().id) + " on " +
+                 std::to_string(geometry.mesh.triangle_count()) + " triangles");
+  if (run.request().explain) return;
+
+  const BracketRadiance source_radiance = LinearRadiance(run, source_bracket);
+  const BracketRadiance target_radiance = LinearRadiance(run, target_bracket);
+  irm::View source{&source_radiance.radiance, source_spec->camera, SunDirection(source_radiance, "source"),
+                   MaskFromStatus(source_radiance.status)};
+  irm::View target{&target_radiance.radiance, target_spec->camera, SunDirection(target_radiance, "target"),
+                   MaskFromStatus(target_radiance.status)};
+  const RayCaster caster(geometry.mesh);
+  irm::CheckRelightInputs(caster, source, target, options);
+  StageKey source_view_key, target_view_key;
+  const irm::ViewGeometry source_geometry =
+      ViewStage(run, "source", caster, source, options, geometry.key, &source_view_key);
+  const irm::ViewGeometry target_geometry =
+      ViewStage(run, "target", caster, target, options, geometry.key, &target_view_key);
+  if (source_geometry.visible_in_cast_shadow == 0 && target_geometry.visible_in_cast_shadow == 0) {
+    run.Decide("irm-build", "choose", "one IRM (lit to lit): no visible vertex is in cast shadow in either image");
+  } else {
+    run.Decide("irm-build", "choose",
+               "four IRMs: " + std::to_string(source_geometry.visible_in_cast_shadow) +
+                   " visible vertices in cast shadow in the source, " +
+                   std::to_string(target_geometry.visible_in_cast_shadow) + " in the target");
+  }
+
+  // IRM build.
+  StageKey build_key;
+  build_key.Add("stage", "irm-build-v2").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
+  build_key.AddKey("source_radiance", source_radiance.key).AddKey("target_radiance", target_radiance.key);
+  build_key.Add("bins", options.irm.bins).Add("lit", static_cast<double>(options.irm.lit_threshold));
+  build_key.Add("shadow", static_cast<double>(options.irm.shadow_threshold));
+  build_key.Add("min_samples", options.irm.min_samples_per_bin)
+      .Add("trim", static_cast<double>(options.irm.trim_fraction));
+  build_key.Add("fill", irm::ToString(options.irm.fill)).Add("model_correction", options.irm.model_correction);
+  irm::IrmSet irms;
+  irm::RelightSummary summary;
+  summary.preprocess_s = source_geometry.seconds + target_geometry.seconds;
+  const StageCache::Result build = run.RunStage("irm-build", build_key, [&](const fs::path& dir) {
+    irms = irm::BuildIrmsFromViews(caster, source, target, source_geometry, target_geometry, options, &summary);
+    WriteJsonFile(dir / "irms.json", IrmSetToJson(irms));
+    WriteJsonFile(dir / "build.json", SummaryJson(summary));
+    for (int k = 0; k < 4; ++k) {
+      if (irms.single_map && k > 0) break;
+      SaveMapImages(irms.maps[static_cast<std::size_t>(k)],
+                    std::string("irm_") + irm::ToString(static_cast<irm::MapKind>(k)), dir);
+    }
+  });
+  if (build.reused) {
+    irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"));
+    summary = SummaryFromJson(ReadJsonFile(build.dir / "build.json"));
+  }
+  run.Decide("irm-build", "note", irms.summary);
+  for (int k = 0; k < 4; ++k) {
+    if (irms.single_map && k > 0) break;
+    const std::string name = std::string("irm_") + irm::ToString(static_cast<irm::MapKind>(k));
+    run.AddOutput(build.dir / (name + ".exr"), "IRM " + std::string(irm::ToString(static_cast<irm::MapKind>(k))) +
+                                                   " (ratios per octahedral normal bin; " + name +
+                                                   "_count.png: samples per bin)");
+  }
+
+  // Per-pixel relighting.
+  StageKey relight_key;
+  relight_key.Add("stage", "irm-relight-v1").AddKey("build", build_key);
+  relight_key.Add("exact_shadow_edges", options.exact_shadow_edges);
+  nlohmann::json relight_json;
+  const StageCache::Result relight = run.RunStage("irm-relight", relight_key, [&](const fs::path& dir) {
+    const irm::RelightResult result =
+        irm::RelightPixels(caster, source, target, source_geometry, target_geometry, irms, options, summary);
+    const double white = WhiteOf(*target.image);
+    calibration::SaveRadianceExr(result.relit, (dir / "relit.exr").string());
+    calibration::SaveImage(RadiancePreview(result.relit, white), (dir / "relit.png").string());
+    calibration::SaveImage(RadiancePreview(*target.image, white), (dir / "target.png").string());
+    calibration::SaveImage(RadiancePreview(*source.image, white), (dir / "source.png").string());
+    calibration::SaveImage(result.status, (dir / "status.png").string());
+    calibration::SaveRadianceExr(SunImage(result.source_sun), (dir / "source_sun.exr").string());
+    calibration::SaveRadianceExr(SunImage(result.target_sun), (dir / "target_sun.exr").string());
+    const SeamResult seam = Seam(caster, source, target, result);
+    calibration::SaveRadianceExr(seam.image, (dir / "seam_difference.exr").string());
+    relight_json = SummaryJson(result.summary);
+    relight_json["seam"] = {{"overlap_pixels", seam.overlap_pixels},
+                            {"overlap_relative_rms_before", seam.overlap_before},
+                            {"overlap_relative_rms_after", seam.overlap_after},
+                            {"seam_pixels", seam.seam_pixels},
+                            {"seam_relative_rms_before", seam.seam_before},
+                            {"seam_relative_rms_after", seam.seam_after}};
+    relight_json["preview_white"] = white;
+    WriteJsonFile(dir / "relight.json", relight_json);
+  });
+  if (relight.reused) relight_json = ReadJsonFile(relight.dir / "relight.json");
+  run.AddOutput(relight.dir / "relit.exr", "the source relit to the target's light (linear float RGB)");
+  run.AddOutput(relight.dir / "relit.png",
+                "preview with the target's exposure (target.png, source.png beside it with the same one)");
+  run.AddOutput(relight.dir / "status.png",
+                "per pixel: 0 no geometry (untouched), 1 relit, 2 no ratio "
+                "(untouched), 3 masked: badly exposed (untouched)");
+  run.AddOutput(relight.dir / "seam_difference.exr",
+                "relative difference to the target where both see a surface: R before, G after, B 1 on the seam");
+  nlohmann::json& m = run.metrics();
+  m["irm"] = relight_json;
+  m["irm"]["mesh"] = {{"origin", geometry.origin},
+                      {"vertices", geometry.mesh.vertex_count()},
+                      {"triangles", geometry.mesh.triangle_count()}};
+  m["irm"]["visible_in_cast_shadow"] = {{"source", source_geometry.visible_in_cast_shadow},
+                                        {"target", target_geometry.visible_in_cast_shadow}};
+  m["irm"]["single_map"] = irms.single_map;
+
+  // Against the simulated world's truth: the source camera under the target's sun.
+  if (compare_truth && run.rig() != nullptr && run.rig()->world) {
+    const sim::World& world = *run.rig()->world;
+    const sim::GroundTruth truth = world.Render(source.camera, target_radiance.utc);
+    const sim::GroundTruth source_truth = world.Render(source.camera, source_radiance.utc);
+    const RadianceImage relit = calibration::LoadRadianceExr((relight.dir / "relit.exr").string());
+    const cv::Mat status = cv::imread((relight.dir / "status.png").string(), cv::IMREAD_UNCHANGED);
+    cv::Mat use;
+    cv::compare(status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
+    const cv::Mat agree = GeometryAgreement(caster, source.camera, truth.depth_m);
+    const int relit_pixels = cv::countNonZero(use);
+    use &= agree;
+    m["truth"]["geometry_mismatch_pixels"] = relit_pixels - cv::countNonZero(use);
+    cv::Mat error_image;
+    const RegionErrors after =
+        CompareRegions(relit, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use, &error_image);
+    calibration::SaveImage(error_image, (run.out_dir() / "truth_error.png").string());
+    run.AddOutput(run.out_dir() / "truth_error.png",
+                  "relative error of the relit source against the truth (white at 10%; blue tint: shadow, red: "
+                  "penumbra)");
+    const RegionErrors before =
+        CompareRegions(*source.image, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use);
+    m["truth"]["relit"] = after.ToJson();
+    m["truth"]["no_relighting"] = before.ToJson();
+    m["truth"]["comparison"] =
+        "relit source vs the world rendered from the source camera at the target's time, on relit pixels "
+        "where mesh and truth agree; one least-squares scale per image (relative radiance), relative RMS per region";
+    // How far the frames' recorded sun is from the world's (both ENU).
+    const double angle = std::acos(std::clamp(
+        static_cast<double>(target.sun_dir.cast<double>().dot(world.SunDirection(target_radiance.utc))), -1.0, 1.0));
+    m["truth"]["target_sun_direction_error_deg"] = angle * 180.0 / std::numbers::pi;
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "relit vs truth: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
+                  "relighting: %.4f, %.4f, %.4f)",
+                  after.lit, after.shadow, after.penumbra, before.lit, before.shadow, before.penumbra);
+    run.Decide("truth", "note", text);
+  }
+}
+
+}  // namespace relume::app::process

@@ -1,0 +1,57 @@
+// `relume process SESSION --pipeline irm --source FRAME --target FRAME [--mesh FILE]`:
+// Troccoli & Allen's irradiance ratio maps (processing/irm/) on a recorded session. The source
+// bracket is relit to the light of the target bracket (docs/irm.md).
+//
+// Stages (each cached by a StageKey, so an unchanged re-run reuses everything and a changed
+// knob recomputes only what depends on it):
+//   irm-view    per photograph: vertex visibility and sun fractions (mesh, camera, sun, sun_samples)
+//   irm-build   the IRMs from the vertices seen in both (+ radiance of both, bins, thresholds)
+//   irm-relight every source pixel (+ exact_shadow_edges); relit EXR, preview, status, seam
+// The mesh comes from the session's recorded world (<session>/rig/) or from --mesh (OBJ/PLY, in
+// ENU, or UTM with --set mesh_frame=utm); cameras from the rig's device specs; sun directions
+// from the frames' recorded azimuth and elevation.
+//
+// Knobs (--set): bins (32), sun_samples (16), penumbra (true), exact_shadow_edges (true),
+// model_correction (true), mesh_spacing_m (0.5), mesh_frame (enu|utm), mesh_utm_zone (site's),
+// threads (2), compare_truth (true).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include "apps/relume/process/pipeline.h"
+#include "core/image.h"
+#include "processing/geometry/ray_caster.h"
+#include "processing/irm/irm.h"
+
+namespace relume::app::process {
+
+void RunIrmPipeline(PipelineRun& run);
+
+// An IRM set as JSON and back (NaN ratios as null), for the irm-build stage's output.
+nlohmann::json IrmSetToJson(const irm::IrmSet& set);
+irm::IrmSet IrmSetFromJson(const nlohmann::json& json);
+
+// Error of a relit image against the truth rendered under the target's light, per region.
+// Radiance from a session is relative (one unknown scale per device), so `estimate` is first
+// scaled by the least-squares factor a minimising sum ((a e - t) / t)^2 over every compared
+// pixel and channel; errors are then relative RMS, sqrt(mean ((a e - t) / t)^2), per region.
+// Regions from the truth's sun visibility at the source and target times: lit (>= 0.99 in
+// both), shadow (<= 0.01 in either and no penumbra), penumbra (in between in either).
+// Pixels compared: `use` non-zero and truth finite and > 0 in every channel. `error_image`
+// (optional): an 8-bit RGB picture of the per-pixel error and region.
+struct RegionErrors {
+  double scale = 0.0;
+  double lit = 0.0, shadow = 0.0, penumbra = 0.0, all = 0.0;
+  std::int64_t lit_pixels = 0, shadow_pixels = 0, penumbra_pixels = 0;
+  nlohmann::json ToJson() const;
+};
+RegionErrors CompareRegions(const RadianceImage& estimate, const RadianceImage& truth, const cv::Mat& source_sun_truth,
+                            const cv::Mat& target_sun_truth, const cv::Mat& use, cv::Mat* error_image = nullptr);
+
+// Pixels where the mesh and the truth see the same surface: the distance along the pixel's ray
+// to the first hit of `caster` within 1% of the truth's (depth_m is along the optical axis).
+// Silhouette pixels of a tessellated surface and mesh/truth disagreements are not the IRM's
+// error and would dominate a relative RMS; they are left out and counted. CV_8UC1, 255 = agree.
+cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& truth_depth_m);
+
+}  // namespace relume::app::process

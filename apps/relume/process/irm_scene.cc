@@ -1,0 +1,130 @@
+#include "apps/relume/process/irm_scene.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/error.h"
+#include "core/frames.h"
+#include "sim/world/mesh_io.h"
+
+namespace relume::app::process {
+
+bool IrmMeshOptions::IsValid(std::string* why) const {
+  if (!(spacing_m >= 0.01 && spacing_m <= 100.0)) {
+    if (why) *why = "mesh_spacing_m must be within [0.01, 100] m";
+    return false;
+  }
+  if (sphere_segments < 8 || sphere_segments > 1024) {
+    if (why) *why = "sphere segments must be within 8..1024";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+// A triangle split into n x n smaller ones (barycentric grid), with its own vertices.
+void AppendSplitTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                         const Eigen::Vector3f& albedo, double spacing_m, TriangleMesh* out) {
+  const Eigen::Vector3d cross = (b - a).cross(c - a);
+  if (!(cross.norm() > 1e-12)) return;  // degenerate: no area, no normal
+  const Eigen::Vector3f normal = cross.normalized().cast<float>();
+  const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+  const int n = std::max(1, static_cast<int>(std::ceil(longest / spacing_m)));
+  const int base = static_cast<int>(out->positions.size());
+  auto index = [&](int i, int j) { return base + j * (n + 1) - j * (j - 1) / 2 + i; };  // row j has n + 1 - j vertices
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n - j; ++i) {
+      const double u = static_cast<double>(i) / n, v = static_cast<double>(j) / n;
+      out->positions.push_back((a + (b - a) * u + (c - a) * v).cast<float>());
+      out->normals.push_back(normal);
+      out->albedo.push_back(albedo);
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n - j; ++i) {
+      out->triangles.emplace_back(index(i, j), index(i + 1, j), index(i, j + 1));
+      if (i + 1 < n - j) out->triangles.emplace_back(index(i + 1, j), index(i + 1, j + 1), index(i, j + 1));
+    }
+  }
+}
+
+Eigen::Vector3f FaceAlbedo(const sim::TriangleMesh& mesh, std::size_t face, const Eigen::Vector3d& fallback) {
+  if (face < mesh.face_albedo.size() && mesh.face_albedo[face].allFinite()) return mesh.face_albedo[face].cast<float>();
+  return fallback.cast<float>();
+}
+
+TriangleMesh SplitMesh(const sim::TriangleMesh& mesh, const Eigen::Vector3d& albedo, double spacing_m) {
+  TriangleMesh out;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    const Eigen::Vector3i& t = mesh.triangles[f];
+    AppendSplitTriangle(mesh.vertices[static_cast<std::size_t>(t[0])], mesh.vertices[static_cast<std::size_t>(t[1])],
+                        mesh.vertices[static_cast<std::size_t>(t[2])], FaceAlbedo(mesh, f, albedo), spacing_m, &out);
+  }
+  return out;
+}
+
+TriangleMesh Sphere(const Eigen::Vector3d& center, double radius, const Eigen::Vector3d& albedo, int segments) {
+  TriangleMesh out;
+  const int rings = std::max(4, segments / 2);
+  for (int j = 0; j <= rings; ++j) {
+    const double theta = std::numbers::pi * j / rings;  // from the north pole
+    for (int i = 0; i <= segments; ++i) {
+      const double phi = 2.0 * std::numbers::pi * i / segments;
+      const Eigen::Vector3d n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+      out.positions.push_back((center + radius * n).cast<float>());
+      out.normals.push_back(n.cast<float>());
+      out.albedo.push_back(albedo.cast<float>());
+    }
+  }
+  for (int j = 0; j < rings; ++j) {
+    for (int i = 0; i < segments; ++i) {
+      const int a = j * (segments + 1) + i, b = a + segments + 1;
+      // Counter-clockwise seen from outside.
+      if (j > 0) out.triangles.emplace_back(a, b, a + 1);
+      if (j + 1 < rings) out.triangles.emplace_back(a + 1, b, b + 1);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TriangleMesh ProcessingMeshFromSim(const sim::TriangleMesh& mesh, const IrmMeshOptions& options) {
+  ThrowIfInvalid(options, "IRM mesh options");
+  return SplitMesh(mesh, Eigen::Vector3d::Constant(0.5), options.spacing_m);
+}
+
+TriangleMesh ProcessingMeshFromScene(const sim::Scene& scene, const IrmMeshOptions& options) {
+  ThrowIfInvalid(options, "IRM mesh options");
+  TriangleMesh out;
+  for (const sim::SceneObject& object : scene.objects) {
+    if (object.shape == sim::SceneObject::Shape::kSphere) {
+      out.Append(Sphere(object.sphere_center, object.sphere_radius_m, object.albedo, options.sphere_segments));
+    } else {
+      out.Append(SplitMesh(object.mesh, object.albedo, options.spacing_m));
+    }
+  }
+  return out;
+}
+
+LoadedSceneMesh LoadSceneMesh(const std::string& path, MeshFrame frame, const Site& site, std::optional<int> utm_zone,
+                              const IrmMeshOptions& options) {
+  ThrowIfInvalid(options, "IRM mesh options");
+  sim::TriangleMesh mesh = sim::LoadMesh(path);
+  if (mesh.triangles.empty()) throw InvalidArgumentError("mesh " + path + " has no triangles");
+  LoadedSceneMesh loaded;
+  if (frame == MeshFrame::kUtm) {
+    const UtmGridFrame grid(site, utm_zone);
+    const EnuFrame enu(site);
+    for (Eigen::Vector3d& v : mesh.vertices) v = enu.EnuFromGeodetic(grid.GeodeticFromGrid(v));
+    loaded.convergence_rad = grid.convergence_rad();
+    loaded.utm_zone = grid.zone();
+  }
+  std::string why;
+  if (!mesh.IsValid(&why)) throw InvalidArgumentError("mesh " + path + ": " + why);
+  loaded.mesh = ProcessingMeshFromSim(mesh, options);
+  return loaded;
+}
+
+}  // namespace relume::app::process
