@@ -5,6 +5,7 @@
 
 #include "apps/relume/process/pipeline.h"
 #include "apps/relume/process/radiance.h"
+#include "apps/relume/process/radiosity_pipeline.h"
 #include "calibration/image_file.h"
 #include "calibration/response.h"
 
@@ -78,6 +79,7 @@ void RunRadiancePipeline(PipelineRun& run) {
 const std::vector<PipelineEntry>& Pipelines() {
   static const std::vector<PipelineEntry> pipelines = {
       {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline},
+      RadiosityPipelineEntry(),
   };
   return pipelines;
 }
