@@ -494,7 +494,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
   // reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from the
   // simulated world's rendered radiance (standing in for a radiometric calibration), or stays 1.
   StageKey scale_key;
-  scale_key.Add("stage", "radiosity-scale-v1").AddKey("radiance", radiance.front().key).Add("mode", knobs.scale);
+  scale_key.Add("stage", "radiosity-scale-v2").AddKey("radiance", radiance.front().key).Add("mode", knobs.scale);
   scale_key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
   const StageCache::Result scale_stage = run.RunStage("radiosity-scale", scale_key, [&](const fs::path& dir) {
     nlohmann::json j = {{"mode", knobs.scale}, {"scale", 1.0}};
@@ -503,20 +503,33 @@ void RunRadiosityPipeline(PipelineRun& run) {
     } else if (knobs.scale == "truth") {
       const BracketRadiance& r = radiance.front();
       const sim::GroundTruth truth = world.Render(spec->camera, r.utc);
-      cv::Mat mask(r.radiance.height(), r.radiance.width(), CV_8UC1, cv::Scalar(0));
-      for (int y = 0; y < mask.rows; ++y) {
-        for (int x = 0; x < mask.cols; ++x) {
-          const bool ok = r.status.empty() || r.status.at<std::uint8_t>(y, x) == 0;
-          mask.at<std::uint8_t>(y, x) = ok ? 255 : 0;
+      // The median of truth / measured over well-exposed pixels and channels: robust to the few
+      // very bright pixels (a lamp's hot spot) that dominate a least-squares scale.
+      std::vector<double> ratios;
+      for (int y = 0; y < r.radiance.height(); ++y) {
+        for (int x = 0; x < r.radiance.width(); ++x) {
+          if (!r.status.empty() && r.status.at<std::uint8_t>(y, x) != 0) continue;
+          const cv::Vec3f m = r.radiance.pixels.at<cv::Vec3f>(y, x), t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
+          for (int c = 0; c < 3; ++c) {
+            if (std::isfinite(m[c]) && std::isfinite(t[c]) && m[c] > 0.0f && t[c] > 0.0f) ratios.push_back(t[c] / m[c]);
+          }
         }
       }
-      const calibration::ScaleFit fit = calibration::FitScaleFactor(r.radiance.pixels, truth.radiance.pixels, mask);
-      if (fit.pixels == 0 || !(fit.scale > 0.0) || !std::isfinite(fit.scale)) {
+      if (ratios.empty()) {
         throw InvalidArgumentError("cannot fix the absolute scale: bracket 0 has no well-exposed pixel on a surface");
       }
-      j["scale"] = fit.scale;
-      j["pixels"] = fit.pixels;
-      j["relative_rms"] = fit.relative_rms;
+      const auto mid = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
+      std::nth_element(ratios.begin(), mid, ratios.end());
+      const double k = *mid;
+      // Spread of the ratio (robust): half the 16th-84th percentile range, relative.
+      const auto lo = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 16 / 100);
+      std::nth_element(ratios.begin(), lo, ratios.end());
+      const double p16 = *lo;
+      const auto hi = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 84 / 100);
+      std::nth_element(ratios.begin(), hi, ratios.end());
+      j["scale"] = k;
+      j["samples"] = ratios.size();
+      j["relative_spread"] = 0.5 * (*hi - p16) / k;
     }
     WriteJson(dir / "scale.json", j);
   });
