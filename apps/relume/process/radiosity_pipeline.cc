@@ -268,7 +268,10 @@ cv::Mat LogChart(const std::vector<std::pair<std::string, std::vector<double>>>&
       }
     }
   }
-  if (!(hi > 0.0)) lo = 1e-3, hi = 1.0;
+  if (!(hi > 0.0)) {
+    lo = 1e-3;
+    hi = 1.0;
+  }
   const double l0 = std::floor(std::log10(lo)), l1 = std::max(l0 + 1.0, std::ceil(std::log10(hi)));
   auto px = [&](size_t i) { return left + static_cast<int>((w - left - right) * (n > 1 ? double(i) / (n - 1) : 0.5)); };
   auto py = [&](double v) {
