@@ -23,9 +23,12 @@ void AddLights(const Eigen::Vector3d& x, const Eigen::Vector3d& n, int k, int sa
     const Eigen::Vector3d d = light.position_m - x;
     const double r2 = d.squaredNorm();
     if (!(r2 > 1e-18)) continue;
-    const double cos_x = n.dot(d) / std::sqrt(r2);
+    const double r = std::sqrt(r2);
+    const double cos_x = n.dot(d) / r;
     if (cos_x <= 0.0) continue;
-    const Rgb e = light.intensity_w_per_sr * (cos_x / r2);
+    const double spot = light.SpotFactor(-d / r);
+    if (spot <= 0.0) continue;
+    const Rgb e = light.intensity_w_per_sr * (spot * cos_x / r2);
     acc->unshaded += e;
     if (!caster.SegmentOccluded(x, n, light.position_m, Eigen::Vector3d::Zero())) acc->shaded += e;
   }

@@ -216,6 +216,47 @@ TEST(DirectLightTest, PointLightIrradianceAndShadow) {
   EXPECT_GT(checked, 100);
 }
 
+TEST(DirectLightTest, SpotLightFollowsItsConeAndSmoothstepEdge) {
+  Mesh mesh;
+  const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.5), Rgb::Zero()});
+  mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
+  const PatchHierarchy h(mesh, Edge(0.2));
+  const RayCaster caster(mesh);
+  PointLight spot{Eigen::Vector3d(0, 0, 2), Rgb::Constant(8.0)};
+  spot.spot_direction = Eigen::Vector3d(0, 0, -1);
+  spot.cone_half_angle_rad = 30.0 * std::numbers::pi / 180.0;
+  spot.falloff_rad = 10.0 * std::numbers::pi / 180.0;
+  Lighting lighting;
+  lighting.point_lights.push_back(spot);
+  DirectLightOptions options;
+  options.samples_per_patch = 1;
+  const DirectLight d = ComputeDirectLight(h, caster, lighting, options);
+  int inside = 0, edge = 0, outside = 0;
+  for (int p = 0; p < h.LeafCount(); ++p) {
+    const Eigen::Vector3d to_light = Eigen::Vector3d(0, 0, 2) - h.leaf(p).centroid;
+    const double angle_deg = std::acos(to_light.z() / to_light.norm()) * 180.0 / std::numbers::pi;
+    const double point = 8.0 * to_light.z() / std::pow(to_light.norm(), 3);
+    if (angle_deg < 19.9) {
+      EXPECT_NEAR(d.irradiance[p].x(), point, 1e-9 * point);
+      ++inside;
+    } else if (angle_deg > 30.1) {
+      EXPECT_EQ(d.irradiance[p].x(), 0.0);
+      ++outside;
+    } else if (angle_deg > 20.1 && angle_deg < 29.9) {
+      const double x = (30.0 - angle_deg) / 10.0;
+      EXPECT_NEAR(d.irradiance[p].x(), point * x * x * (3.0 - 2.0 * x), 1e-6 * point);
+      ++edge;
+    }
+  }
+  EXPECT_GT(inside, 20);
+  EXPECT_GT(edge, 20);
+  EXPECT_GT(outside, 100);
+  lighting.point_lights[0].falloff_rad = 1.0;  // wider than the cone
+  std::string why;
+  EXPECT_FALSE(lighting.IsValid(&why));
+  EXPECT_NE(why.find("falloff_rad"), std::string::npos) << why;
+}
+
 TEST(DirectLightTest, PatchFacingAwayGetsNothing) {
   Mesh mesh;
   const int m = mesh.AddMaterial({"card", Rgb::Constant(0.5), Rgb::Zero()});

@@ -94,6 +94,22 @@ int Combine(const PatchHierarchy& h, const std::vector<RadianceObservation>& obs
       if (!out->estimated[p] && weight[mat] > 0.0) out->albedo[p] = sum[mat] / weight[mat];
     }
   }
+  if (options.unseen_from_scene_mean) {
+    Rgb sum = Rgb::Zero();
+    double weight = 0.0;
+    std::vector<bool> material_seen(h.mesh().materials.size(), false);
+    for (size_t p = 0; p < n; ++p) {
+      if (!out->estimated[p]) continue;
+      const double w = out->confidence[p] * h.leaf(static_cast<int>(p)).area_m2;
+      sum += w * out->albedo[p];
+      weight += w;
+      material_seen[h.leaf(static_cast<int>(p)).material] = true;
+    }
+    for (size_t p = 0; p < n && weight > 0.0; ++p) {
+      const bool from_material = options.unseen_from_material && material_seen[h.leaf(static_cast<int>(p)).material];
+      if (!out->estimated[p] && !from_material) out->albedo[p] = sum / weight;
+    }
+  }
   return clamped;
 }
 
@@ -244,6 +260,12 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
   if (options.fit_image_scales) FitScales(hierarchy, observations, &images, max_irradiance);
   out.clamped = Combine(hierarchy, observations, images, max_irradiance, options, &out);
   out.initial_albedo = out.albedo;
+  auto report = [&](int iteration) {
+    if (!options.on_iteration) return;
+    std::vector<double> scales;
+    for (const auto& d : images) scales.push_back(d.scale);
+    options.on_iteration(iteration, out.albedo, scales);
+  };
 
   // Skip radiosity when the scene has too little indirect light to matter.
   if (options.indirect_skip_tolerance > 0.0) {
@@ -267,6 +289,7 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
       out.reason = out.indirect.reason;
     }
   }
+  report(0);
 
   if (!out.radiosity_skipped) {
     RadiositySolver solver(hierarchy, caster, options.radiosity);
@@ -303,6 +326,7 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
       out.max_change.push_back(max_change);
       out.mean_change.push_back(counted > 0 ? mean_change / counted : 0.0);
       out.iterations = it + 1;
+      report(it + 1);
       if (max_change < options.albedo_tolerance) {
         out.converged = true;
         std::ostringstream reason;

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,9 +54,16 @@ struct ReflectanceOptions {
   // Patches no image saw take the confidence-weighted mean albedo of the seen patches with the
   // same mesh material (a user's segmentation), when there are any.
   bool unseen_from_material = true;
+  // Patches of materials no image saw take the confidence-weighted mean albedo of every seen
+  // patch (instead of prior_albedo): the scene's own average stands in for an unknown surface.
+  bool unseen_from_scene_mean = false;
   bool indirect_from_observed = true;  // see the header comment
   DirectLightOptions direct;
   RadiosityOptions radiosity;
+  // Optional observer: called with the combined albedo after iteration 0 (ambient indirect)
+  // and after each radiosity iteration, with that iteration's image scales (convergence plots).
+  std::function<void(int iteration, const std::vector<Rgb>& albedo, const std::vector<double>& image_scale)>
+      on_iteration;
   bool IsValid(std::string* why) const;
 };
 

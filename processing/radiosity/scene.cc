@@ -1,6 +1,8 @@
 #include "processing/radiosity/scene.h"
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <sstream>
 
 namespace relume::radiosity {
@@ -93,11 +95,30 @@ bool Mesh::IsValid(std::string* why) const {
   return true;
 }
 
+double PointLight::SpotFactor(const Eigen::Vector3d& direction_from_light) const {
+  if (!(spot_direction.norm() > 0.0)) return 1.0;
+  const double angle = std::acos(std::clamp(direction_from_light.dot(spot_direction.normalized()), -1.0, 1.0));
+  const double inner = cone_half_angle_rad - falloff_rad;
+  if (angle <= inner) return 1.0;
+  if (angle >= cone_half_angle_rad) return 0.0;
+  const double x = (cone_half_angle_rad - angle) / falloff_rad;  // 1 at the inner edge, 0 at the cone
+  return x * x * (3.0 - 2.0 * x);
+}
+
 bool Lighting::IsValid(std::string* why) const {
   for (const auto& light : point_lights) {
     if (!Finite(light.position_m) || !light.intensity_w_per_sr.allFinite() ||
         light.intensity_w_per_sr.minCoeff() < 0.0) {
       return Fail(why, "point light: position and intensity must be finite, intensity >= 0");
+    }
+    if (!Finite(light.spot_direction) || !std::isfinite(light.cone_half_angle_rad) ||
+        !std::isfinite(light.falloff_rad)) {
+      return Fail(why, "point light: spot direction and angles must be finite");
+    }
+    if (light.spot_direction.norm() > 0.0 &&
+        !(light.cone_half_angle_rad > 0.0 && light.falloff_rad >= 0.0 &&
+          light.falloff_rad <= light.cone_half_angle_rad && light.cone_half_angle_rad < std::numbers::pi)) {
+      return Fail(why, "spot light: need 0 < cone_half_angle_rad < pi and 0 <= falloff_rad <= cone_half_angle_rad");
     }
   }
   for (const auto& light : area_lights) {

@@ -52,10 +52,17 @@ struct Mesh {
   bool IsValid(std::string* why) const;
 };
 
-// An isotropic point lamp.
+// A point lamp: isotropic, or a spot when spot_direction is non-zero. A spot has full
+// intensity within cone_half_angle_rad - falloff_rad of spot_direction and falls smoothly
+// (smoothstep) to 0 at cone_half_angle_rad, the model of sim/world's spots.
 struct PointLight {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   Rgb intensity_w_per_sr = Rgb::Constant(1.0);
+  Eigen::Vector3d spot_direction = Eigen::Vector3d::Zero();  // zero: isotropic
+  double cone_half_angle_rad = 0.0;
+  double falloff_rad = 0.0;
+  // Intensity factor in [0, 1] toward the unit direction `direction_from_light`.
+  double SpotFactor(const Eigen::Vector3d& direction_from_light) const;
 };
 
 // A one-sided Lambertian luminaire: the parallelogram corner + s*edge_u + t*edge_v, s, t in

@@ -6,6 +6,7 @@
 #include "apps/relume/process/irm_pipeline.h"
 #include "apps/relume/process/pipeline.h"
 #include "apps/relume/process/radiance.h"
+#include "apps/relume/process/radiosity_pipeline.h"
 #include "apps/relume/process/sh_pipeline.h"
 #include "calibration/image_file.h"
 #include "calibration/response.h"
@@ -84,6 +85,7 @@ const std::vector<PipelineEntry>& Pipelines() {
        RunShPipeline},
       {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
        RunIrmPipeline},
+      RadiosityPipelineEntry(),
   };
   return pipelines;
 }

@@ -1,0 +1,854 @@
+// The `radiosity` pipeline: per-patch albedo of a room from photographs under a moving lamp
+// (Loscos et al.: EV-only HDR, radiance consistency scales, reflectance iterated with a
+// radiosity solution; confidence weights after Debevec et al.), the converged radiosity
+// solution, and a relit rendering under a lamp placed from the command line.
+//
+// Stages (each cached by a StageKey; docs/radiosity.md lists the files):
+//   radiance (per bracket, radiance.h) -> radiosity-geometry (patches, pixel -> patch map)
+//   -> radiosity-observe (per bracket: mean radiance per patch) -> radiosity-scale (absolute
+//   scale of bracket 0) -> [planner: indirect share vs tolerance] -> radiosity-reflectance
+//   (iterations, albedo, solution, plots) -> radiosity-relight (new lamp).
+#include "apps/relume/process/radiosity_pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "apps/relume/process/radiance.h"
+#include "apps/relume/process/radiosity_scene.h"
+#include "calibration/image_file.h"
+#include "calibration/response.h"
+#include "core/error.h"
+#include "processing/radiosity/direct_light.h"
+#include "processing/radiosity/reflectance.h"
+
+namespace relume::app::process {
+namespace fs = std::filesystem;
+using radiosity::Rgb;
+
+namespace {
+
+struct Knobs {
+  double patch_edge_m = 0.5;
+  int form_factor_rays = 4;
+  double bf_epsilon = 2e-3;
+  int iterations = 4;
+  double tolerance = 0.01;  // albedo change that stops iterating; indirect share below it skips radiosity
+  double residual_tolerance = 1e-3;
+  int direct_samples = 4;
+  int min_patch_pixels = 4;
+  std::string scale = "truth";   // truth | none
+  std::string material_groups;   // "a+b,c+d": objects known to share a material
+  std::string input = "camera";  // camera | truth (the world's rendered radiance: no camera, noise-free)
+  bool compare_truth = true;
+  Eigen::Vector3d light_m{1.0, -1.0, 2.2};
+  double light_intensity_w_sr = 30.0;
+};
+
+Knobs ReadKnobs(PipelineRun& run) {
+  Knobs k;
+  k.patch_edge_m = run.Setting("patch_edge_m", k.patch_edge_m);
+  k.form_factor_rays = run.Setting("form_factor_rays", k.form_factor_rays);
+  k.bf_epsilon = run.Setting("bf_epsilon", k.bf_epsilon);
+  k.iterations = run.Setting("iterations", k.iterations);
+  k.tolerance = run.Setting("tolerance", k.tolerance);
+  k.residual_tolerance = run.Setting("residual_tolerance", k.residual_tolerance);
+  k.direct_samples = run.Setting("direct_samples", k.direct_samples);
+  k.min_patch_pixels = run.Setting("min_patch_pixels", k.min_patch_pixels);
+  k.scale = run.Setting("scale", k.scale);
+  k.input = run.Setting("input", k.input);
+  k.material_groups = run.Setting("material_groups", k.material_groups);
+  k.compare_truth = run.Setting("compare_truth", k.compare_truth);
+  k.light_m.x() = run.Setting("light_x", k.light_m.x());
+  k.light_m.y() = run.Setting("light_y", k.light_m.y());
+  k.light_m.z() = run.Setting("light_z", k.light_m.z());
+  k.light_intensity_w_sr = run.Setting("light_intensity", k.light_intensity_w_sr);
+  auto bad = [](const std::string& what) { throw InvalidArgumentError("radiosity pipeline: " + what); };
+  if (!(k.patch_edge_m >= 0.05 && k.patch_edge_m <= 10.0)) bad("--set patch_edge_m must be in [0.05, 10] metres");
+  if (k.form_factor_rays < 1 || k.form_factor_rays > 256) bad("--set form_factor_rays must be in [1, 256]");
+  if (!(k.bf_epsilon > 0.0 && k.bf_epsilon < 1.0)) bad("--set bf_epsilon must be in (0, 1)");
+  if (k.iterations < 0 || k.iterations > 100) bad("--set iterations must be in [0, 100]");
+  if (!(k.tolerance > 0.0)) bad("--set tolerance must be > 0 (albedo change / indirect share)");
+  if (!(k.residual_tolerance > 0.0 && k.residual_tolerance < 1.0)) bad("--set residual_tolerance must be in (0, 1)");
+  if (k.direct_samples < 1 || k.direct_samples > 256) bad("--set direct_samples must be in [1, 256]");
+  if (k.min_patch_pixels < 1) bad("--set min_patch_pixels must be >= 1");
+  if (k.scale != "truth" && k.scale != "none") bad("--set scale must be truth or none (docs/radiosity.md)");
+  if (k.input != "camera" && k.input != "truth") bad("--set input must be camera or truth (docs/radiosity.md)");
+  if (!(k.light_intensity_w_sr >= 0.0)) bad("--set light_intensity must be >= 0 (W/sr)");
+  return k;
+}
+
+// ---- small file helpers -------------------------------------------------------------------
+
+void WriteJson(const fs::path& path, const nlohmann::json& json) {
+  std::ofstream(path) << json.dump(2) << "\n";
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path.string(), "cannot read (stage output missing; rerun with --force)");
+  return nlohmann::json::parse(in);
+}
+
+// Per-patch RGB values as CSV: "patch,<name>_r,<name>_g,<name>_b[,extra...]".
+void WritePatchRgb(const fs::path& path, const std::string& name, const std::vector<Rgb>& values,
+                   const std::vector<int>* counts = nullptr) {
+  std::ofstream out(path);
+  out << "patch," << name << "_r," << name << "_g," << name << "_b" << (counts ? ",pixels" : "") << "\n";
+  char line[160];
+  for (size_t p = 0; p < values.size(); ++p) {
+    std::snprintf(line, sizeof(line), "%zu,%.9g,%.9g,%.9g", p, values[p].x(), values[p].y(), values[p].z());
+    out << line;
+    if (counts) out << "," << (*counts)[p];
+    out << "\n";
+  }
+}
+
+std::vector<Rgb> ReadPatchRgb(const fs::path& path, int patches) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path.string(), "cannot read (stage output missing; rerun with --force)");
+  std::string line;
+  std::getline(in, line);
+  std::vector<Rgb> values;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string field;
+    std::vector<double> f;
+    while (std::getline(ss, field, ',')) f.push_back(std::strtod(field.c_str(), nullptr));
+    if (f.size() < 4) throw IoError(path.string(), "malformed line '" + line + "'");
+    values.emplace_back(f[1], f[2], f[3]);
+  }
+  if (static_cast<int>(values.size()) != patches) {
+    throw IoError(path.string(), "has " + std::to_string(values.size()) + " patches, expected " +
+                                     std::to_string(patches) + " (rerun with --force)");
+  }
+  return values;
+}
+
+void WriteIds(const fs::path& path, const cv::Mat& ids) {
+  std::ofstream out(path, std::ios::binary);
+  const std::int32_t size[2] = {ids.cols, ids.rows};
+  out.write(reinterpret_cast<const char*>(size), sizeof(size));
+  for (int y = 0; y < ids.rows; ++y) out.write(reinterpret_cast<const char*>(ids.ptr<int>(y)), ids.cols * 4);
+}
+
+cv::Mat ReadIds(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::int32_t size[2] = {0, 0};
+  in.read(reinterpret_cast<char*>(size), sizeof(size));
+  if (!in || size[0] <= 0 || size[1] <= 0) throw IoError(path.string(), "not a patch id map (rerun with --force)");
+  cv::Mat ids(size[1], size[0], CV_32SC1);
+  for (int y = 0; y < ids.rows; ++y) in.read(reinterpret_cast<char*>(ids.ptr<int>(y)), ids.cols * 4);
+  if (!in) throw IoError(path.string(), "truncated patch id map (rerun with --force)");
+  return ids;
+}
+
+// Per-patch values painted into the camera's pixels (NaN where no patch).
+RadianceImage PaintPatches(const cv::Mat& ids, const std::vector<Rgb>& values) {
+  RadianceImage image = MakeRadianceImage(ids.cols, ids.rows);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int y = 0; y < ids.rows; ++y) {
+    const int* id = ids.ptr<int>(y);
+    auto* px = image.pixels.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < ids.cols; ++x) {
+      if (id[x] < 0) {
+        px[x] = cv::Vec3f(nan, nan, nan);
+        continue;
+      }
+      const Rgb& v = values[id[x]];
+      px[x] = cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
+    }
+  }
+  return image;
+}
+
+// ---- accuracy against the world's truth -----------------------------------------------------
+
+// Materials are groups of scene objects with the same true albedo (e.g. opposite walls).
+struct MaterialGroups {
+  std::vector<std::string> names;
+  std::vector<Rgb> truth;
+  std::vector<int> group_of_patch;  // -1: unknown
+};
+
+MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const sim::Scene& scene) {
+  MaterialGroups g;
+  // Truth per mesh triangle: the object it came from. Triangles of one object are contiguous
+  // and in object order, so walk the objects' materials through the mesh.
+  std::vector<int> group_of_object;
+  for (const sim::SceneObject& object : scene.objects) {
+    int found = -1;
+    for (size_t i = 0; i < g.truth.size(); ++i) {
+      if ((g.truth[i] - object.albedo).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
+    }
+    if (found < 0) {
+      found = static_cast<int>(g.truth.size());
+      g.truth.push_back(object.albedo);
+      g.names.push_back(object.name);
+    } else {
+      g.names[found] += "+" + object.name;
+    }
+    group_of_object.push_back(found);
+  }
+  // Patch -> object: by the triangle's root, via the object each triangle was built from.
+  std::vector<int> triangle_object;
+  for (int o = 0; o < static_cast<int>(scene.objects.size()); ++o) {
+    const int count = rs.object_triangles[o];
+    triangle_object.insert(triangle_object.end(), count, o);
+  }
+  for (int p = 0; p < h.LeafCount(); ++p) g.group_of_patch.push_back(group_of_object[triangle_object[h.leaf(p).root]]);
+  return g;
+}
+
+// Mean |estimate - truth| over observed patches and channels, per material and overall, and the
+// within-material spread (standard deviation over patches, mean of the channels).
+nlohmann::json AlbedoErrors(const MaterialGroups& g, const std::vector<Rgb>& albedo, const std::vector<bool>& seen) {
+  const size_t m = g.truth.size();
+  std::vector<double> err(m, 0.0);
+  std::vector<Rgb> sum(m, Rgb::Zero()), sum2(m, Rgb::Zero());
+  std::vector<int> count(m, 0);
+  double total = 0.0;
+  int total_count = 0;
+  for (size_t p = 0; p < albedo.size(); ++p) {
+    const int k = g.group_of_patch[p];
+    if (!seen[p] || k < 0) continue;
+    const double e = (albedo[p] - g.truth[k]).cwiseAbs().mean();
+    err[k] += e;
+    sum[k] += albedo[p];
+    sum2[k] += albedo[p].cwiseProduct(albedo[p]);
+    ++count[k];
+    total += e;
+    ++total_count;
+  }
+  nlohmann::json out;
+  double max_spread = 0.0, max_mean_error = 0.0;
+  for (size_t k = 0; k < m; ++k) {
+    if (count[k] == 0) continue;
+    const Rgb mean = sum[k] / count[k];
+    const Rgb var = (sum2[k] / count[k] - mean.cwiseProduct(mean)).cwiseMax(0.0);
+    const double spread = var.cwiseSqrt().mean();
+    if (count[k] >= 5) {
+      max_spread = std::max(max_spread, spread);
+      max_mean_error = std::max(max_mean_error, (mean - g.truth[k]).cwiseAbs().mean());
+    }
+    out["materials"].push_back({{"material", g.names[k]},
+                                {"truth", {g.truth[k].x(), g.truth[k].y(), g.truth[k].z()}},
+                                {"mean", {mean.x(), mean.y(), mean.z()}},
+                                {"error_of_mean", (mean - g.truth[k]).cwiseAbs().mean()},
+                                {"patches", count[k]},
+                                {"mean_abs_error", err[k] / count[k]},
+                                {"spread_sd", spread}});
+  }
+  out["mean_abs_error"] = total_count > 0 ? total / total_count : 0.0;  // per patch
+  out["max_error_of_material_mean"] = max_mean_error;                   // bias, materials >= 5 patches
+  out["max_spread_sd"] = max_spread;                                    // over materials with >= 5 observed patches
+  out["patches"] = total_count;
+  return out;
+}
+
+// ---- convergence chart -----------------------------------------------------------------------
+
+// A log-scale line chart of series over iterations (one colour each), with a legend.
+cv::Mat LogChart(const std::vector<std::pair<std::string, std::vector<double>>>& series, const std::string& title) {
+  const int w = 560, h = 360, left = 60, right = 20, top = 40, bottom = 40;
+  cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  double lo = 1e300, hi = 0.0;
+  size_t n = 0;
+  for (const auto& [name, v] : series) {
+    n = std::max(n, v.size());
+    for (double x : v) {
+      if (x > 0.0 && std::isfinite(x)) {
+        lo = std::min(lo, x);
+        hi = std::max(hi, x);
+      }
+    }
+  }
+  if (!(hi > 0.0)) {
+    lo = 1e-3;
+    hi = 1.0;
+  }
+  const double l0 = std::floor(std::log10(lo)), l1 = std::max(l0 + 1.0, std::ceil(std::log10(hi)));
+  auto px = [&](size_t i) { return left + static_cast<int>((w - left - right) * (n > 1 ? double(i) / (n - 1) : 0.5)); };
+  auto py = [&](double v) {
+    const double t = (std::log10(std::max(v, std::pow(10.0, l0))) - l0) / (l1 - l0);
+    return top + static_cast<int>((h - top - bottom) * (1.0 - t));
+  };
+  cv::rectangle(img, {left, top}, {w - right, h - bottom}, cv::Scalar(0, 0, 0));
+  for (double e = l0; e <= l1; e += 1.0) {
+    const int y = py(std::pow(10.0, e));
+    cv::line(img, {left, y}, {w - right, y}, cv::Scalar(220, 220, 220));
+    cv::putText(img, "1e" + std::to_string(static_cast<int>(e)), {5, y + 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 0, 0));
+  }
+  for (size_t i = 0; i < n; ++i) {
+    cv::putText(img, std::to_string(i), {px(i) - 4, h - bottom + 16}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 0, 0));
+  }
+  cv::putText(img, "iteration", {w / 2 - 30, h - 6}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0));
+  cv::putText(img, title, {left, 24}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0));
+  const cv::Scalar colours[] = {{200, 40, 40}, {40, 40, 200}, {40, 150, 40}, {150, 40, 150}};
+  for (size_t s = 0; s < series.size(); ++s) {
+    const cv::Scalar c = colours[s % 4];
+    std::vector<cv::Point> pts;
+    for (size_t i = 0; i < series[s].second.size(); ++i) {
+      if (std::isfinite(series[s].second[i])) pts.emplace_back(px(i), py(series[s].second[i]));
+    }
+    if (pts.size() > 1) cv::polylines(img, pts, false, c, 2);
+    for (const cv::Point& p : pts) cv::circle(img, p, 3, c, cv::FILLED);
+    cv::putText(img, series[s].first, {w - right - 220, top + 18 + 16 * static_cast<int>(s)}, cv::FONT_HERSHEY_SIMPLEX,
+                0.45, c);
+  }
+  return img;
+}
+
+cv::Mat AlbedoPreview(const RadianceImage& albedo) {
+  return RadiancePreview(albedo, 1.0);
+}
+
+// The simulated world's radiance at a bracket's time, seen by the bracket's camera (input=truth:
+// what an ideal, noise-free, calibrated camera would record), cached as stage "truth-radiance".
+BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket,
+                              const sim::SimDeviceSpec& spec) {
+  BracketRadiance out;
+  out.device_id = bracket.front().device_id;
+  out.bracket_id = bracket.front().bracket_id;
+  out.utc = bracket.front().utc;
+  for (const capture::FrameRecord& f : bracket) out.frame_ids.push_back(f.id);
+  out.key.Add("stage", "truth-radiance-v1")
+      .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
+      .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
+      .Add("device", out.device_id)
+      .Add("utc", FormatIso8601(out.utc));
+  const StageCache::Result stage = run.RunStage("truth-radiance", out.key, [&](const fs::path& dir) {
+    const sim::GroundTruth truth = run.rig()->world->Render(spec.camera, out.utc);
+    calibration::SaveRadianceExr(truth.radiance, (dir / "radiance.exr").string());
+  });
+  out.exr = stage.dir / "radiance.exr";
+  out.radiance = calibration::LoadRadianceExr(out.exr.string());
+  return out;
+}
+
+// ---- the pipeline --------------------------------------------------------------------------
+
+struct Geometry {
+  RadiosityScene scene;
+  std::unique_ptr<radiosity::PatchHierarchy> hierarchy;
+  std::unique_ptr<radiosity::RayCaster> caster;
+  StageKey key;
+  cv::Mat ids;
+};
+
+radiosity::ReflectanceOptions ReflectanceOptionsFrom(const Knobs& k, bool skip_radiosity) {
+  radiosity::ReflectanceOptions o;
+  o.max_iterations = k.iterations;
+  o.albedo_tolerance = k.tolerance;
+  o.fit_image_scales = true;
+  o.unseen_from_scene_mean = true;  // surfaces the camera never saw: the room's mean albedo  // EV-only (or any)
+                                    // camera: brackets are made consistent (Loscos eq. 3)
+  o.indirect_skip_tolerance = skip_radiosity ? 1e300 : 0.0;
+  o.direct.samples_per_patch = k.direct_samples;
+  o.radiosity.rays_per_form_factor = k.form_factor_rays;
+  o.radiosity.bf_epsilon = k.bf_epsilon;
+  o.radiosity.residual_tolerance = k.residual_tolerance;
+  return o;
+}
+
+radiosity::RadiosityOptions SolverOptionsFrom(const Knobs& k) {
+  radiosity::RadiosityOptions o;
+  o.rays_per_form_factor = k.form_factor_rays;
+  o.bf_epsilon = k.bf_epsilon;
+  o.residual_tolerance = k.residual_tolerance;
+  return o;
+}
+
+std::string Percent(double x) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f %%", 100.0 * x);
+  return text;
+}
+
+void RunRadiosityPipeline(PipelineRun& run) {
+  const Knobs knobs = ReadKnobs(run);
+  const RigConfig* rig = run.rig();
+  if (rig == nullptr || !rig->world) {
+    throw InvalidArgumentError(
+        "the radiosity pipeline needs the room's geometry and lamps: this session has no stored simulated world "
+        "(<session>/rig/); record it with `relume capture --rig config/rigs/sim-indoor.yaml`");
+  }
+  if (run.request().mesh) {
+    throw InvalidArgumentError(
+        "--mesh is not supported by the radiosity pipeline yet: it takes the geometry and "
+        "lamps from the session's stored world");
+  }
+  const auto brackets = StillBrackets(run.session(), run.request().source);
+  if (brackets.empty()) throw InvalidArgumentError("the session has no still-camera frames to estimate albedo from");
+  const std::string device = brackets.front().front().device_id;
+  for (const auto& b : brackets) {
+    if (b.front().device_id != device) {
+      throw InvalidArgumentError("the radiosity pipeline takes one camera; the frames come from " + device + " and " +
+                                 b.front().device_id + ": pick one with --source " + device + ":still");
+    }
+  }
+  const sim::SimDeviceSpec* spec = FindDeviceSpec(rig, device);
+  if (spec == nullptr) throw InvalidArgumentError("no simulated camera spec for " + device + " in the session's rig");
+  const sim::World& world = *rig->world;
+  run.Decide("radiosity", "plan",
+             std::to_string(brackets.size()) + " bracket(s) of " + device +
+                 "; patches <= " + std::to_string(knobs.patch_edge_m) + " m, " + std::to_string(knobs.iterations) +
+                 " iteration(s) at most, tolerance " + std::to_string(knobs.tolerance));
+  if (run.request().explain) {
+    run.Decide("radiosity", "note", "the indirect-share test (skip or run radiosity) needs the radiance: not run here");
+    return;
+  }
+  if (world.options().indirect_bounces == 0) {
+    run.Decide("radiosity", "note",
+               "the session's world rendered direct light only (render.indirect_bounces 0): its photographs have no "
+               "interreflection, so albedo from a radiosity model is biased low; compare with the skipped result");
+  }
+
+  // Geometry: patches and the pixel -> patch map.
+  Geometry geo;
+  geo.scene = RadiositySceneFromWorld(world.scene(), knobs.material_groups);
+  radiosity::HierarchyOptions hopt;
+  hopt.max_patch_edge_m = knobs.patch_edge_m;
+  geo.hierarchy = std::make_unique<radiosity::PatchHierarchy>(geo.scene.mesh, hopt);
+  geo.caster = std::make_unique<radiosity::RayCaster>(geo.scene.mesh);
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  const int n = h.LeafCount();
+  geo.key.Add("stage", "radiosity-geometry-v1")
+      .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
+      .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
+      .Add("device", device)
+      .Add("patch_edge_m", knobs.patch_edge_m)
+      .Add("material_groups", knobs.material_groups);
+  const StageCache::Result geometry_stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
+    WriteIds(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, spec->camera));
+    std::ofstream out(dir / "patches.csv");
+    out << "patch,object,centroid_x_m,centroid_y_m,centroid_z_m,normal_x,normal_y,normal_z,area_m2\n";
+    for (int p = 0; p < n; ++p) {
+      const radiosity::Node& node = h.leaf(p);
+      char line[256];
+      std::snprintf(line, sizeof(line), "%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.8f\n", p,
+                    h.mesh().materials[node.material].name.c_str(), node.centroid.x(), node.centroid.y(),
+                    node.centroid.z(), node.normal.x(), node.normal.y(), node.normal.z(), node.area_m2);
+      out << line;
+    }
+  });
+  geo.ids = ReadIds(geometry_stage.dir / "patch_ids.bin");
+  run.metrics()["patches"] = n;
+  run.metrics()["mesh_triangles"] = h.mesh().TriangleCount();
+
+  // Per bracket: linear radiance, then the mean radiance of each patch the camera saw.
+  std::vector<radiosity::RadianceObservation> observations;
+  std::vector<StageKey> observation_keys;
+  std::vector<BracketRadiance> radiance;
+  std::vector<bool> seen(n, false);
+  for (const auto& bracket : brackets) {
+    if (knobs.input == "truth") {
+      radiance.push_back(TruthRadiance(run, bracket, *spec));
+    } else {
+      radiance.push_back(LinearRadiance(run, bracket));
+    }
+    const BracketRadiance& r = radiance.back();
+    if (r.radiance.width() != geo.ids.cols || r.radiance.height() != geo.ids.rows) {
+      throw InvalidArgumentError("bracket image " + std::to_string(r.radiance.width()) + "x" +
+                                 std::to_string(r.radiance.height()) + " does not match the camera of " + device);
+    }
+    StageKey key;
+    key.Add("stage", "radiosity-observe-v1").AddKey("radiance", r.key).AddKey("geometry", geo.key);
+    key.Add("min_patch_pixels", knobs.min_patch_pixels);
+    const StageCache::Result stage = run.RunStage("radiosity-observe", key, [&](const fs::path& dir) {
+      std::vector<Rgb> sum(n, Rgb::Zero());
+      std::vector<int> count(n, 0);
+      for (int y = 0; y < geo.ids.rows; ++y) {
+        const int* id = geo.ids.ptr<int>(y);
+        const auto* px = r.radiance.pixels.ptr<cv::Vec3f>(y);
+        const std::uint8_t* status = r.status.empty() ? nullptr : r.status.ptr<std::uint8_t>(y);
+        for (int x = 0; x < geo.ids.cols; ++x) {
+          if (id[x] < 0 || (status && status[x] != 0)) continue;
+          const Rgb v(px[x][0], px[x][1], px[x][2]);
+          if (!v.allFinite()) continue;
+          sum[id[x]] += v;
+          ++count[id[x]];
+        }
+      }
+      std::vector<Rgb> mean(n, Rgb::Constant(std::numeric_limits<double>::quiet_NaN()));
+      for (int p = 0; p < n; ++p) {
+        if (count[p] >= knobs.min_patch_pixels) mean[p] = sum[p] / count[p];
+      }
+      WritePatchRgb(dir / "observation.csv", "radiance", mean, &count);
+    });
+    radiosity::RadianceObservation obs;
+    obs.radiance = ReadPatchRgb(stage.dir / "observation.csv", n);
+    obs.lighting = LightingAt(world, r.utc);
+    obs.camera_position_m = spec->camera.world_from_camera.translation();
+    for (int p = 0; p < n; ++p) seen[p] = seen[p] || obs.radiance[p].allFinite();
+    observations.push_back(std::move(obs));
+    observation_keys.push_back(key);
+  }
+  run.metrics()["patches_seen"] = std::count(seen.begin(), seen.end(), true);
+
+  // Absolute scale: an EV-only camera's radiance is relative (and differs per bracket, which the
+  // reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from the
+  // simulated world's rendered radiance (standing in for a radiometric calibration), or stays 1.
+  StageKey scale_key;
+  scale_key.Add("stage", "radiosity-scale-v2").AddKey("radiance", radiance.front().key).Add("mode", knobs.scale);
+  scale_key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
+  const StageCache::Result scale_stage = run.RunStage("radiosity-scale", scale_key, [&](const fs::path& dir) {
+    nlohmann::json j = {{"mode", knobs.scale}, {"scale", 1.0}};
+    if (knobs.input == "truth") {
+      j["mode"] = "input=truth: already absolute";
+    } else if (knobs.scale == "truth") {
+      const BracketRadiance& r = radiance.front();
+      const sim::GroundTruth truth = world.Render(spec->camera, r.utc);
+      // The median of truth / measured over well-exposed pixels and channels: robust to the few
+      // very bright pixels (a lamp's hot spot) that dominate a least-squares scale.
+      std::vector<double> ratios;
+      for (int y = 0; y < r.radiance.height(); ++y) {
+        for (int x = 0; x < r.radiance.width(); ++x) {
+          if (!r.status.empty() && r.status.at<std::uint8_t>(y, x) != 0) continue;
+          const cv::Vec3f m = r.radiance.pixels.at<cv::Vec3f>(y, x), t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
+          for (int c = 0; c < 3; ++c) {
+            if (std::isfinite(m[c]) && std::isfinite(t[c]) && m[c] > 0.0f && t[c] > 0.0f) ratios.push_back(t[c] / m[c]);
+          }
+        }
+      }
+      if (ratios.empty()) {
+        throw InvalidArgumentError("cannot fix the absolute scale: bracket 0 has no well-exposed pixel on a surface");
+      }
+      const auto mid = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
+      std::nth_element(ratios.begin(), mid, ratios.end());
+      const double k = *mid;
+      // Spread of the ratio (robust): half the 16th-84th percentile range, relative.
+      const auto lo = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 16 / 100);
+      std::nth_element(ratios.begin(), lo, ratios.end());
+      const double p16 = *lo;
+      const auto hi = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 84 / 100);
+      std::nth_element(ratios.begin(), hi, ratios.end());
+      j["scale"] = k;
+      j["samples"] = ratios.size();
+      j["relative_spread"] = 0.5 * (*hi - p16) / k;
+    }
+    WriteJson(dir / "scale.json", j);
+  });
+  const nlohmann::json scale = ReadJson(scale_stage.dir / "scale.json");
+  const double k_abs = scale["scale"].get<double>();
+  run.metrics()["absolute_scale"] = scale;
+  run.Decide("radiosity-scale", "choose",
+             knobs.input == "truth" ? "input=truth: the world's radiance is absolute (W m^-2 sr^-1); no camera"
+             : knobs.scale == "truth"
+                 ? "bracket 0's absolute scale from the simulated world's radiance (a stand-in for radiometric "
+                   "calibration; the EV-only camera gives relative radiance only)"
+                 : "scale=none: albedo is relative (bracket 0's units), not absolute");
+  for (auto& obs : observations) {
+    for (Rgb& v : obs.radiance) v *= k_abs;
+  }
+
+  // Planner: the indirect share, from a direct-only albedo of bracket 0 and triangle-level form
+  // factors. Below the tolerance the radiosity iterations cannot change the albedo by more.
+  const radiosity::DirectLight direct0 = radiosity::ComputeDirectLight(h, *geo.caster, observations.front().lighting,
+                                                                       ReflectanceOptionsFrom(knobs, false).direct);
+  std::vector<Rgb> albedo0(n, Rgb::Constant(0.5));
+  {
+    // Loscos's first estimate: direct light plus one ambient term (the mean observed radiosity).
+    Rgb ambient = Rgb::Zero();
+    double area = 0.0;
+    for (int p = 0; p < n; ++p) {
+      if (!observations.front().radiance[p].allFinite()) continue;
+      ambient += h.leaf(p).area_m2 * std::numbers::pi * observations.front().radiance[p];
+      area += h.leaf(p).area_m2;
+    }
+    if (area > 0.0) ambient /= area;
+    Rgb sum = Rgb::Zero();
+    int count = 0;
+    for (int p = 0; p < n; ++p) {
+      const Rgb& l = observations.front().radiance[p];
+      const Rgb e = direct0.irradiance[p] + ambient;
+      if (!l.allFinite() || !(e.minCoeff() > 0.0)) continue;
+      albedo0[p] = (std::numbers::pi * l).cwiseQuotient(e).cwiseMin(1.0).cwiseMax(0.0);
+      sum += albedo0[p];
+      ++count;
+    }
+    if (count > 0) {
+      for (int p = 0; p < n; ++p) {
+        if (!observations.front().radiance[p].allFinite()) albedo0[p] = sum / count;
+      }
+    }
+  }
+  const radiosity::IndirectShareEstimate share = radiosity::EstimateIndirectShare(
+      h, *geo.caster, albedo0, direct0.irradiance, knobs.tolerance, knobs.form_factor_rays);
+  const bool skip = share.indirect_share < knobs.tolerance;
+  run.metrics()["indirect_share"] = {{"estimate", share.indirect_share},
+                                     {"first_bounce_ratio", share.first_bounce_ratio},
+                                     {"series_ratio", share.series_ratio},
+                                     {"mean_enclosure", share.mean_enclosure},
+                                     {"tolerance", knobs.tolerance}};
+  run.Decide("radiosity", skip ? "skip" : "run",
+             "estimated indirect light " + Percent(share.indirect_share) + " of the direct (first bounce " +
+                 Percent(share.first_bounce_ratio) + ", enclosure " + std::to_string(share.mean_enclosure) + ") " +
+                 (skip ? "is below" : "exceeds") + " the tolerance " + Percent(knobs.tolerance) +
+                 (skip ? ": albedo from direct light only" : ": reflectance iterated with radiosity"));
+
+  // Reflectance iterations.
+  const MaterialGroups groups = GroupPatches(h, geo.scene, world.scene());
+  StageKey reflectance_key;
+  reflectance_key.Add("stage", "radiosity-reflectance-v2").AddKey("geometry", geo.key).AddKey("scale", scale_key);
+  for (size_t s = 0; s < observation_keys.size(); ++s) {
+    reflectance_key.AddKey("observation", observation_keys[s]).Add("utc", FormatIso8601(radiance[s].utc));
+  }
+  reflectance_key.Add("iterations", knobs.iterations)
+      .Add("tolerance", knobs.tolerance)
+      .Add("form_factor_rays", knobs.form_factor_rays)
+      .Add("bf_epsilon", knobs.bf_epsilon)
+      .Add("residual_tolerance", knobs.residual_tolerance)
+      .Add("direct_samples", knobs.direct_samples)
+      .Add("skip_radiosity", skip)
+      .Add("compare_truth", knobs.compare_truth);
+  const StageCache::Result refl_stage =
+      run.RunStage("radiosity-reflectance", reflectance_key, [&](const fs::path& dir) {
+        radiosity::ReflectanceOptions options = ReflectanceOptionsFrom(knobs, skip);
+        nlohmann::json per_iteration = nlohmann::json::array();
+        options.on_iteration = [&](int iteration, const std::vector<Rgb>& albedo, const std::vector<double>& scales) {
+          nlohmann::json it = {{"iteration", iteration}, {"image_scale", scales}};
+          if (knobs.compare_truth) it["truth"] = AlbedoErrors(groups, albedo, seen);
+          per_iteration.push_back(it);
+          run.Progress("reflectance", iteration, knobs.iterations);
+        };
+        const radiosity::ReflectanceResult result =
+            radiosity::EstimateReflectance(h, *geo.caster, observations, options);
+        if (per_iteration.size() < static_cast<size_t>(knobs.iterations) + 1) std::fprintf(stderr, "\n");
+
+        // albedo.csv and the reflectance map.
+        {
+          std::ofstream out(dir / "albedo.csv");
+          out << "patch,object,seen,estimated,confidence,albedo_r,albedo_g,albedo_b,initial_r,initial_g,initial_b\n";
+          for (int p = 0; p < n; ++p) {
+            char line[256];
+            const Rgb& a = result.albedo[p];
+            const Rgb& i = result.initial_albedo[p];
+            std::snprintf(line, sizeof(line), "%d,%s,%d,%d,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", p,
+                          h.mesh().materials[h.leaf(p).material].name.c_str(), seen[p] ? 1 : 0,
+                          result.estimated[p] ? 1 : 0, result.confidence[p], a.x(), a.y(), a.z(), i.x(), i.y(), i.z());
+            out << line;
+          }
+        }
+        const RadianceImage albedo_image = PaintPatches(geo.ids, result.albedo);
+        calibration::SaveRadianceExr(albedo_image, (dir / "reflectance.exr").string());
+        calibration::SaveImage(AlbedoPreview(albedo_image), (dir / "reflectance.png").string());
+
+        // The converged radiosity solution under bracket 0's lamps (absolute units).
+        radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
+        const radiosity::DirectLight direct =
+            radiosity::ComputeDirectLight(h, *geo.caster, observations.front().lighting, options.direct);
+        radiosity::RadiositySolution solution;
+        const radiosity::RadiositySummary summary =
+            solver.Solve(result.albedo, direct.irradiance, h.LeafEmission(), &solution);
+        WritePatchRgb(dir / "radiosity.csv", "radiosity_w_m2", solution.radiosity);
+        std::vector<Rgb> radiance_patch(n);
+        for (int p = 0; p < n; ++p) radiance_patch[p] = solution.radiosity[p] / std::numbers::pi;
+        RadianceImage rendering = PaintPatches(geo.ids, radiance_patch);
+        rendering.unit = RadianceUnit::kWattsPerSqmPerSr;
+        calibration::SaveRadianceExr(rendering, (dir / "radiosity.exr").string());
+        calibration::SaveImage(RadiancePreview(rendering), (dir / "radiosity.png").string());
+        // How well the solution reproduces bracket 0's photograph (per patch, observed patches).
+        double num = 0.0, den = 0.0;
+        for (int p = 0; p < n; ++p) {
+          const Rgb& l = observations.front().radiance[p];
+          if (!l.allFinite()) continue;
+          num += (radiance_patch[p] - l).squaredNorm();
+          den += l.squaredNorm();
+        }
+
+        // The model's own floor: the radiosity solution with the TRUE albedo against bracket 0's
+        // photograph, per observed patch. What remains here (Monte Carlo noise and bounce truncation
+        // of the simulated photographs, patch discretisation, camera) no albedo can remove.
+        nlohmann::json model_gap;
+        if (knobs.compare_truth) {
+          std::vector<Rgb> truth_albedo(n, Rgb::Constant(0.5));
+          for (int p = 0; p < n; ++p) truth_albedo[p] = groups.truth[groups.group_of_patch[p]];
+          radiosity::RadiositySolution truth_solution;
+          solver.Solve(truth_albedo, direct.irradiance, h.LeafEmission(), &truth_solution);
+          double sum = 0.0, sum2 = 0.0;
+          int count = 0;
+          for (int p = 0; p < n; ++p) {
+            const Rgb& l = observations.front().radiance[p];
+            if (!l.allFinite() || !(l.minCoeff() > 0.0)) continue;
+            const Rgb ratio = (truth_solution.radiosity[p] / std::numbers::pi).cwiseQuotient(l);
+            for (int c = 0; c < 3; ++c) {
+              sum += ratio[c] - 1.0;
+              sum2 += (ratio[c] - 1.0) * (ratio[c] - 1.0);
+            }
+            count += 3;
+          }
+          const double mean = count > 0 ? sum / count : 0.0;
+          model_gap = {
+              {"mean_relative_difference", mean},
+              {"sd_relative_difference", count > 0 ? std::sqrt(std::max(0.0, sum2 / count - mean * mean)) : 0.0},
+              {"samples", count}};
+        }
+
+        // Convergence: CSV and chart.
+        std::vector<double> change{std::numeric_limits<double>::quiet_NaN()}, error, spread;
+        for (double c : result.max_change) change.push_back(c);
+        {
+          std::ofstream out(dir / "convergence.csv");
+          out << "iteration,max_albedo_change,mean_albedo_change,mean_abs_error,max_spread_sd\n";
+          for (size_t i = 0; i < per_iteration.size(); ++i) {
+            const double mc = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.max_change[i - 1];
+            const double mean_c = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.mean_change[i - 1];
+            const nlohmann::json& t = per_iteration[i].contains("truth") ? per_iteration[i]["truth"] : nlohmann::json();
+            const double e = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["mean_abs_error"].get<double>();
+            const double sd = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["max_spread_sd"].get<double>();
+            error.push_back(e);
+            spread.push_back(sd);
+            char line[160];
+            std::snprintf(line, sizeof(line), "%zu,%.6g,%.6g,%.6g,%.6g\n", i, mc, mean_c, e, sd);
+            out << line;
+          }
+        }
+        std::vector<std::pair<std::string, std::vector<double>>> series = {{"max albedo change", change}};
+        if (knobs.compare_truth) {
+          series.push_back({"mean |albedo - truth|", error});
+          series.push_back({"max spread (sd) per material", spread});
+        }
+        calibration::SaveImage(LogChart(series, "reflectance iterations (Loscos)"), (dir / "convergence.png").string());
+
+        nlohmann::json m;
+        m["iterations"] = result.iterations;
+        m["converged"] = result.converged;
+        m["reason"] = result.reason;
+        m["radiosity_skipped"] = result.radiosity_skipped;
+        m["image_scale"] = result.image_scale;
+        m["scale_samples"] = result.scale_samples;
+        m["max_change"] = result.max_change;
+        m["clamped"] = result.clamped;
+        m["seconds"] = result.time_s;
+        m["per_iteration"] = per_iteration;
+        if (knobs.compare_truth && !per_iteration.empty()) {
+          m["truth_before"] = per_iteration.front()["truth"];
+          m["truth_after"] = per_iteration.back()["truth"];
+        }
+        m["solution"] = {{"summary", summary.BriefReport()},
+                         {"converged", summary.converged},
+                         {"links", summary.links},
+                         {"relative_rms_vs_bracket0", den > 0.0 ? std::sqrt(num / den) : 0.0}};
+        if (!model_gap.is_null()) m["model_gap_true_albedo_vs_bracket0"] = model_gap;
+        WriteJson(dir / "metrics.json", m);
+      });
+  const nlohmann::json refl = ReadJson(refl_stage.dir / "metrics.json");
+  run.metrics()["reflectance"] = refl;
+  run.Decide("radiosity-reflectance", refl["converged"].get<bool>() ? "note" : "warn",
+             std::string(refl["converged"].get<bool>() ? "converged" : "not converged") + " after " +
+                 std::to_string(refl["iterations"].get<int>()) + " iteration(s): " + refl["reason"].get<std::string>());
+  run.AddOutput(refl_stage.dir / "albedo.csv", "albedo per patch (and iteration 0's)");
+  run.AddOutput(refl_stage.dir / "reflectance.png", "reflectance map (albedo as seen by the camera)");
+  run.AddOutput(refl_stage.dir / "radiosity.csv", "converged radiosity per patch, bracket 0's lamps, W/m^2");
+  run.AddOutput(refl_stage.dir / "radiosity.png", "radiosity solution rendered from the camera");
+  run.AddOutput(refl_stage.dir / "convergence.png", "convergence of the reflectance iterations");
+  run.AddOutput(refl_stage.dir / "convergence.csv", "albedo change and error per iteration");
+
+  // Relight: every recorded lamp off, one point lamp where the command line puts it.
+  StageKey relight_key;
+  relight_key.Add("stage", "radiosity-relight-v2")
+      .AddKey("reflectance", reflectance_key)
+      .Add("light_x", knobs.light_m.x())
+      .Add("light_y", knobs.light_m.y())
+      .Add("light_z", knobs.light_m.z())
+      .Add("light_intensity", knobs.light_intensity_w_sr);
+  const StageCache::Result relight_stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
+    std::vector<Rgb> albedo;
+    {
+      std::ifstream in(refl_stage.dir / "albedo.csv");
+      std::string line;
+      std::getline(in, line);
+      while (std::getline(in, line)) {
+        std::vector<std::string> f;
+        std::stringstream ss(line);
+        std::string field;
+        while (std::getline(ss, field, ',')) f.push_back(field);
+        if (f.size() < 8) throw IoError((refl_stage.dir / "albedo.csv").string(), "malformed line '" + line + "'");
+        albedo.emplace_back(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));
+      }
+      if (static_cast<int>(albedo.size()) != n) {
+        throw IoError((refl_stage.dir / "albedo.csv").string(), "patch count differs; rerun with --force");
+      }
+    }
+    radiosity::Lighting lighting;
+    lighting.point_lights.push_back({knobs.light_m, Rgb::Constant(knobs.light_intensity_w_sr)});
+    const radiosity::DirectLight direct =
+        radiosity::ComputeDirectLight(h, *geo.caster, lighting, ReflectanceOptionsFrom(knobs, skip).direct);
+    radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
+    radiosity::RadiositySolution solution;
+    const radiosity::RadiositySummary summary = solver.Solve(albedo, direct.irradiance, h.LeafEmission(), &solution);
+    std::vector<Rgb> l(n);
+    for (int p = 0; p < n; ++p) l[p] = solution.radiosity[p] / std::numbers::pi;
+    RadianceImage relit = PaintPatches(geo.ids, l);
+    relit.unit = RadianceUnit::kWattsPerSqmPerSr;
+    calibration::SaveRadianceExr(relit, (dir / "relit.exr").string());
+    calibration::SaveImage(RadiancePreview(relit), (dir / "relit.png").string());
+    WritePatchRgb(dir / "relit_radiosity.csv", "radiosity_w_m2", solution.radiosity);
+    nlohmann::json m = {{"light_m", {knobs.light_m.x(), knobs.light_m.y(), knobs.light_m.z()}},
+                        {"light_intensity_w_sr", knobs.light_intensity_w_sr},
+                        {"solution", summary.BriefReport()}};
+    if (knobs.compare_truth) {
+      // The same lamp in the simulated world (its renderer, its interreflection settings).
+      sim::Scene scene = world.scene();
+      sim::Lamp lamp;
+      lamp.name = "relight";
+      lamp.position = knobs.light_m;
+      lamp.intensity_w_sr = Eigen::Vector3d::Constant(knobs.light_intensity_w_sr);
+      scene.lamps = {lamp};
+      const sim::World truth_world(scene, world.options());
+      const sim::GroundTruth truth = truth_world.Render(spec->camera, radiance.front().utc);
+      // Per patch (the mean of the truth's pixels on it): pixels carry the renderer's Monte Carlo
+      // noise, patches average it.
+      std::vector<Rgb> sum(n, Rgb::Zero());
+      std::vector<int> count(n, 0);
+      for (int y = 0; y < geo.ids.rows; ++y) {
+        for (int x = 0; x < geo.ids.cols; ++x) {
+          const int id = geo.ids.at<int>(y, x);
+          const cv::Vec3f t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
+          if (id < 0 || !std::isfinite(t[0])) continue;
+          sum[id] += Rgb(t[0], t[1], t[2]);
+          ++count[id];
+        }
+      }
+      double num = 0.0, den = 0.0, model = 0.0;
+      int patches = 0;
+      for (int p = 0; p < n; ++p) {
+        if (count[p] < knobs.min_patch_pixels) continue;
+        const Rgb t = sum[p] / count[p];
+        num += (l[p] - t).squaredNorm();
+        den += t.squaredNorm();
+        model += l[p].sum();
+        ++patches;
+      }
+      double truth_total = 0.0;
+      for (int p = 0; p < n; ++p) truth_total += count[p] >= knobs.min_patch_pixels ? (sum[p] / count[p]).sum() : 0.0;
+      m["truth_relative_rms_per_patch"] = den > 0.0 ? std::sqrt(num / den) : 0.0;
+      m["truth_mean_ratio"] = truth_total > 0.0 ? model / truth_total : 0.0;
+      m["truth_patches"] = patches;
+      calibration::SaveImage(RadiancePreview(truth.radiance), (dir / "relit_truth.png").string());
+    }
+    WriteJson(dir / "metrics.json", m);
+  });
+  run.metrics()["relight"] = ReadJson(relight_stage.dir / "metrics.json");
+  run.AddOutput(relight_stage.dir / "relit.png", "relit rendering under the new lamp");
+  run.AddOutput(relight_stage.dir / "relit.exr", "relit radiance, W m^-2 sr^-1");
+}
+
+}  // namespace
+
+PipelineEntry RadiosityPipelineEntry() {
+  return {"radiosity",
+          "per-patch albedo of a room under a moving lamp (Loscos: EV-only HDR, consistency scales, reflectance "
+          "iterated with radiosity), radiosity solution, relighting (--set light_x=..,light_y=..,light_z=..)",
+          RunRadiosityPipeline};
+}
+
+}  // namespace relume::app::process

@@ -1,0 +1,171 @@
+#include "apps/relume/process/radiosity_scene.h"
+
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace relume::app::process {
+
+namespace {
+
+// Barycentric coordinates of p (projected onto the triangle's plane); min() >= 0 inside.
+Eigen::Vector3d Barycentric(const radiosity::Triangle& t, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d e1 = t.v1 - t.v0, e2 = t.v2 - t.v0, d = p - t.v0;
+  const double a = e1.dot(e1), b = e1.dot(e2), c = e2.dot(e2);
+  const double p1 = d.dot(e1), p2 = d.dot(e2);
+  const double det = a * c - b * b;
+  const double v = (c * p1 - b * p2) / det;
+  const double w = (a * p2 - b * p1) / det;
+  return {1.0 - v - w, v, w};
+}
+
+}  // namespace
+
+RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::string& material_groups) {
+  RadiosityScene out;
+  // Group name per object ("" = its own material).
+  std::vector<std::string> group(scene.objects.size());
+  std::stringstream groups(material_groups);
+  std::string one;
+  while (std::getline(groups, one, ',')) {
+    if (one.empty()) continue;
+    std::stringstream members(one);
+    std::string name;
+    while (std::getline(members, name, '+')) {
+      const int index = scene.ObjectIndex(name);
+      if (index < 0) {
+        std::string names;
+        for (const sim::SceneObject& o : scene.objects) names += (names.empty() ? "" : ", ") + o.name;
+        throw InvalidArgumentError("--set material_groups=" + material_groups + ": no scene object '" + name +
+                                   "' (the scene has " + names + ")");
+      }
+      group[index] = one;
+    }
+  }
+  std::map<std::string, int> group_material;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const sim::SceneObject& object : scene.objects) {
+    if (object.shape == sim::SceneObject::Shape::kSphere) {
+      throw InvalidArgumentError("scene object '" + object.name +
+                                 "' is a sphere; the radiosity pipeline takes planes, boxes and meshes only "
+                                 "(give it as a mesh)");
+    }
+    if (!object.motion.IsStatic()) {
+      throw InvalidArgumentError("scene object '" + object.name +
+                                 "' moves; the radiosity pipeline needs static geometry (lamps may move)");
+    }
+    for (const Eigen::Vector3d& v : object.mesh.vertices) {
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+  }
+  if (!(lo.allFinite() && hi.allFinite())) throw InvalidArgumentError("the scene has no geometry for radiosity");
+  const Eigen::Vector3d scene_center = 0.5 * (lo + hi);
+  const double floor_z = lo.z();
+
+  for (int o = 0; o < static_cast<int>(scene.objects.size()); ++o) {
+    const sim::SceneObject& object = scene.objects[o];
+    int material = 0;
+    if (group[o].empty()) {
+      material = out.mesh.AddMaterial({object.name, radiosity::Rgb::Constant(0.5), radiosity::Rgb::Zero()});
+    } else if (const auto it = group_material.find(group[o]); it != group_material.end()) {
+      material = it->second;
+    } else {
+      material = out.mesh.AddMaterial({group[o], radiosity::Rgb::Constant(0.5), radiosity::Rgb::Zero()});
+      group_material[group[o]] = material;
+    }
+    out.object_material.push_back(material);
+    Eigen::Vector3d object_lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d object_hi = -object_lo;
+    for (const Eigen::Vector3d& v : object.mesh.vertices) {
+      object_lo = object_lo.cwiseMin(v);
+      object_hi = object_hi.cwiseMax(v);
+    }
+    const bool plane = object.shape == sim::SceneObject::Shape::kPlane;
+    const Eigen::Vector3d object_center = 0.5 * (object_lo + object_hi);
+    const int base = static_cast<int>(out.mesh.positions_m.size());
+    const int triangles_before = out.mesh.TriangleCount();
+    out.mesh.positions_m.insert(out.mesh.positions_m.end(), object.mesh.vertices.begin(), object.mesh.vertices.end());
+    for (const Eigen::Vector3i& tri : object.mesh.triangles) {
+      const Eigen::Vector3d& a = object.mesh.vertices[tri[0]];
+      const Eigen::Vector3d& b = object.mesh.vertices[tri[1]];
+      const Eigen::Vector3d& c = object.mesh.vertices[tri[2]];
+      const Eigen::Vector3d normal = (b - a).cross(c - a);
+      if (!(normal.norm() > 0.0)) continue;  // degenerate: nothing to light
+      const Eigen::Vector3d centroid = (a + b + c) / 3.0;
+      const Eigen::Vector3d toward =
+          plane ? Eigen::Vector3d(scene_center - centroid) : Eigen::Vector3d(centroid - object_center);
+      const bool flip = normal.dot(toward) < 0.0;
+      const Eigen::Vector3d facing = flip ? Eigen::Vector3d(-normal) : normal;
+      if (!plane && facing.normalized().z() < -0.99 && std::max({a.z(), b.z(), c.z()}) <= floor_z + 1e-3) continue;
+      out.mesh.triangles.push_back(flip ? std::array<int, 3>{base + tri[0], base + tri[2], base + tri[1]}
+                                        : std::array<int, 3>{base + tri[0], base + tri[1], base + tri[2]});
+      out.mesh.triangle_material.push_back(material);
+    }
+    out.object_triangles.push_back(out.mesh.TriangleCount() - triangles_before);
+  }
+  return out;
+}
+
+radiosity::Lighting LightingAt(const sim::World& world, UtcTime utc) {
+  radiosity::Lighting lighting;
+  const sim::Scene& scene = world.scene();
+  for (int i = 0; i < static_cast<int>(scene.lamps.size()); ++i) {
+    const sim::Lamp& lamp = scene.lamps[i];
+    radiosity::PointLight light;
+    light.position_m = world.LampPosition(i, utc);
+    light.intensity_w_per_sr = lamp.intensity_w_sr;
+    if (lamp.type == sim::Lamp::Type::kSpot) {
+      light.spot_direction = lamp.direction.normalized();
+      light.cone_half_angle_rad = lamp.cone_half_angle_rad;
+      light.falloff_rad = lamp.falloff_rad;
+    }
+    lighting.point_lights.push_back(light);
+  }
+  return lighting;
+}
+
+int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eigen::Vector3d& p) {
+  int node = hierarchy.roots()[triangle];
+  while (!hierarchy.nodes()[node].IsLeaf()) {
+    const int first = hierarchy.nodes()[node].first_child;
+    int best = first;
+    double best_inside = -std::numeric_limits<double>::infinity();
+    for (int c = first; c < first + 4; ++c) {
+      const double inside = Barycentric(hierarchy.nodes()[c].triangle, p).minCoeff();
+      if (inside > best_inside) {
+        best_inside = inside;
+        best = c;
+      }
+    }
+    node = best;
+  }
+  return hierarchy.nodes()[node].leaf;
+}
+
+cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity::RayCaster& caster,
+                     const PinholeCamera& camera) {
+  const int width = camera.intrinsics.width, height = camera.intrinsics.height;
+  cv::Mat ids(height, width, CV_32SC1, cv::Scalar(-1));
+  const Eigen::Matrix3d rotation = camera.world_from_camera.linear();
+  const Eigen::Vector3d eye = camera.world_from_camera.translation();
+  for (int v = 0; v < height; ++v) {
+    int* row = ids.ptr<int>(v);
+    for (int u = 0; u < width; ++u) {
+      const Eigen::Vector3d dir = (rotation * camera.intrinsics.Unproject({u + 0.5, v + 0.5})).normalized();
+      double t = 0.0;
+      const int triangle = caster.Intersect(eye, dir, &t);
+      if (triangle < 0) continue;
+      const int patch = PatchAt(hierarchy, triangle, eye + t * dir);
+      if (hierarchy.leaf(patch).normal.dot(dir) >= 0.0) continue;  // the back of a one-sided patch
+      row[u] = patch;
+    }
+  }
+  return ids;
+}
+
+}  // namespace relume::app::process
