@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 
 #include "apps/relume/process/pipeline.h"
@@ -82,10 +83,28 @@ void Run(const ProcessArgs& args) {
   } else {
     // Every pipeline of this build, each into its own folder; one that cannot run on this
     // session says why and the others go on.
+    std::string failed;
     for (const process::PipelineEntry& entry : process::Pipelines()) {
       process::PipelineRequest one = request;
       one.pipeline = entry.name;
       one.out_dir = request.out_dir / entry.name;
+      if (entry.name == "irm" && !one.source && !one.target) {
+        // Relighting needs two images: take the earliest and the latest still bracket of the
+        // first camera that has two, so the sun has moved the most between them.
+        const capture::SessionReader reader(request.session_dir);
+        std::map<std::string, std::vector<std::int64_t>> by_device;
+        for (const capture::BracketRecord& b : reader.Brackets()) {
+          if (b.status == "complete") by_device[b.device_id].push_back(b.id);
+        }
+        for (const auto& [device, ids] : by_device) {
+          if (ids.size() < 2) continue;
+          one.source = "bracket:" + std::to_string(ids.front());
+          one.target = "bracket:" + std::to_string(ids.back());
+          std::cout << "pipeline irm: relighting " << *one.source << " to " << *one.target << " of " << device
+                    << " (the earliest and the latest bracket; --source/--target choose others)\n";
+          break;
+        }
+      }
       try {
         nlohmann::json summary = process::RunPipeline(one);
         PrintSummary(summary, one.out_dir.string());
@@ -93,8 +112,20 @@ void Run(const ProcessArgs& args) {
       } catch (const InvalidArgumentError& e) {
         std::cout << "pipeline " << entry.name << " skipped: " << e.what() << "\n";
         reports.push_back({entry.name, one.out_dir, nullptr, e.what()});
+      } catch (const Error& e) {
+        // Reported, and the run ends with an error after the report is written.
+        std::cout << "pipeline " << entry.name << " FAILED: " << e.what() << "\n";
+        reports.push_back({entry.name, one.out_dir, nullptr, std::string("failed: ") + e.what()});
+        failed += (failed.empty() ? "" : ", ") + entry.name;
       }
     }
+    if (!args.explain) {
+      const std::filesystem::path page =
+          process::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
+      std::cout << "report: " << page.string() << "\n";
+    }
+    if (!failed.empty()) throw Error("pipeline(s) " + failed + " failed (see above); the others' results are kept");
+    return;
   }
   if (args.explain) return;
   const std::filesystem::path page =
