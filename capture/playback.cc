@@ -375,6 +375,7 @@ class PlaybackRgbdSensor : public drivers::RgbdSensor {
     }
     frame.depth_timing = TimingOf(depth);
     frame.color_timing = TimingOf(color);
+    frame.color_exposure = color.exposure;  // the exposure the sensor reported, as recorded
     return frame;
   }
 
