@@ -238,7 +238,8 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   ASSERT_EQ(processed.exit_code, 0) << processed.output;
   EXPECT_EQ(processed.output.find("no response recorded for sim:phone"), std::string::npos) << processed.output;
   EXPECT_NE(processed.output.find("applying colour profile"), std::string::npos) << processed.output;
-  for (const nlohmann::json& b : ReadJson(dir / "q" / "summary.json")["metrics"]["brackets"]) {
+  const nlohmann::json processed_summary = ReadJson(dir / "q" / "summary.json");
+  for (const nlohmann::json& b : processed_summary["metrics"]["brackets"]) {
     EXPECT_LT(b["truth_relative_rms"].get<double>(), 0.03) << b.dump();
   }
   // Raw frames need no response: a clear refusal.
