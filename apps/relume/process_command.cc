@@ -88,23 +88,6 @@ void Run(const ProcessArgs& args) {
       process::PipelineRequest one = request;
       one.pipeline = entry.name;
       one.out_dir = request.out_dir / entry.name;
-      if (entry.name == "irm" && !one.source && !one.target) {
-        // Relighting needs two images: take the earliest and the latest still bracket of the
-        // first camera that has two, so the sun has moved the most between them.
-        const capture::SessionReader reader(request.session_dir);
-        std::map<std::string, std::vector<std::int64_t>> by_device;
-        for (const capture::BracketRecord& b : reader.Brackets()) {
-          if (b.status == "complete") by_device[b.device_id].push_back(b.id);
-        }
-        for (const auto& [device, ids] : by_device) {
-          if (ids.size() < 2) continue;
-          one.source = "bracket:" + std::to_string(ids.front());
-          one.target = "bracket:" + std::to_string(ids.back());
-          std::cout << "pipeline irm: relighting " << *one.source << " to " << *one.target << " of " << device
-                    << " (the earliest and the latest bracket; --source/--target choose others)\n";
-          break;
-        }
-      }
       try {
         nlohmann::json summary = process::RunPipeline(one);
         PrintSummary(summary, one.out_dir.string());

@@ -27,22 +27,6 @@ void ParallelFor(int count, int threads, Fn&& fn) {
   for (std::thread& w : workers) w.join();
 }
 
-// Bilinear sample of a linear RGB image at a continuous image point; NaN outside.
-Eigen::Vector3f SampleBilinear(const cv::Mat& image, const Eigen::Vector2d& point) {
-  const double x = point.x() - 0.5, y = point.y() - 0.5;  // pixel centres at +0.5
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-  if (x0 < 0 || y0 < 0 || x0 + 1 >= image.cols || y0 + 1 >= image.rows) {
-    return Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
-  }
-  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
-  auto at = [&](int yy, int xx) {
-    const cv::Vec3f& v = image.at<cv::Vec3f>(yy, xx);
-    return Eigen::Vector3f(v[0], v[1], v[2]);
-  };
-  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
-         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
-}
-
 float SunFractionAt(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
                     const Eigen::Vector3f& sun_dir, const RelightOptions& options) {
   if (normal.dot(sun_dir) <= 0.0f) return 1.0f;  // attached shadow, as VertexSunFractions
@@ -99,6 +83,21 @@ bool ConsistentSample(const RayCaster& caster, const View& view, const Eigen::Is
 }
 
 }  // namespace
+
+Eigen::Vector3f SampleBilinear(const cv::Mat& image, const Eigen::Vector2d& point) {
+  const double x = point.x() - 0.5, y = point.y() - 0.5;  // pixel centres at +0.5
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= image.cols || y0 + 1 >= image.rows) {
+    return Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  }
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  auto at = [&](int yy, int xx) {
+    const cv::Vec3f& v = image.at<cv::Vec3f>(yy, xx);
+    return Eigen::Vector3f(v[0], v[1], v[2]);
+  };
+  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
+         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+}
 
 bool RelightOptions::IsValid(std::string* why) const {
   if (!irm.IsValid(why)) return false;

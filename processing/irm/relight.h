@@ -79,6 +79,10 @@ struct RelightResult {
   RelightSummary summary;
 };
 
+// Bilinear sample of a linear RGB (CV_32FC3) image at a continuous image point (pixel centres
+// at +0.5); NaN outside the image.
+Eigen::Vector3f SampleBilinear(const cv::Mat& image, const Eigen::Vector2d& point);
+
 // Per-vertex: 1 when the vertex is inside the image, faces the camera and nothing blocks it.
 std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const PinholeCamera& camera);
 // Per-vertex sun fractions (see the top of this file); with `needed`, only where needed[i] is

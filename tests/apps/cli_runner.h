@@ -1,10 +1,16 @@
-// Runs the relume binary (its path comes from CMake) and captures its output and exit code.
+// What the CLI tests share: running the relume binary (its path comes from CMake) and capturing
+// its output and exit code, a fresh temporary folder per test process, reading a JSON file, and
+// loading a page in headless Chromium.
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace relume::testing {
@@ -29,6 +35,29 @@ inline CliResult RunCommand(const std::string& command_line) {
 
 inline CliResult RunRelume(const std::string& arguments) {
   return RunCommand(std::string(RELUME_BINARY) + " " + arguments);
+}
+
+// An empty folder `relume_<suite>_<name>_<pid>` under the system's temporary folder: the pid
+// keeps the cases of one suite apart when ctest runs them in parallel.
+inline std::filesystem::path FreshTempDir(const std::string& suite, const std::string& name) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("relume_" + suite + "_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// Parses a JSON file (throws nlohmann::json::parse_error when it is not JSON).
+inline nlohmann::json ReadJsonFile(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// The page's DOM after headless Chromium loaded it (and ran its load handler); `exit_code` is
+// Chromium's (127 when it is not installed: scripts/install-deps.sh installs it).
+inline CliResult LoadInChromium(const std::filesystem::path& page) {
+  return RunCommand("chromium --headless --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom file://" +
+                    std::filesystem::absolute(page).string() + " 2>/dev/null");
 }
 
 }  // namespace relume::testing

@@ -24,19 +24,12 @@
 namespace relume::app::process {
 namespace {
 namespace fs = std::filesystem;
+using relume::testing::ReadJsonFile;
 
 const std::string kSource = RELUME_SOURCE_DIR;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("relume_irm_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
+  return relume::testing::FreshTempDir("irm_test", name);
 }
 
 TEST(IrmSceneTest, SplitTrianglesKeepTheSurfaceAndTheirFlatNormals) {
@@ -106,7 +99,7 @@ TEST(IrmSetJsonTest, RoundTripKeepsEveryRatio) {
     samples.push_back(s);
   }
   const irm::IrmSet set = irm::BuildIrms(samples, sun_s.normalized(), sun_t.normalized(), irm::IrmOptions{});
-  const irm::IrmSet back = IrmSetFromJson(ReadJson([&] {
+  const irm::IrmSet back = IrmSetFromJson(ReadJsonFile([&] {
     const fs::path path = TempDir("json") / "irms.json";
     std::ofstream(path) << IrmSetToJson(set).dump();
     return path;
@@ -214,7 +207,7 @@ TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
 
   const testing::CliResult first = testing::RunRelume(command);
   ASSERT_EQ(first.exit_code, 0) << first.output;
-  const nlohmann::json summary = ReadJson(out / "summary.json");
+  const nlohmann::json summary = ReadJsonFile(out / "summary.json");
   EXPECT_EQ(Count(summary, "run", "irm-"), 4) << first.output;  // two views, the build, the relighting
   EXPECT_NE(first.output.find("four IRMs:"), std::string::npos) << first.output;
   for (const nlohmann::json& o : summary["outputs"]) {
@@ -243,17 +236,23 @@ TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
   // Unchanged: everything reused. A new bin count: views reused, build and relighting redone.
   // New sun-disk samples: views too.
   ASSERT_EQ(testing::RunRelume(command).exit_code, 0);
-  const nlohmann::json again = ReadJson(out / "summary.json");
+  const nlohmann::json again = ReadJsonFile(out / "summary.json");
   EXPECT_EQ(Count(again, "reuse"), 6) << again["decisions"].dump(1);  // 2 radiance + 4 irm
   EXPECT_EQ(Count(again, "run"), 0);
   ASSERT_EQ(testing::RunRelume(command + " --set bins=16").exit_code, 0);
-  const nlohmann::json bins = ReadJson(out / "summary.json");
+  const nlohmann::json bins = ReadJsonFile(out / "summary.json");
   EXPECT_EQ(Count(bins, "reuse", "irm-view"), 2) << bins["decisions"].dump(1);
   EXPECT_EQ(Count(bins, "run", "irm-"), 2) << bins["decisions"].dump(1);
   ASSERT_EQ(testing::RunRelume(command + " --set sun_samples=4").exit_code, 0);
-  const nlohmann::json samples = ReadJson(out / "summary.json");
+  const nlohmann::json samples = ReadJsonFile(out / "summary.json");
   EXPECT_EQ(Count(samples, "run", "irm-"), 4) << samples["decisions"].dump(1);
   EXPECT_EQ(Count(samples, "reuse", "radiance"), 2) << samples["decisions"].dump(1);
+
+  // Without --source and --target: the earliest and the latest bracket of the camera.
+  const testing::CliResult chosen = testing::RunRelume("process " + session.string() +
+                                                       " --pipeline irm --explain --out " + (dir / "chosen").string());
+  EXPECT_EQ(chosen.exit_code, 0) << chosen.output;
+  EXPECT_NE(chosen.output.find("relight bracket:1 to bracket:2"), std::string::npos) << chosen.output;
 
   // Errors a user can make, each named.
   const testing::CliResult no_target =

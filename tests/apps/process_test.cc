@@ -14,12 +14,10 @@
 namespace relume::app::process {
 namespace {
 namespace fs = std::filesystem;
+using relume::testing::ReadJsonFile;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("relume_process_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
+  return relume::testing::FreshTempDir("process_test", name);
 }
 
 TEST(StageKeyTest, EveryFieldAndItsOrderMatter) {
@@ -61,6 +59,21 @@ TEST(StageCacheTest, ReusesCompleteStagesAndRecomputesChangedOnes) {
   fs::remove_all(root);
 }
 
+TEST(StageCacheTest, ResultsOfAnotherProgramAreRecomputed) {
+  const fs::path root = TempDir("code");
+  int runs = 0;
+  auto produce = [&](const fs::path&) { ++runs; };
+  const StageKey key = StageKey().Add("input", "abc");
+  EXPECT_FALSE(StageCache(root, true, "relume 0.1.0, program aaaa").Run("fit", key, produce).reused);
+  EXPECT_TRUE(StageCache(root, true, "relume 0.1.0, program aaaa").Run("fit", key, produce).reused);
+  EXPECT_FALSE(StageCache(root, true, "relume 0.1.0, program bbbb").Run("fit", key, produce).reused);
+  EXPECT_EQ(runs, 2);
+  // The default names this program: its SHA-256 is in the key.
+  EXPECT_NE(CodeVersion().find("program "), std::string::npos);
+  EXPECT_EQ(CodeVersion().find("program unknown"), std::string::npos) << CodeVersion();
+  fs::remove_all(root);
+}
+
 TEST(StageCacheTest, AStageStoppedMidwayIsRecomputedNotReused) {
   const fs::path root = TempDir("partial");
   StageCache cache(root);
@@ -83,24 +96,13 @@ TEST(StageCacheTest, AStageStoppedMidwayIsRecomputedNotReused) {
   fs::remove_all(root);
 }
 
-// The page's DOM after Chromium loaded it (and ran its load handler).
-std::string LoadInChromium(const fs::path& page) {
-  const std::string command =
-      "chromium --headless --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom file://" +
-      fs::absolute(page).string() + " 2>/dev/null";
-  std::string dom;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return dom;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof(buffer), pipe)) dom += buffer;
-  const int status = pclose(pipe);
-  EXPECT_EQ(status, 0) << "chromium failed; install it with scripts/install-deps.sh";
-  return dom;
-}
-
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
+// How many of a summary's decisions are `action` for `stage` (any stage when empty).
+int CountDecisions(const nlohmann::json& summary, const std::string& stage, const std::string& action) {
+  int count = 0;
+  for (const nlohmann::json& d : summary["decisions"]) {
+    count += (stage.empty() || d["stage"] == stage) && d["action"] == action;
+  }
+  return count;
 }
 
 TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
@@ -115,7 +117,7 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   const testing::CliResult first =
       testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + out.string());
   ASSERT_EQ(first.exit_code, 0) << first.output;
-  const nlohmann::json summary = ReadJson(out / "summary.json");
+  const nlohmann::json summary = ReadJsonFile(out / "summary.json");
   ASSERT_EQ(summary["metrics"]["brackets"].size(), 4u);  // DSLR and phone, 09:00 and 15:00
   double dslr_scale = 0.0;
   for (const nlohmann::json& b : summary["metrics"]["brackets"]) {
@@ -136,21 +138,25 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   const testing::CliResult again =
       testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + out.string());
   ASSERT_EQ(again.exit_code, 0) << again.output;
-  int reused = 0;
-  const nlohmann::json again_summary = ReadJson(out / "summary.json");
-  for (const nlohmann::json& d : again_summary["decisions"]) reused += d["action"] == "reuse";
-  EXPECT_EQ(reused, 4) << again.output;
+  // Unchanged: every bracket's radiance and its comparison with the truth are reused (the
+  // world is not rendered again).
+  const nlohmann::json again_summary = ReadJsonFile(out / "summary.json");
+  EXPECT_EQ(CountDecisions(again_summary, "radiance", "reuse"), 4) << again.output;
+  EXPECT_EQ(CountDecisions(again_summary, "radiance-truth", "reuse"), 4) << again.output;
+  EXPECT_EQ(CountDecisions(again_summary, "", "run"), 0) << again.output;
+  EXPECT_EQ(again_summary["metrics"]["brackets"], summary["metrics"]["brackets"]);
   const testing::CliResult knob = testing::RunRelume(
       "process " + session.string() + " --pipeline radiance --set merge_saturation_margin=8 --out " + out.string());
   ASSERT_EQ(knob.exit_code, 0) << knob.output;
-  int ran = 0;
-  const nlohmann::json knob_summary = ReadJson(out / "summary.json");
-  for (const nlohmann::json& d : knob_summary["decisions"]) ran += d["action"] == "run";
-  EXPECT_EQ(ran, 4) << knob.output;
+  const nlohmann::json knob_summary = ReadJsonFile(out / "summary.json");
+  EXPECT_EQ(CountDecisions(knob_summary, "radiance", "run"), 4) << knob.output;
+  EXPECT_EQ(CountDecisions(knob_summary, "radiance-truth", "run"), 4) << knob.output;
 
   // The report loads in a browser with every image and figure.
   ASSERT_TRUE(fs::exists(out / "report.html"));
-  const std::string dom = LoadInChromium(out / "report.html");
+  const relume::testing::CliResult chromium = relume::testing::LoadInChromium(out / "report.html");
+  ASSERT_EQ(chromium.exit_code, 0) << "chromium failed; install it with scripts/install-deps.sh";
+  const std::string& dom = chromium.output;
   EXPECT_NE(dom.find("data-images-broken=\"0\""), std::string::npos) << dom.substr(0, 2000);
   EXPECT_NE(dom.find("data-images-loaded=\"4\""), std::string::npos) << "one preview per bracket";
   EXPECT_NE(dom.find("data-figures=\"1\""), std::string::npos) << "the timeline";
@@ -203,7 +209,7 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   EXPECT_EQ(stored[0].kind, "profile");
   EXPECT_EQ(stored[0].device_id, "sim:dslr");
   EXPECT_EQ(stored[0].source_frame_ids, (std::vector<std::int64_t>{1, 2}));
-  const nlohmann::json report = ReadJson(dir / "profile_report" / "chart_report.json");
+  const nlohmann::json report = ReadJsonFile(dir / "profile_report" / "chart_report.json");
   EXPECT_LT(report["fit"]["mean_delta_e_2000"].get<double>(), 1.0) << report["fit"].dump();
   const testing::CliResult applied =
       testing::RunRelume("process " + chart_session.string() + " --pipeline radiance --out " + (dir / "p").string());
@@ -238,7 +244,7 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   ASSERT_EQ(processed.exit_code, 0) << processed.output;
   EXPECT_EQ(processed.output.find("no response recorded for sim:phone"), std::string::npos) << processed.output;
   EXPECT_NE(processed.output.find("applying colour profile"), std::string::npos) << processed.output;
-  const nlohmann::json processed_summary = ReadJson(dir / "q" / "summary.json");
+  const nlohmann::json processed_summary = ReadJsonFile(dir / "q" / "summary.json");
   for (const nlohmann::json& b : processed_summary["metrics"]["brackets"]) {
     EXPECT_LT(b["truth_relative_rms"].get<double>(), 0.03) << b.dump();
   }

@@ -18,20 +18,13 @@
 namespace relume::app::process {
 namespace {
 namespace fs = std::filesystem;
+using relume::testing::ReadJsonFile;
 using relume::testing::RunRelume;
 
 const std::string kSource = RELUME_SOURCE_DIR;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("relume_sh_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
+  return relume::testing::FreshTempDir("sh_test", name);
 }
 
 fs::path Capture(const fs::path& root, const std::string& rig) {
@@ -45,7 +38,7 @@ fs::path Capture(const fs::path& root, const std::string& rig) {
 nlohmann::json Process(const fs::path& session, const fs::path& out, const std::string& extra = "") {
   const auto r = RunRelume("process " + session.string() + " --pipeline sh --out " + out.string() + " " + extra);
   EXPECT_EQ(r.exit_code, 0) << r.output;
-  return ReadJson(out / "summary.json");
+  return ReadJsonFile(out / "summary.json");
 }
 
 // Actions of the cached stages ("radiance-2" -> "run"), by stage name.

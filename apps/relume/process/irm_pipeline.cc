@@ -4,9 +4,12 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <utility>
 
 #include "apps/relume/process/irm_scene.h"
 #include "apps/relume/process/radiance.h"
@@ -56,7 +59,8 @@ std::vector<capture::FrameRecord> OneBracket(const PipelineRun& run, const std::
   if (!selector) {
     throw InvalidArgumentError(std::string("the irm pipeline needs --") + role +
                                " FRAME: a still bracket of the session (e.g. --source bracket:1 --target bracket:2; "
-                               "`relume session info` lists them)");
+                               "`relume session info` lists them); without either, it takes the earliest and the "
+                               "latest bracket of a camera with two complete brackets, and this session has none");
   }
   const auto brackets = StillBrackets(run.session(), selector);
   if (brackets.size() != 1) {
@@ -222,19 +226,6 @@ double WhiteOf(const RadianceImage& image) {
   return lum[k] > 0.0f ? lum[k] : 1.0;
 }
 
-Eigen::Vector3f SampleBilinear(const cv::Mat& image, const Eigen::Vector2d& point) {
-  const double x = point.x() - 0.5, y = point.y() - 0.5;
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-  if (x0 < 0 || y0 < 0 || x0 + 1 >= image.cols || y0 + 1 >= image.rows) return Eigen::Vector3f::Constant(kNaN);
-  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
-  auto at = [&](int yy, int xx) {
-    const cv::Vec3f& v = image.at<cv::Vec3f>(yy, xx);
-    return Eigen::Vector3f(v[0], v[1], v[2]);
-  };
-  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
-         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
-}
-
 // The seam: where the source's relit surfaces meet the target photograph. For each relit
 // source pixel whose surface the target also sees (unoccluded, inside the image, well
 // exposed), the target's radiance there; the overlap's boundary pixels (a 4-neighbour outside
@@ -270,7 +261,7 @@ SeamResult Seam(const RayCaster& caster, const irm::View& source, const irm::Vie
       if (uv.x() < 0.0 || uv.y() < 0.0 || tx >= w || ty >= h) continue;
       if (!target.mask.empty() && target.mask.at<std::uint8_t>(ty, tx) != 0) continue;
       if (caster.Occluded(target_eye, p - target_eye, 0.0f, 0.999f)) continue;
-      const Eigen::Vector3f rgb = SampleBilinear(target.image->pixels, uv);
+      const Eigen::Vector3f rgb = irm::SampleBilinear(target.image->pixels, uv);
       if (!rgb.allFinite() || rgb.minCoeff() <= 0.0f) continue;
       target_rgb.at<cv::Vec3f>(y, x) = cv::Vec3f(rgb.x(), rgb.y(), rgb.z());
     }
@@ -536,9 +527,31 @@ cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, 
   return agree;
 }
 
+// Without --source and --target: the earliest and the latest complete still bracket of the
+// first camera that has two, so the sun has moved the most between them.
+std::pair<std::optional<std::string>, std::optional<std::string>> SourceAndTarget(PipelineRun& run) {
+  const PipelineRequest& request = run.request();
+  if (request.source || request.target) return {request.source, request.target};
+  std::map<std::string, std::vector<std::int64_t>> by_device;
+  for (const capture::BracketRecord& b : run.session().Brackets()) {
+    if (b.status == "complete") by_device[b.device_id].push_back(b.id);
+  }
+  for (const auto& [device, ids] : by_device) {
+    if (ids.size() < 2) continue;
+    const std::string source = "bracket:" + std::to_string(ids.front());
+    const std::string target = "bracket:" + std::to_string(ids.back());
+    run.Decide("irm", "choose",
+               "relight " + source + " to " + target + " of " + device +
+                   " (the earliest and the latest complete bracket; --source/--target choose others)");
+    return {source, target};
+  }
+  return {std::nullopt, std::nullopt};  // OneBracket says what to give
+}
+
 void RunIrmPipeline(PipelineRun& run) {
-  const auto source_bracket = OneBracket(run, run.request().source, "source");
-  const auto target_bracket = OneBracket(run, run.request().target, "target");
+  const auto [source_selector, target_selector] = SourceAndTarget(run);
+  const auto source_bracket = OneBracket(run, source_selector, "source");
+  const auto target_bracket = OneBracket(run, target_selector, "target");
 
   irm::RelightOptions options;
   options.irm.bins = run.Setting("bins", options.irm.bins);

@@ -1,6 +1,8 @@
 // The pipelines of this build, and the `radiance` pipeline (linear radiance of every still
 // bracket, checked against the simulated world's truth when the session is simulated).
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <opencv2/core.hpp>
 
 #include "apps/relume/process/irm_pipeline.h"
@@ -61,12 +63,25 @@ void RunRadiancePipeline(PipelineRun& run) {
                         {"exr", std::filesystem::relative(r.exr, run.out_dir()).string()}};
     const sim::SimDeviceSpec* spec = FindDeviceSpec(run.rig(), r.device_id);
     if (truth && spec != nullptr && run.rig()->world) {
-      const sim::GroundTruth gt = run.rig()->world->Render(spec->camera, r.utc);
-      const TruthComparison cmp = CompareWithTruth(r.radiance, r.status, gt.radiance);
-      m["truth_relative_rms"] = cmp.relative_rms;
-      m["truth_pixels"] = cmp.pixels;
-      m["truth_scale"] = cmp.scale;
-      worst = std::max(worst, cmp.relative_rms);
+      // A stage of its own, so a rerun with unchanged radiance does not render the world again.
+      StageKey key;
+      key.Add("stage", "radiance-truth-v1").AddKey("radiance", r.key);
+      for (const char* file : {"rig.yaml", "scene.yaml"}) {  // the stored rig (cameras) and world
+        const std::filesystem::path path = run.session().dir() / "rig" / file;
+        if (std::filesystem::exists(path)) key.AddFileContent(file, path);
+      }
+      key.Add("device", spec->id).Add("utc", FormatIso8601(r.utc));
+      const StageCache::Result stage = run.RunStage("radiance-truth", key, [&](const std::filesystem::path& dir) {
+        const sim::GroundTruth gt = run.rig()->world->Render(spec->camera, r.utc);
+        const TruthComparison cmp = CompareWithTruth(r.radiance, r.status, gt.radiance);
+        std::ofstream(dir / "truth.json")
+            << nlohmann::json{{"relative_rms", cmp.relative_rms}, {"pixels", cmp.pixels}, {"scale", cmp.scale}};
+      });
+      const nlohmann::json cmp = nlohmann::json::parse(std::ifstream(stage.dir / "truth.json"));
+      m["truth_relative_rms"] = cmp["relative_rms"];
+      m["truth_pixels"] = cmp["pixels"];
+      m["truth_scale"] = cmp["scale"];
+      worst = std::max(worst, cmp["relative_rms"].get<double>());
     }
     run.AddOutput(
         r.exr, "linear radiance of " + r.device_id + (r.bracket_id ? " bracket " + std::to_string(*r.bracket_id) : ""));

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/version.hpp>
 #include <span>
 #include <system_error>
 
@@ -16,6 +17,17 @@ namespace {
 constexpr const char* kManifest = "stage.json";
 constexpr const char* kPartialSuffix = ".partial";
 }  // namespace
+
+const std::string& CodeVersion() {
+  static const std::string version = [] {
+    std::string text = std::string("relume ") + RELUME_VERSION + ", opencv " + CV_VERSION;
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    text += ", program " + (ec ? std::string("unknown") : capture::Sha256HexOfFile(exe).substr(0, 16));
+    return text;
+  }();
+  return version;
+}
 
 StageKey& StageKey::Add(std::string_view name, std::string_view value) {
   fields_.emplace_back(std::string(name), std::string(value));
@@ -54,14 +66,21 @@ std::string StageKey::Describe() const {
   return text;
 }
 
-StageCache::StageCache(fs::path root, bool reuse) : root_(std::move(root)), reuse_(reuse) {
+StageCache::StageCache(fs::path root, bool reuse, std::string code_version)
+    : root_(std::move(root)), reuse_(reuse), code_version_(std::move(code_version)) {
   std::error_code ec;
   fs::create_directories(root_, ec);
   if (ec) throw IoError(root_.string(), "cannot create the stage folder: " + ec.message());
 }
 
+StageKey StageCache::WithCode(const StageKey& key) const {
+  StageKey full = key;
+  if (!code_version_.empty()) full.Add("code", code_version_);
+  return full;
+}
+
 fs::path StageCache::DirFor(std::string_view stage, const StageKey& key) const {
-  return root_ / (std::string(stage) + "-" + key.Hex().substr(0, 16));
+  return root_ / (std::string(stage) + "-" + WithCode(key).Hex().substr(0, 16));
 }
 
 bool StageCache::IsComplete(std::string_view stage, const StageKey& key) const {
@@ -72,7 +91,7 @@ StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
                                    const std::function<void(const fs::path&)>& produce) {
   Result result;
   result.dir = DirFor(stage, key);
-  result.key = key.Hex();
+  result.key = WithCode(key).Hex();
   if (reuse_ && IsComplete(stage, key)) {
     result.reused = true;
     return result;
@@ -89,7 +108,7 @@ StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
   nlohmann::json manifest;
   manifest["stage"] = std::string(stage);
   manifest["key"] = result.key;
-  manifest["depends_on"] = key.Describe();
+  manifest["depends_on"] = WithCode(key).Describe();
   const std::string text = manifest.dump(2) + "\n";
   capture::WriteFileDurably(partial / kManifest,
                             std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));

@@ -6,6 +6,11 @@
 // and renamed into place only after the stage finished and its manifest (stage.json) is
 // written, so a run stopped by Ctrl-C or a crash leaves no half-written stage behind: the
 // next run removes the temporary folder and computes the stage again.
+//
+// Every key also holds the code that computes it (CodeVersion: relume's version, OpenCV's, and
+// the SHA-256 of the running program), so results of another relume build are recomputed
+// rather than trusted; the "stage" field of each key (e.g. "radiance-v1") names the stage's
+// algorithm for people reading stage.json.
 #pragma once
 
 #include <cstdint>
@@ -40,11 +45,15 @@ class StageKey {
   std::vector<std::pair<std::string, std::string>> fields_;
 };
 
+// relume's and OpenCV's versions and the first 16 hex digits of the running program's SHA-256
+// (computed once per process).
+const std::string& CodeVersion();
+
 class StageCache {
  public:
   // `root` is created when missing. With `reuse` false every stage is recomputed (and its
-  // folder replaced), as `relume process --force` asks.
-  explicit StageCache(std::filesystem::path root, bool reuse = true);
+  // folder replaced), as `relume process --force` asks. `code_version` is added to every key.
+  explicit StageCache(std::filesystem::path root, bool reuse = true, std::string code_version = CodeVersion());
 
   struct Result {
     std::filesystem::path dir;  // the stage's completed folder
@@ -64,8 +73,11 @@ class StageCache {
   const std::filesystem::path& root() const { return root_; }
 
  private:
+  StageKey WithCode(const StageKey& key) const;
+
   std::filesystem::path root_;
   bool reuse_;
+  std::string code_version_;
 };
 
 }  // namespace relume::app::process
