@@ -177,4 +177,32 @@ float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, 
   return static_cast<float>(visible) / static_cast<float>(total);
 }
 
+float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                      int samples) {
+  RELUME_CHECK(samples >= 1);
+  const Eigen::Vector3f n = normal.normalized();
+  const Eigen::Vector3f origin = point + n * (2.0f * caster.epsilon());
+  const Eigen::Vector3f helper = std::abs(n.z()) < 0.9f ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
+  const Eigen::Vector3f u = n.cross(helper).normalized();
+  const Eigen::Vector3f v = n.cross(u);
+  const float t_near = 4.0f * caster.epsilon();  // as SunVisibleFraction: no self-shadowing at creases
+  // Cosine-weighted directions (Malley: uniform on the unit disk, lifted to the hemisphere), one
+  // per cell of a rings x sectors grid over the disk's area, so the unblocked share estimates v.
+  const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(samples)))));
+  const int sectors = std::max(1, (samples + rings - 1) / rings);
+  int unblocked = 0, total = 0;
+  for (int ring = 0; ring < rings; ++ring) {
+    const float r2 = (ring + 0.5f) / static_cast<float>(rings);  // squared disk radius: equal areas
+    const float r = std::sqrt(r2), lift = std::sqrt(std::max(0.0f, 1.0f - r2));
+    for (int k = 0; k < sectors; ++k) {
+      const float phi = 2.0f * std::numbers::pi_v<float> * (k + 0.5f * (ring % 2)) / static_cast<float>(sectors);
+      const Eigen::Vector3f d = u * (r * std::cos(phi)) + v * (r * std::sin(phi)) + n * lift;
+      ++total;
+      if (d.z() <= 0.0f) continue;  // below the horizon: ground, not sky
+      if (!caster.Occluded(origin, d, t_near, std::numeric_limits<float>::infinity())) ++unblocked;
+    }
+  }
+  return static_cast<float>(unblocked) / static_cast<float>(total);
+}
+
 }  // namespace relume

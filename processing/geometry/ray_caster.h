@@ -61,4 +61,13 @@ class RayCaster {
 float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
                          const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples);
 
+// Sky view of a surface point: (1/pi) times the integral of max(0, n . w) over the directions
+// w above the horizon (w_z > 0, the mesh's z is up) that no geometry blocks, i.e. the
+// irradiance a uniform sky of radiance 1/pi gives it: 1 on open flat ground, (1 + n_z) / 2 on
+// an open plane tilted to normal n, 1/2 on the ground at the foot of an infinitely tall and
+// long wall. Estimated with `samples` cosine-weighted directions on a fixed stratified
+// pattern (about sqrt(samples) x sqrt(samples) cells; the estimate is the unblocked share).
+float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                      int samples);
+
 }  // namespace relume

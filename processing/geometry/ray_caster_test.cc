@@ -60,5 +60,35 @@ TEST(RayCasterTest, SunFractionAcrossAShadowEdge) {
   EXPECT_LT(middle, 0.7f);
 }
 
+TEST(RayCasterTest, SkyViewMatchesAnalyticViewFactors) {
+  // Open ground: the whole sky. A tilted open plane: (1 + n_z) / 2.
+  const TriangleMesh ground = MakeQuad({-50, -50, 0}, {100, 0, 0}, {0, 100, 0}, 2);
+  const RayCaster open(ground);
+  EXPECT_NEAR(SkyViewFraction(open, {0, 0, 0}, {0, 0, 1}, 256), 1.0f, 1e-6f);
+  const Eigen::Vector3f tilted = Eigen::Vector3f(1, 0, 1).normalized();
+  EXPECT_NEAR(SkyViewFraction(open, {0, 0, 5}, tilted, 1024), 0.5f * (1.0f + tilted.z()), 0.02f);
+  EXPECT_NEAR(SkyViewFraction(open, {0, 0, 5}, {1, 0, 0}, 1024), 0.5f, 0.02f);
+  // The ground 0.5 m from a wall 1000 m tall and 2000 m long: half the sky (view factor of a
+  // strip beside an infinite wall, (1 + cos(atan(1000 / 0.5))) / 2), and a point 10 m away
+  // from a 10 m wall:
+  // (1 + cos(atan(10 / 10))) / 2 = (1 + 0.7071) / 2 of the sky.
+  TriangleMesh scene = ground;
+  const TriangleMesh wall = MakeQuad({5, -1000, 0}, {0, 2000, 0}, {0, 0, 1000}, 1);
+  const TriangleMesh low = MakeQuad({5, -1000, 0}, {0, 2000, 0}, {0, 0, 10}, 1);
+  for (const TriangleMesh* w : {&wall, &low}) {
+    TriangleMesh both = ground;
+    const int offset = static_cast<int>(both.positions.size());
+    both.positions.insert(both.positions.end(), w->positions.begin(), w->positions.end());
+    both.normals.insert(both.normals.end(), w->normals.begin(), w->normals.end());
+    for (const Eigen::Vector3i& t : w->triangles) both.triangles.push_back(t + Eigen::Vector3i::Constant(offset));
+    const RayCaster caster(both);
+    if (w == &wall) {
+      EXPECT_NEAR(SkyViewFraction(caster, {4.5f, 0, 0}, {0, 0, 1}, 1024), 0.5f, 0.02f);
+    } else {
+      EXPECT_NEAR(SkyViewFraction(caster, {-5, 0, 0}, {0, 0, 1}, 1024), 0.5f * (1.0f + std::sqrt(0.5f)), 0.02f);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace relume

@@ -18,6 +18,10 @@ float SignNotZero(float v) {
 float SkyFactor(const Eigen::Vector3f& n) {
   return 0.5f * (1.0f + n.z());
 }
+// The sky view v when known, else the open plane's.
+float SkyView(const Eigen::Vector3f& n, float sky_view) {
+  return std::isfinite(sky_view) ? sky_view : SkyFactor(n);
+}
 
 enum class State { kLit, kShadow, kPenumbra };
 State Classify(float fraction, const IrmOptions& o) {
@@ -97,14 +101,15 @@ int RatioMap::BinOf(const Eigen::Vector3f& normal) const {
 }
 
 Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal) const {
-  return Interpolate(normal, [](const Eigen::Vector3f&) { return Eigen::Vector3f::Ones().eval(); });
+  return Interpolate(normal, [](const Eigen::Vector3f&, float) { return Eigen::Vector3f::Ones().eval(); });
 }
 
 template <typename Correction>
 Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal, const Correction& correction) const {
   auto value = [&](std::size_t b) -> Eigen::Vector3f {
     if (b >= mean_normal.size() || !mean_normal[b].allFinite()) return ratio[b];
-    const Eigen::Vector3f c = correction(mean_normal[b]);
+    const float sky = b < mean_sky_view.size() ? mean_sky_view[b] : kNaN;
+    const Eigen::Vector3f c = correction(mean_normal[b], sky);
     return c.allFinite() ? ratio[b].cwiseProduct(c).eval() : ratio[b];
   };
   const Eigen::Vector2f uv =
@@ -134,9 +139,9 @@ int RatioMap::measured_bins() const {
   return static_cast<int>(std::count(source.begin(), source.end(), std::uint8_t{1}));
 }
 
-Eigen::Vector3f SunSkyModel::Ratio(const Eigen::Vector3f& n, float source_sun, float target_sun) const {
+Eigen::Vector3f SunSkyModel::Ratio(const Eigen::Vector3f& n, float source_sun, float target_sun, float sky_view) const {
   if (!valid) return Eigen::Vector3f::Constant(kNaN);
-  const float h = SkyFactor(n);
+  const float h = SkyView(n, sky_view);
   const float a_s = source_sun * std::max(0.0f, n.dot(sun_dir_source));
   const float a_t = target_sun * std::max(0.0f, n.dot(sun_dir_target));
   Eigen::Vector3f ratio;
@@ -173,7 +178,7 @@ SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> co
   model.sun_dir_target = sun_t.normalized();
   std::vector<std::size_t> rows;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (SkyFactor(samples[i].normal) > 0.05f) rows.push_back(i);
+    if (SkyView(samples[i].normal, samples[i].sky_view) > 0.05f) rows.push_back(i);
   }
   if (rows.size() < 4) {
     model.reason = "fewer than 4 measured bins";
@@ -186,7 +191,7 @@ SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> co
     for (std::size_t r = 0; r < rows.size(); ++r) {
       const Sample& s = samples[rows[r]];
       const double ratio = s.target_rgb[c] / s.source_rgb[c];
-      const double h = SkyFactor(s.normal);
+      const double h = SkyView(s.normal, s.sky_view);
       const double a_s = s.source_sun * std::max(0.0f, s.normal.dot(model.sun_dir_source));
       const double a_t = s.target_sun * std::max(0.0f, s.normal.dot(model.sun_dir_target));
       // Unknowns (S_s, S_t, K_t): S_t a_t + K_t h - ratio a_s S_s = ratio h, divided by
@@ -272,12 +277,15 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
   const std::size_t bin_count = static_cast<std::size_t>(options.bins * options.bins);
   std::array<std::vector<std::vector<Eigen::Vector3f>>, 4> per_bin;
   std::array<std::vector<Eigen::Vector3f>, 4> normal_sum;
+  std::array<std::vector<double>, 4> sky_sum;  // of the samples' sky views (NaN once one is unknown)
   for (int k = 0; k < 4; ++k) {
     set.maps[static_cast<std::size_t>(k)].bins = options.bins;
     set.maps[static_cast<std::size_t>(k)].ratio.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
     set.maps[static_cast<std::size_t>(k)].count.assign(bin_count, 0);
     set.maps[static_cast<std::size_t>(k)].source.assign(bin_count, 0);
     set.maps[static_cast<std::size_t>(k)].mean_normal.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
+    set.maps[static_cast<std::size_t>(k)].mean_sky_view.assign(bin_count, kNaN);
+    sky_sum[static_cast<std::size_t>(k)].assign(bin_count, 0.0);
     per_bin[static_cast<std::size_t>(k)].resize(bin_count);
     normal_sum[static_cast<std::size_t>(k)].assign(bin_count, Eigen::Vector3f::Zero());
   }
@@ -301,6 +309,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     const auto bin = static_cast<std::size_t>(map.BinOf(s.normal.normalized()));
     per_bin[static_cast<std::size_t>(kind)][bin].push_back(s.target_rgb.cwiseQuotient(s.source_rgb));
     normal_sum[static_cast<std::size_t>(kind)][bin] += s.normal.normalized();
+    sky_sum[static_cast<std::size_t>(kind)][bin] += s.sky_view;  // NaN stays NaN: unknown
     ++set.samples_used;
   }
   for (int k = 0; k < 4; ++k) {
@@ -312,6 +321,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
         map.ratio[b] = TrimmedMean(values, options.trim_fraction);
         map.source[b] = 1;
         map.mean_normal[b] = normal_sum[static_cast<std::size_t>(k)][b].normalized();
+        map.mean_sky_view[b] = static_cast<float>(sky_sum[static_cast<std::size_t>(k)][b] / values.size());
       }
     }
   }
@@ -327,6 +337,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       if (map.source[b] != 1) continue;
       Sample row;
       row.normal = normal_sum[static_cast<std::size_t>(k)][b].normalized();
+      row.sky_view = map.mean_sky_view[b];
       row.source_rgb = Eigen::Vector3f::Ones();
       row.target_rgb = map.ratio[b];
       row.source_sun = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
@@ -397,23 +408,23 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
   return set;
 }
 
-Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const {
+Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun, float sky_view) const {
   auto at = [&](MapKind kind) {
     const RatioMap& map = maps[static_cast<std::size_t>(kind)];
     if (!model_correction || !model.valid) return map.Interpolate(normal);
     // The map's own pure states: the correction compares normals, not sun fractions.
     const float fs = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
     const float ft = (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
-    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft);
-    return map.Interpolate(normal, [&](const Eigen::Vector3f& bin_normal) -> Eigen::Vector3f {
-      const Eigen::Vector3f at_bin = model.Ratio(bin_normal, fs, ft);
+    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft, sky_view);
+    return map.Interpolate(normal, [&](const Eigen::Vector3f& bin_normal, float bin_sky_view) -> Eigen::Vector3f {
+      const Eigen::Vector3f at_bin = model.Ratio(bin_normal, fs, ft, bin_sky_view);
       if (!Finite(at_normal) || !Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) return Eigen::Vector3f::Constant(kNaN);
       return at_normal.cwiseQuotient(at_bin);
     });
   };
   if (single_map) {
     const Eigen::Vector3f r = at(MapKind::kLitToLit);
-    return Finite(r) ? r : model.Ratio(normal, source_sun, target_sun);
+    return Finite(r) ? r : model.Ratio(normal, source_sun, target_sun, sky_view);
   }
   // Pure states read their own map; penumbrae blend exactly through the shadow maps (see the
   // top of irm.h).
@@ -439,7 +450,7 @@ Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, f
     }
     if (Finite(r)) return r;
   }
-  return model.Ratio(normal, source_sun, target_sun);
+  return model.Ratio(normal, source_sun, target_sun, sky_view);
 }
 
 }  // namespace relume::irm

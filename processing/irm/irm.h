@@ -15,11 +15,17 @@
 //
 // Beyond the paper:
 //  - The four maps are tied together by a sun + sky model per channel:
-//      E_source(n, f_s) = S_s f_s max(0, n . sun_s) + K_s (1 + n_z) / 2
-//      E_target(n, f_t) = S_t f_t max(0, n . sun_t) + K_t (1 + n_z) / 2
-//    (uniform-sky irradiance on a tilted plane), fitted by linear least squares to every
-//    sample with K_s = 1. It fills bins no sample reached and, in the penumbra, gives
-//    R(n, f_s, f_t) from the four maps exactly:
+//      E_source(n, f_s, v) = S_s f_s max(0, n . sun_s) + K_s v
+//      E_target(n, f_t, v) = S_t f_t max(0, n . sun_t) + K_t v
+//    where v is the surface's sky view: (1/pi) times the integral of max(0, n . w) over the
+//    directions w above the horizon that no geometry blocks, so the irradiance a uniform sky
+//    of radiance 1/pi gives it (1 on open flat ground, (1 + n_z) / 2 on an open tilted plane,
+//    about 1/2 on the ground at the foot of a tall wall). When a sample's v is not known,
+//    the open-plane value (1 + n_z) / 2 stands for it. Fitted by linear least squares to every
+//    sample with K_s = 1. In cast shadow only the sky lights a surface, so a lit-to-shadow
+//    ratio falls with v (a wall's foot darkens more than open ground): the per-normal maps
+//    cannot hold that, the model's v can (RatioMap::mean_sky_view, IrmSet::Ratio). It fills bins no sample reached and,
+//    in the penumbra, gives R(n, f_s, f_t) from the four maps exactly:
 //      R = [f_t (R_sl / R_ss - 1) + 1] / [f_s (1 / R_ls - 1 / R_ss) + 1 / R_ss]
 //    where R_xy is the map from source state x to target state y (l = lit, s = shadow).
 //  - Empty bins can instead be filled by a Gaussian kernel over the sphere (Beauchesne & Roy).
@@ -27,6 +33,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -63,6 +70,7 @@ struct Sample {
   Eigen::Vector3f target_rgb;
   float source_sun = 1.0f;  // visible sun fraction when each photograph was taken
   float target_sun = 1.0f;
+  float sky_view = std::numeric_limits<float>::quiet_NaN();  // v (top of this file); NaN: unknown
 };
 
 Eigen::Vector2f OctahedralFromDirection(const Eigen::Vector3f& n);  // unit vector -> [0, 1]^2
@@ -74,12 +82,14 @@ struct RatioMap {
   std::vector<int> count;                    // samples per bin
   std::vector<std::uint8_t> source;          // 0 empty, 1 measured, 2 smoothing, 3 model
   std::vector<Eigen::Vector3f> mean_normal;  // measured: mean sample normal; model: bin centre; else NaN
+  std::vector<float> mean_sky_view;          // measured: mean sample sky view (NaN: unknown, open plane)
   int BinOf(const Eigen::Vector3f& normal) const;
   int measured_bins() const;
   // Bilinear interpolation between the centres of the four nearest bins that hold a value
   // (weights renormalised over those); NaN when none does.
   Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal) const;
-  // The same, each bin's value times correction(bin's mean normal) where it has one.
+  // The same, each bin's value times correction(bin's mean normal, bin's mean sky view) where
+  // it has a mean normal.
   template <typename Correction>
   Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal, const Correction& correction) const;
 };
@@ -95,7 +105,9 @@ struct SunSkyModel {
   double rms_relative_residual = 0.0;  // of the fitted ratios
   double condition_number = 0.0;       // of the weighted least-squares system (worst channel)
   std::string reason;                  // why invalid, when it is
-  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const;
+  // `sky_view` NaN: the open-plane value (1 + n_z) / 2.
+  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
+                        float sky_view = std::numeric_limits<float>::quiet_NaN()) const;
 };
 
 struct IrmSet {
@@ -109,9 +121,11 @@ struct IrmSet {
   float lit_threshold = 0.99f;  // copied from the options that built the set
   float shadow_threshold = 0.01f;
   bool model_correction = true;
-  // The ratio for a normal and the two sun fractions (penumbrae interpolate exactly between
-  // maps). NaN when nothing covers that normal.
-  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun) const;
+  // The ratio for a normal, the two sun fractions (penumbrae interpolate exactly between maps)
+  // and the surface's sky view (with model_correction, a bin's ratio is carried from its
+  // samples' mean sky view to this one; NaN: unknown). NaN when nothing covers that normal.
+  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
+                        float sky_view = std::numeric_limits<float>::quiet_NaN()) const;
 };
 
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,

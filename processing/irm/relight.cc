@@ -109,6 +109,10 @@ bool RelightOptions::IsValid(std::string* why) const {
     if (why) *why = "sun angular radius must be within [0, 0.1) rad";
     return false;
   }
+  if (sky_samples < 0 || sky_samples > 65536) {
+    if (why) *why = "sky_samples must be within 0..65536 (0: no sky view)";
+    return false;
+  }
   if (threads < 1 || threads > 256) {
     if (why) *why = "threads must be within 1..256";
     return false;
@@ -169,6 +173,18 @@ std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vect
   return fractions;
 }
 
+std::vector<float> VertexSkyViews(const RayCaster& caster, int samples, int threads,
+                                  const std::vector<std::uint8_t>* needed) {
+  const TriangleMesh& mesh = caster.mesh();
+  std::vector<float> sky(mesh.vertex_count(), std::numeric_limits<float>::quiet_NaN());
+  ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (needed != nullptr && (*needed)[k] == 0) return;
+    sky[k] = SkyViewFraction(caster, mesh.positions[k], mesh.normals[k], samples);
+  });
+  return sky;
+}
+
 void CheckRelightInputs(const RayCaster& caster, const View& source, const View& target,
                         const RelightOptions& options) {
   ThrowIfInvalid(options, "IRM relighting options");
@@ -201,6 +217,7 @@ ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, cons
   const std::vector<std::uint8_t> near = VerticesNearView(caster.mesh(), view.camera);
   geometry.sun_fraction = VertexSunFractions(caster, view.sun_dir, options.sun_samples, options.sun_angular_radius_rad,
                                              options.threads, &near);
+  if (options.sky_samples > 0) geometry.sky_view = VertexSkyViews(caster, options.sky_samples, options.threads, &near);
   if (!options.use_penumbra_fractions) {
     for (float& f : geometry.sun_fraction) {
       if (!std::isnan(f)) f = f >= 0.5f ? 1.0f : 0.0f;
@@ -236,6 +253,7 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     s.normal = mesh.normals[i];
     s.source_sun = source_geometry.sun_fraction[i];
     s.target_sun = target_geometry.sun_fraction[i];
+    if (!source_geometry.sky_view.empty()) s.sky_view = source_geometry.sky_view[i];
     keep[static_cast<std::size_t>(k)] =
         ConsistentSample(caster, source, source_from_world, i, s.source_sun, options, &s.source_rgb) &&
         ConsistentSample(caster, target, target_from_world, i, s.target_sun, options, &s.target_rgb);
@@ -251,7 +269,7 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
   int compared = 0;
   for (const Sample& s : samples) {
     if (!s.source_rgb.allFinite() || !s.target_rgb.allFinite() || s.target_rgb.minCoeff() <= 0.0f) continue;
-    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun);
+    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun, s.sky_view);
     if (!ratio.allFinite()) continue;
     before += (s.source_rgb - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
     after += (s.source_rgb.cwiseProduct(ratio) - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
@@ -273,6 +291,8 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
   const std::vector<float>& sun_source = source_geometry.sun_fraction;
   const std::vector<float>& sun_target = target_geometry.sun_fraction;
   RELUME_CHECK(sun_source.size() == mesh.vertex_count() && sun_target.size() == mesh.vertex_count());
+  const std::vector<float>& sky_view = source_geometry.sky_view;  // the source's pixels are relit
+  RELUME_CHECK(sky_view.empty() || sky_view.size() == mesh.vertex_count());
   RelightResult result;
   result.irms = irms;
   const int width = source.image->width(), height = source.image->height();
@@ -332,7 +352,14 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
       }
       fs_row[x] = fs;
       ft_row[x] = ft;
-      const Eigen::Vector3f ratio = irms.Ratio(normal, fs, ft);
+      float sky = std::numeric_limits<float>::quiet_NaN();
+      if (!sky_view.empty()) {
+        sky = caster.Interpolate(sky_view, hit);
+        if (std::isnan(sky)) {  // a vertex outside the view's neighbourhood: the pixel's own rays
+          sky = SkyViewFraction(caster, caster.Interpolate(mesh.positions, hit), normal, options.sky_samples);
+        }
+      }
+      const Eigen::Vector3f ratio = irms.Ratio(normal, fs, ft, sky);
       if (!ratio.allFinite()) {
         status[x] = kNoRatio;
         ++missing_rows[static_cast<std::size_t>(y)];

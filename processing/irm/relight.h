@@ -31,6 +31,9 @@ namespace relume::irm {
 struct RelightOptions {
   IrmOptions irm;
   int sun_samples = 16;  // rays per vertex over the sun's disk
+  // Cosine-weighted rays per vertex for its sky view (SkyViewFraction; irm.h says how the sun +
+  // sky model uses it). 0: not computed, every surface counts as open to the sky.
+  int sky_samples = 144;
   float sun_angular_radius_rad = 0.5f * 0.533f * 3.14159265f / 180.0f;
   bool use_penumbra_fractions = true;
   // Pixels on triangles whose vertices disagree about the sun (a shadow edge crosses them)
@@ -90,6 +93,9 @@ std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const Pinhol
 std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
                                       float angular_radius_rad, int threads,
                                       const std::vector<std::uint8_t>* needed = nullptr);
+// Per-vertex sky views (SkyViewFraction) where needed[i] is non-zero (all with null), NaN elsewhere.
+std::vector<float> VertexSkyViews(const RayCaster& caster, int samples, int threads,
+                                  const std::vector<std::uint8_t>* needed = nullptr);
 // Vertices in front of the camera whose projection falls within the image widened by half its
 // size on every side: the vertices a photograph's pixels can interpolate from.
 std::vector<std::uint8_t> VerticesNearView(const TriangleMesh& mesh, const PinholeCamera& camera);
@@ -105,6 +111,9 @@ struct ViewGeometry {
   // Visible vertices in cast shadow (sun fraction below the IRM's lit threshold): when both
   // photographs have none, one IRM is enough (the planner's decision).
   int visible_in_cast_shadow = 0;
+  // Sky view (SkyViewFraction) of the vertices near the view, NaN elsewhere; empty when
+  // RelightOptions::sky_samples is 0. It depends on the geometry only, not on the time.
+  std::vector<float> sky_view;
   double seconds = 0.0;
 };
 ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options);

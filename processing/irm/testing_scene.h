@@ -1,7 +1,8 @@
 // A procedural outdoor scene for IRM tests and benchmarks: ground, a building and a taller
 // neighbour that shadows it, lit by a sun + uniform sky rendered exactly under the model the
-// IRMs assume (Lambertian, distant light, sky unoccluded). Test data only; the simulated
-// world (sim/world) is the full renderer.
+// IRMs assume (Lambertian, distant light; the sky unoccluded as in the paper, or occluded by
+// the scene with `sky_samples` > 0). Test data only; the simulated world (sim/world) is the
+// full renderer.
 #pragma once
 
 #include <cmath>
@@ -39,10 +40,11 @@ inline Eigen::Vector3f SunFromAzimuthElevationDeg(float azimuth_deg, float eleva
   return {std::cos(el) * std::sin(az), std::cos(el) * std::cos(az), std::sin(el)};
 }
 
-// Truth radiance per pixel: albedo x (sun fraction x sun + sky on a tilted plane) / pi. Also
-// returns the per-pixel sun fraction (penumbra truth).
+// Truth radiance per pixel: albedo x (sun fraction x sun + sky) / pi, the sky's irradiance
+// that of an unoccluded tilted plane (sky_samples = 0) or pi x radiance x the point's sky view
+// (SkyViewFraction with sky_samples rays). Also returns the per-pixel sun fraction (penumbra truth).
 inline RadianceImage Render(const RayCaster& caster, const PinholeCamera& camera, const Light& light,
-                            cv::Mat* sun_fraction = nullptr, int sun_samples = 32) {
+                            cv::Mat* sun_fraction = nullptr, int sun_samples = 32, int sky_samples = 0) {
   const TriangleMesh& mesh = caster.mesh();
   RadianceImage image = MakeRadianceImage(camera.intrinsics.width, camera.intrinsics.height);
   if (sun_fraction) *sun_fraction = cv::Mat(image.height(), image.width(), CV_32FC1, cv::Scalar(NAN));
@@ -63,8 +65,8 @@ inline RadianceImage Render(const RayCaster& caster, const PinholeCamera& camera
       const float cos_sun = std::max(0.0f, n.dot(light.sun_dir));
       const float f = cos_sun > 0.0f ? SunVisibleFraction(caster, p, n, light.sun_dir, radius, sun_samples) : 1.0f;
       if (sun_fraction) sun_fraction->at<float>(y, x) = f;
-      const Eigen::Vector3f e =
-          light.sun_irradiance * (f * cos_sun) + light.sky_radiance * (3.14159265f * 0.5f * (1 + n.z()));
+      const float sky = sky_samples > 0 ? SkyViewFraction(caster, p, n, sky_samples) : 0.5f * (1 + n.z());
+      const Eigen::Vector3f e = light.sun_irradiance * (f * cos_sun) + light.sky_radiance * (3.14159265f * sky);
       const Eigen::Vector3f l = rho.cwiseProduct(e) / 3.14159265f;
       for (int c = 0; c < 3; ++c) out[c] = l[c];
     }

@@ -172,10 +172,11 @@ TEST(IrmAccuracyTest, NoiseFreeRelightingBeatsTheBaselineInEveryRegion) {
   const NoiseFreeCase with = RunNoiseFree(true);
   EXPECT_GT(with.relit.lit_pixels, 20000);
   EXPECT_GT(with.relit.shadow_pixels, 5000);
-  // docs/irm.md: lit 0.4%, shadow 10% (sky occlusion the per-normal maps cannot see), against
-  // 91% and 101% without relighting.
+  // docs/irm.md: lit 0.3%, shadow 4.6% (10% without the per-vertex sky view; what is left is
+  // the gradient sky, which the uniform-sky view does not weigh), against 91% and 101% without
+  // relighting.
   EXPECT_LT(with.relit.lit, 0.01);
-  EXPECT_LT(with.relit.shadow, 0.15);
+  EXPECT_LT(with.relit.shadow, 0.07);
   EXPECT_LT(with.relit.penumbra, with.baseline.penumbra);
   EXPECT_LT(with.relit.all, 0.1 * with.baseline.all);
   // The scale is a true one: noise-free renders share the world's units.
@@ -225,7 +226,7 @@ TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
   // than not relighting (docs/irm.md has the numbers).
   EXPECT_LT(relit["relative_rms_lit"].get<double>(), 0.04) << m.dump(1);
   EXPECT_LT(relit["relative_rms_all"].get<double>(), 0.3 * baseline["relative_rms_all"].get<double>()) << m.dump(1);
-  EXPECT_LT(relit["relative_rms_shadow"].get<double>(), baseline["relative_rms_shadow"].get<double>()) << m.dump(1);
+  EXPECT_LT(relit["relative_rms_shadow"].get<double>(), 0.1) << m.dump(1);  // 0.23 without the sky view
   EXPECT_GT(relit["lit_pixels"].get<int>(), 3000);
   EXPECT_GT(m["irm"]["pixels_without_geometry"].get<int>(), 1000);  // the sky, untouched
   EXPECT_LT(m["irm"]["seam"]["overlap_relative_rms_after"].get<double>(),

@@ -155,11 +155,12 @@ SceneGeometry LoadGeometry(PipelineRun& run) {
 
 irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const RayCaster& caster, const irm::View& view,
                             const irm::RelightOptions& options, const StageKey& mesh_key, StageKey* key) {
-  key->Add("stage", "irm-view-v2").AddKey("mesh", mesh_key);
+  key->Add("stage", "irm-view-v3").AddKey("mesh", mesh_key);
   AddCamera(*key, "camera", view.camera);
   for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
   key->Add("sun_samples", options.sun_samples).Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
   key->Add("penumbra", options.use_penumbra_fractions).Add("lit", static_cast<double>(options.irm.lit_threshold));
+  key->Add("sky_samples", options.sky_samples);
   irm::ViewGeometry geometry;
   bool computed = false;
   const StageCache::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
@@ -170,6 +171,8 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
               static_cast<std::streamsize>(geometry.visible.size()));
     out.write(reinterpret_cast<const char*>(geometry.sun_fraction.data()),
               static_cast<std::streamsize>(geometry.sun_fraction.size() * sizeof(float)));
+    out.write(reinterpret_cast<const char*>(geometry.sky_view.data()),
+              static_cast<std::streamsize>(geometry.sky_view.size() * sizeof(float)));
     if (!out) throw IoError((dir / "vertices.bin").string(), "cannot be written");
     out.close();
     WriteJsonFile(dir / "view.json", {{"vertices", geometry.visible.size()},
@@ -184,6 +187,10 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
     std::ifstream in(stage.dir / "vertices.bin", std::ios::binary);
     in.read(reinterpret_cast<char*>(geometry.visible.data()), static_cast<std::streamsize>(n));
     in.read(reinterpret_cast<char*>(geometry.sun_fraction.data()), static_cast<std::streamsize>(n * sizeof(float)));
+    if (options.sky_samples > 0) {
+      geometry.sky_view.resize(n);
+      in.read(reinterpret_cast<char*>(geometry.sky_view.data()), static_cast<std::streamsize>(n * sizeof(float)));
+    }
     if (!in) throw IoError((stage.dir / "vertices.bin").string(), "is short or unreadable; run with --force");
     geometry.visible_in_cast_shadow = ReadJsonFile(stage.dir / "view.json")["visible_in_cast_shadow"].get<int>();
   }
@@ -376,6 +383,9 @@ nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
     nlohmann::json normals = nlohmann::json::array();
     for (const Eigen::Vector3f& n : map.mean_normal) normals.push_back(VecJson(n));
     m["mean_normal"] = std::move(normals);
+    nlohmann::json sky = nlohmann::json::array();
+    for (float v : map.mean_sky_view) sky.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
+    m["mean_sky_view"] = std::move(sky);
     j["maps"].push_back(std::move(m));
   }
   const irm::SunSkyModel& model = set.model;
@@ -409,9 +419,11 @@ irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
     map.source = m.at("source").get<std::vector<std::uint8_t>>();
     for (const nlohmann::json& r : m.at("ratio")) map.ratio.push_back(VecFromJson(r));
     for (const nlohmann::json& n : m.at("mean_normal")) map.mean_normal.push_back(VecFromJson(n));
+    for (const nlohmann::json& v : m.at("mean_sky_view"))
+      map.mean_sky_view.push_back(v.is_null() ? kNaN : v.get<float>());
     const std::size_t bins = static_cast<std::size_t>(map.bins) * static_cast<std::size_t>(map.bins);
     if (map.count.size() != bins || map.source.size() != bins || map.ratio.size() != bins ||
-        map.mean_normal.size() != bins) {
+        map.mean_normal.size() != bins || map.mean_sky_view.size() != bins) {
       throw InvalidArgumentError("IRM file: map " + std::to_string(k) + " has the wrong number of bins");
     }
   }
@@ -556,6 +568,7 @@ void RunIrmPipeline(PipelineRun& run) {
   irm::RelightOptions options;
   options.irm.bins = run.Setting("bins", options.irm.bins);
   options.sun_samples = run.Setting("sun_samples", options.sun_samples);
+  options.sky_samples = run.Setting("sky_samples", options.sky_samples);
   options.use_penumbra_fractions = run.Setting("penumbra", options.use_penumbra_fractions);
   options.exact_shadow_edges = run.Setting("exact_shadow_edges", options.exact_shadow_edges);
   options.threads = run.Setting("threads", options.threads);
