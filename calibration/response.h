@@ -52,7 +52,7 @@ struct ResponseOptions {
   int sample_count = 300;
   // Debevec: weight of the second-derivative smoothness term (relative to hat weights in
   // [0, 1]). Larger = smoother curve.
-  double lambda = 20.0;
+  double lambda = 40.0;
   // Robertson: stop when the largest relative change of the curve is below tolerance.
   int robertson_max_iterations = 50;
   double robertson_tolerance = 1e-4;

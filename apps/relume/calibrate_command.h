@@ -41,7 +41,7 @@ struct CalibrateResponseArgs {
   ExposureArgs exposure;
   std::string method = "debevec";
   int samples = 300;
-  double lambda = 20.0;
+  double lambda = 40.0;
   std::string out = "response.json";  // a calibration profile holding the response
   std::string plot;                   // PNG; default: <out without .json>.png
 };
