@@ -184,7 +184,11 @@ BracketPlan PlanBracket(const MeteringStats& metering, const drivers::ExposureCa
   std::vector<double> targets;
   if (long_relative <= short_relative) {
     targets.push_back(short_relative);
-    notes.insert(notes.begin(), "the scene's range fits one exposure");
+    // First in the notes. (Built as a new vector: GCC 12 at -O3 warns falsely, -Warray-bounds,
+    // on inserting a string literal at the front.)
+    std::vector<std::string> first{"the scene's range fits one exposure"};
+    first.insert(first.end(), std::make_move_iterator(notes.begin()), std::make_move_iterator(notes.end()));
+    notes = std::move(first);
   } else {
     const double span = std::log2(long_relative / short_relative);
     int n = static_cast<int>(std::ceil(span / step_stops - 1e-9)) + 1;

@@ -34,7 +34,10 @@ inline CliResult RunCommand(const std::string& command_line) {
 }
 
 inline CliResult RunRelume(const std::string& arguments) {
-  return RunCommand(std::string(RELUME_BINARY) + " " + arguments);
+  std::string command = RELUME_BINARY;  // appended, not operator+: GCC 12 -O3 warns falsely there
+  command += ' ';
+  command += arguments;
+  return RunCommand(command);
 }
 
 // An empty folder `relume_<suite>_<name>_<pid>` under the system's temporary folder: the pid
