@@ -72,15 +72,11 @@ TEST(RayCasterTest, SkyViewMatchesAnalyticViewFactors) {
   // strip beside an infinite wall, (1 + cos(atan(1000 / 0.5))) / 2), and a point 10 m away
   // from a 10 m wall:
   // (1 + cos(atan(10 / 10))) / 2 = (1 + 0.7071) / 2 of the sky.
-  TriangleMesh scene = ground;
   const TriangleMesh wall = MakeQuad({5, -1000, 0}, {0, 2000, 0}, {0, 0, 1000}, 1);
   const TriangleMesh low = MakeQuad({5, -1000, 0}, {0, 2000, 0}, {0, 0, 10}, 1);
   for (const TriangleMesh* w : {&wall, &low}) {
     TriangleMesh both = ground;
-    const int offset = static_cast<int>(both.positions.size());
-    both.positions.insert(both.positions.end(), w->positions.begin(), w->positions.end());
-    both.normals.insert(both.normals.end(), w->normals.begin(), w->normals.end());
-    for (const Eigen::Vector3i& t : w->triangles) both.triangles.push_back(t + Eigen::Vector3i::Constant(offset));
+    both.Append(*w);
     const RayCaster caster(both);
     if (w == &wall) {
       EXPECT_NEAR(SkyViewFraction(caster, {4.5f, 0, 0}, {0, 0, 1}, 1024), 0.5f, 0.02f);

@@ -210,14 +210,16 @@ void CheckRelightInputs(const RayCaster& caster, const View& source, const View&
   }
 }
 
-ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options) {
+ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options,
+                                 bool with_sky_view) {
   const auto start = std::chrono::steady_clock::now();
   ViewGeometry geometry;
   geometry.visible = VertexVisibility(caster, view.camera);
   const std::vector<std::uint8_t> near = VerticesNearView(caster.mesh(), view.camera);
   geometry.sun_fraction = VertexSunFractions(caster, view.sun_dir, options.sun_samples, options.sun_angular_radius_rad,
                                              options.threads, &near);
-  if (options.sky_samples > 0) geometry.sky_view = VertexSkyViews(caster, options.sky_samples, options.threads, &near);
+  if (with_sky_view && options.sky_samples > 0)
+    geometry.sky_view = VertexSkyViews(caster, options.sky_samples, options.threads, &near);
   if (!options.use_penumbra_fractions) {
     for (float& f : geometry.sun_fraction) {
       if (!std::isnan(f)) f = f >= 0.5f ? 1.0f : 0.0f;
@@ -390,7 +392,7 @@ RelightResult RelightImage(const RayCaster& caster, const View& source, const Vi
   CheckRelightInputs(caster, source, target, options);
   RelightSummary summary;
   const ViewGeometry source_geometry = ComputeViewGeometry(caster, source, options);
-  const ViewGeometry target_geometry = ComputeViewGeometry(caster, target, options);
+  const ViewGeometry target_geometry = ComputeViewGeometry(caster, target, options, /*with_sky_view=*/false);
   summary.preprocess_s = source_geometry.seconds + target_geometry.seconds;
   const IrmSet irms = BuildIrmsFromViews(caster, source, target, source_geometry, target_geometry, options, &summary);
   return RelightPixels(caster, source, target, source_geometry, target_geometry, irms, options, summary);

@@ -112,11 +112,13 @@ struct ViewGeometry {
   // photographs have none, one IRM is enough (the planner's decision).
   int visible_in_cast_shadow = 0;
   // Sky view (SkyViewFraction) of the vertices near the view, NaN elsewhere; empty when
-  // RelightOptions::sky_samples is 0. It depends on the geometry only, not on the time.
+  // RelightOptions::sky_samples is 0 or `with_sky_view` was false. It depends on the geometry
+  // only, and only the source photograph's is used (its pixels are the ones relit).
   std::vector<float> sky_view;
   double seconds = 0.0;
 };
-ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options);
+ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options,
+                                 bool with_sky_view = true);
 
 // The second stage: samples from the vertices seen in both photographs, then the IRMs. Fills
 // the summary's sample counts, overlap errors and build_s.

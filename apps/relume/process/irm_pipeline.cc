@@ -160,11 +160,13 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
   for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
   key->Add("sun_samples", options.sun_samples).Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
   key->Add("penumbra", options.use_penumbra_fractions).Add("lit", static_cast<double>(options.irm.lit_threshold));
-  key->Add("sky_samples", options.sky_samples);
+  // Sky views are geometry-only and read from the source photograph's stage alone.
+  const bool with_sky_view = role == "source" && options.sky_samples > 0;
+  key->Add("sky_samples", with_sky_view ? options.sky_samples : 0);
   irm::ViewGeometry geometry;
   bool computed = false;
   const StageCache::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
-    geometry = irm::ComputeViewGeometry(caster, view, options);
+    geometry = irm::ComputeViewGeometry(caster, view, options, with_sky_view);
     computed = true;
     std::ofstream out(dir / "vertices.bin", std::ios::binary);
     out.write(reinterpret_cast<const char*>(geometry.visible.data()),
@@ -187,7 +189,7 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
     std::ifstream in(stage.dir / "vertices.bin", std::ios::binary);
     in.read(reinterpret_cast<char*>(geometry.visible.data()), static_cast<std::streamsize>(n));
     in.read(reinterpret_cast<char*>(geometry.sun_fraction.data()), static_cast<std::streamsize>(n * sizeof(float)));
-    if (options.sky_samples > 0) {
+    if (with_sky_view) {
       geometry.sky_view.resize(n);
       in.read(reinterpret_cast<char*>(geometry.sky_view.data()), static_cast<std::streamsize>(n * sizeof(float)));
     }
