@@ -7,7 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calibration/raw_loader.h"
+#include "calibration/demosaic.h"
 #include "core/error.h"
 
 namespace relume::calibration {
@@ -15,10 +15,7 @@ namespace relume::calibration {
 bool IsRawFileName(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  for (const char* raw : {".dng", ".nef", ".cr2", ".cr3", ".arw", ".raf", ".orf", ".rw2", ".pef", ".srw", ".raw"}) {
-    if (ext == raw) return true;
-  }
-  return false;
+  return !ext.empty() && IsRawFormat(std::string_view(ext).substr(1));
 }
 
 LoadedFrame LoadFrame(const std::string& path) {

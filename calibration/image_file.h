@@ -8,7 +8,7 @@
 
 namespace relume::calibration {
 
-// True for extensions LibRaw reads (dng, nef, cr2, cr3, arw, raf, orf, rw2, pef, srw, raw).
+// True for camera raw extensions (core/raw_file.h IsRawFormat: dng, nef, cr2, cr3, arw, ...).
 bool IsRawFileName(const std::string& path);
 
 struct LoadedFrame {

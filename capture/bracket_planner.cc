@@ -252,6 +252,24 @@ BracketPlan PlanBracket(const MeteringStats& metering, const drivers::ExposureCa
   return plan;
 }
 
+BracketPlan PlanUnmeteredBracket(const drivers::ExposureCapabilities& caps, double metering_exposure_time_s,
+                                 double metering_ev, const BracketPlannerOptions& options, double stops_each_side) {
+  if (!(stops_each_side >= 0.0 && stops_each_side <= 20.0)) {
+    throw InvalidArgumentError("bracket planner: stops_each_side must be in [0, 20]");
+  }
+  // A scene whose bright end reaches saturation `stops_each_side` stops below the metering
+  // exposure and whose dark end reaches the noise floor as far above it.
+  MeteringStats assumed;
+  assumed.bright_signal = options.saturation_fraction * std::exp2(stops_each_side);
+  assumed.dark_signal = options.min_signal_fraction * std::exp2(-stops_each_side);
+  BracketPlan plan = PlanBracket(assumed, caps, metering_exposure_time_s, metering_ev, options);
+  plan.range_known = false;
+  plan.reason =
+      "not metered (the metering frame has no pixels relume can decode): " + std::to_string(plan.exposures.size()) +
+      " exposures over +-" + std::to_string(stops_each_side).substr(0, 3) + " stops around the metering exposure";
+  return plan;
+}
+
 std::optional<PlannedExposure> ExtendDarker(const MeteringStats& darkest_frame, const PlannedExposure& darkest,
                                             const drivers::ExposureCapabilities& caps, double metering_exposure_time_s,
                                             double metering_ev, const BracketPlannerOptions& options) {

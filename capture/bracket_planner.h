@@ -70,6 +70,14 @@ struct BracketPlan {
 BracketPlan PlanBracket(const MeteringStats& metering, const drivers::ExposureCapabilities& caps,
                         double metering_exposure_time_s, double metering_ev, const BracketPlannerOptions& options);
 
+// A bracket for a camera whose metering frame gave no pixels relume can read (a camera raw
+// file it cannot decode): the usual spacing over `stops_each_side` stops on either side of the
+// metering exposure (so a frame's usable range reaches that far), snapped to the camera.
+// range_known is false and the reason says the scene was not metered.
+BracketPlan PlanUnmeteredBracket(const drivers::ExposureCapabilities& caps, double metering_exposure_time_s,
+                                 double metering_ev, const BracketPlannerOptions& options,
+                                 double stops_each_side = 4.0);
+
 // Adaptive range: after capturing the plan's darkest frame, if it still clips, returns one
 // more, darker exposure (or nothing when it does not clip or the camera has none darker).
 std::optional<PlannedExposure> ExtendDarker(const MeteringStats& darkest_frame, const PlannedExposure& darkest,

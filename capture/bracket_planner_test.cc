@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <tuple>
 
 #include "core/error.h"
 
@@ -131,6 +132,23 @@ TEST(BracketPlannerTest, ClippedMeteringPlansDarkerAndExtendsAdaptively) {
   EXPECT_GT(extra->relative_exposure, plan.exposures.front().relative_exposure / 16.0);
   darkest.clipped_share = 0.0;
   EXPECT_FALSE(ExtendDarker(darkest, plan.exposures.front(), caps, 1e-2, 0.0, o));
+}
+
+TEST(BracketPlannerTest, UnmeteredBracketsSpanTheAskedStopsInEveryMode) {
+  const BracketPlannerOptions o;
+  for (const auto& [name, caps, metering_s] :
+       {std::tuple{"shutter list", DslrCaps(), 1.0 / 60}, std::tuple{"continuous", MachineVisionCaps(), 1e-3},
+        std::tuple{"EV only", EvOnlyCaps(), double{NAN}}}) {
+    const BracketPlan plan = PlanUnmeteredBracket(caps, metering_s, 0.0, o, 4.0);
+    ASSERT_GE(plan.exposures.size(), 3u) << name;
+    EXPECT_FALSE(plan.range_known) << name;
+    EXPECT_NE(plan.reason.find("not metered"), std::string::npos) << plan.reason;
+    // The darkest frame keeps a region 4 stops above the metering frame's clipping unclipped;
+    // the brightest lifts one 4 stops below its noise floor into usable signal.
+    EXPECT_LE(plan.exposures.front().relative_exposure, o.saturation_fraction / std::exp2(4.0) * 1.26) << name;
+    EXPECT_GE(plan.exposures.back().relative_exposure, std::exp2(4.0) * 0.79) << name;
+  }
+  EXPECT_THROW(PlanUnmeteredBracket(MachineVisionCaps(), 1e-3, 0.0, o, -1.0), InvalidArgumentError);
 }
 
 TEST(BracketPlannerTest, CameraLimitsAndMaxExposuresAreReported) {

@@ -113,20 +113,6 @@ std::vector<std::uint8_t> ReadForPlayback(const SessionReader& reader, const Fra
   }
 }
 
-CameraImage DecodeStill(const std::vector<std::uint8_t>& bytes, const FrameRecord& f) {
-  CameraImage image;
-  const std::string& format = f.file_format;
-  if (format != "png" && format != "tiff" && format != "jpeg" && format != "jpg") return image;  // raw: not decoded
-  image.pixels = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-  if (image.pixels.channels() == 3) cv::cvtColor(image.pixels, image.pixels, cv::COLOR_BGR2RGB);
-  image.layout = f.layout;
-  image.encoding = f.encoding;
-  image.bits_per_sample = f.bits_per_sample;
-  image.black_level = f.black_level;
-  image.white_level = f.white_level;
-  return image;
-}
-
 drivers::FrameTiming TimingOf(const FrameRecord& f) {
   return {f.utc, f.monotonic, f.device_timestamp, f.sequence};
 }
@@ -282,7 +268,11 @@ drivers::StillFrame PlaybackStillCamera::Capture() {
   frame.model = info_.model;
   frame.original_file = ReadForPlayback(*recording_->reader, record, options_.verify_checksums, info_.FullId());
   frame.original_format = record.file_format;
-  frame.image = DecodeStill(frame.original_file, record);
+  try {
+    frame.image = DecodeFrameImage(frame.original_file, record, info_.FullId() + " frame " + record.file_path);
+  } catch (const Error& e) {
+    frame.undecoded_reason = e.what();  // as the camera delivered it: the file, no pixels
+  }
   frame.exposure = record.exposure;
   frame.timing = TimingOf(record);
   frame.sensor_temperature_c = record.sensor_temperature_c;

@@ -213,17 +213,26 @@ void Recorder::CaptureBracket(StillDevice& device) {
   } else {
     metering_settings.exposure_time_s = device.metering_time_s;
   }
-  MeteringStats metering;
+  std::optional<MeteringStats> metering;
   try {
     device.camera->Apply(metering_settings);
     const drivers::StillFrame frame = device.camera->Capture();
-    metering = MeasureMeteringFrame(frame.image, 1.0, options_.bracket);
+    if (frame.image.IsValid(nullptr)) {
+      metering = MeasureMeteringFrame(frame.image, 1.0, options_.bracket);
+    } else {
+      RecordEvent(id, "fault",
+                  "the metering frame (" + frame.original_format + ") cannot be metered: " +
+                      (frame.undecoded_reason.empty() ? std::string("no pixels") : frame.undecoded_reason) +
+                      ". The bracket is planned without metering; set the camera to a format relume decodes "
+                      "(JPEG, TIFF, or a raw format LibRaw reads) for brackets that fit the scene");
+    }
   } catch (const drivers::DeviceError& e) {
     RecordEvent(id, "fault", std::string("no metering frame, bracket skipped: ") + e.what());
     return;
   }
   const BracketPlan plan =
-      PlanBracket(metering, device.caps, device.metering_time_s, device.metering_ev, options_.bracket);
+      metering ? PlanBracket(*metering, device.caps, device.metering_time_s, device.metering_ev, options_.bracket)
+               : PlanUnmeteredBracket(device.caps, device.metering_time_s, device.metering_ev, options_.bracket);
   std::ostringstream planned;
   planned << plan.exposures.size() << " exposures (" << plan.reason << "):";
   for (const PlannedExposure& e : plan.exposures) {
@@ -267,6 +276,10 @@ void Recorder::StoreBracket(StillDevice& device, const BracketPlan& plan, bool e
     } catch (const IoError& e) {
       StorageFailed(e.what());
       partial_reason = std::string("storage failed: ") + e.what();
+    } catch (const Error& e) {
+      // A frame the writer refuses (no pixels and no camera file): a driver fault, not storage.
+      partial_reason = e.what();
+      RecordEvent(id, "fault", std::string("frame not stored, bracket interrupted: ") + e.what());
     }
     return std::nullopt;
   };
@@ -274,7 +287,7 @@ void Recorder::StoreBracket(StillDevice& device, const BracketPlan& plan, bool e
   for (std::size_t i = 0; i < plan.exposures.size() && partial_reason.empty(); ++i) {
     const std::optional<drivers::StillFrame> frame = capture_one(plan.exposures[i]);
     if (progress_) progress_(Snapshot());
-    if (!frame || i != 0 || !extend_darker) continue;
+    if (!frame || i != 0 || !extend_darker || !frame->image.IsValid(nullptr)) continue;
     // Adaptive range: while the darkest frame clips, add darker ones.
     PlannedExposure darkest = plan.exposures[0];
     MeteringStats stats = MeasureMeteringFrame(frame->image, darkest.relative_exposure, options_.bracket);
@@ -285,7 +298,7 @@ void Recorder::StoreBracket(StillDevice& device, const BracketPlan& plan, bool e
       RecordEvent(id, "plan",
                   "darkest frame clips: one more exposure at relative " + std::to_string(extra->relative_exposure));
       const std::optional<drivers::StillFrame> extra_frame = capture_one(*extra);
-      if (!extra_frame) break;
+      if (!extra_frame || !extra_frame->image.IsValid(nullptr)) break;
       darkest = *extra;
       stats = MeasureMeteringFrame(extra_frame->image, darkest.relative_exposure, options_.bracket);
     }

@@ -41,6 +41,16 @@ class RampCamera : public drivers::StillCamera {
     ++captures;
     drivers::StillFrame frame;
     frame.device_id = info_.FullId();
+    if (undecodable_raw) {
+      // A raw file the driver could not decode: the bytes only (different for every capture).
+      frame.original_file = {0x46, 0x55, 0x4a, 0x49, static_cast<std::uint8_t>(captures)};
+      frame.original_format = "raf";
+      frame.undecoded_reason = "X-Trans sensors are not supported";
+      frame.exposure.exposure_time_s = exposure_s_;
+      frame.timing.host_utc = clock->NowUtc();
+      frame.timing.host_monotonic = clock->NowMonotonic();
+      return frame;
+    }
     frame.image.pixels = cv::Mat(8, 64, CV_16UC1);
     for (int x = 0; x < 64; ++x) {
       const double radiance = std::exp2(14.0 * x / 63.0);  // 1 .. 16384
@@ -58,6 +68,7 @@ class RampCamera : public drivers::StillCamera {
     return frame;
   }
   Clock* clock = nullptr;
+  bool undecodable_raw = false;
 
  private:
   drivers::DeviceInfo info_;
@@ -162,6 +173,40 @@ TEST_F(RecorderTest, AnUnrecoverableCameraGivesAPartialBracketNotACrash) {
   EXPECT_NE(reader.Brackets()[0].reason.find("reconnect failed"), std::string::npos) << reader.Brackets()[0].reason;
   EXPECT_EQ(reader.Frames().size(), 1u);  // the frame stored before the disconnect is kept
   EXPECT_TRUE(VerifySession(dir_).ok());
+}
+
+TEST_F(RecorderTest, RawFilesRelumeCannotDecodeAreRecordedWithAnUnmeteredBracket) {
+  auto camera = std::make_unique<RampCamera>();
+  camera->clock = &clock_;
+  camera->undecodable_raw = true;
+  RampCamera* camera_ptr = camera.get();
+  options_.schedule.count = 1;
+  Recorder recorder(*writer_, clock_, options_);
+  recorder.AddStillCamera(std::move(camera), nullptr);
+  std::atomic<bool> stop{false};
+  const RecorderSummary summary = recorder.Run(stop);
+  EXPECT_EQ(summary.status.brackets, 1);
+  EXPECT_EQ(summary.status.partial_brackets, 0);
+  writer_.reset();
+  const SessionReader reader(dir_);
+  ASSERT_EQ(reader.Brackets().size(), 1u);
+  EXPECT_EQ(reader.Brackets()[0].status, "complete");
+  // Every capture after the metering frame is stored, byte for byte, without pixels.
+  const std::vector<FrameRecord> frames = reader.Frames();
+  ASSERT_EQ(static_cast<int>(frames.size()), camera_ptr->captures - 1);
+  EXPECT_GE(frames.size(), 3u) << "an unmetered bracket spans +-4 stops";
+  double shortest = 1e9, longest = 0;
+  for (const FrameRecord& f : frames) {
+    EXPECT_EQ(f.file_format, "raf");
+    EXPECT_EQ(f.width, 0);
+    shortest = std::min(shortest, f.exposure.exposure_time_s);
+    longest = std::max(longest, f.exposure.exposure_time_s);
+  }
+  EXPECT_GE(std::log2(longest / shortest), 6.0);
+  bool said = false;
+  for (const EventRecord& e : reader.Events()) said = said || e.message.find("cannot be metered") != std::string::npos;
+  EXPECT_TRUE(said);
+  EXPECT_TRUE(VerifySession(dir_).ok()) << VerifySession(dir_).Summary();
 }
 
 TEST_F(RecorderTest, StopRequestEndsCleanly) {

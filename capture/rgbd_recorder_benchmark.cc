@@ -6,11 +6,12 @@
 // buffer: a frame not taken within 4 periods is lost (counted as dropped by the device).
 //
 // The recorder's options are the defaults (64-frame queue, group commits of up to 8 frames);
-// arg 0 = rgbd_batch_frames, so /1 is the one-frame-per-commit writer for comparison.
+// arg 0 = rgbd_batch_frames, so /1 is the one-frame-per-commit writer for comparison; arg 1 =
+// the session's RGB-D file format (0 = zstd TIFF, the default; 1 = PNG).
 //
 // Counters: frames delivered, dropped (by the recorder's queue + by the device buffer),
 // stored, disk bytes/s (what the session writer wrote, per wall second) and the per-frame
-// latency from arrival at the recorder to acknowledgement (queue wait + PNG encode + fsyncs +
+// latency from arrival at the recorder to acknowledgement (queue wait + encode + fsyncs +
 // SQLite commit), p50/p90/p99/max in ms.
 // Stream length: RELUME_RGBD_STREAM_SECONDS (default 3 s, for the ctest smoke run; the
 // documented figures are from a 300 s run). Sessions go to RELUME_BENCHMARK_DIR or $TMPDIR.
@@ -25,6 +26,7 @@
 #include <thread>
 
 #include "capture/recorder.h"
+#include "capture/tiff_codec.h"
 #include "drivers/device_error.h"
 #include "sim/devices/sim_rgbd_sensor.h"
 #include "sim/devices/test_rig.h"
@@ -155,7 +157,9 @@ void BM_RgbdRecorder640x480At30Fps(benchmark::State& state) {
     info.site = Site::FromDegrees(37.97, 23.72, 150);
     info.clock_name = clock.name();
     info.created_utc = clock.NowUtc();
-    auto writer = SessionWriter::Create(dir, info);
+    SessionWriterOptions storage;
+    storage.rgbd_format = state.range(1) == 1 ? RgbdFileFormat::kPng : RgbdFileFormat::kTiffZstd;
+    auto writer = SessionWriter::Create(dir, info, storage);
     RecorderOptions options;
     options.rgbd_batch_frames = static_cast<int>(state.range(0));
     options.duration = std::chrono::duration_cast<Nanoseconds>(std::chrono::duration<double>(seconds));
@@ -188,35 +192,57 @@ void BM_RgbdRecorder640x480At30Fps(benchmark::State& state) {
     fs::remove_all(dir);
   }
 }
-BENCHMARK(BM_RgbdRecorder640x480At30Fps)->Arg(8)->Arg(1)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
+BENCHMARK(BM_RgbdRecorder640x480At30Fps)
+    ->Args({8, 0})
+    ->Args({8, 1})
+    ->Args({1, 0})
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kSecond);
 
-// The parts of one stored frame, for scale: PNG encoding of the depth (16-bit mm) and colour
+// The parts of one stored frame, for scale: encoding of the depth (16-bit mm) and colour
 // (8-bit RGB) images, and a whole SessionWriter::WriteRgbdFrame (encode, write, fsync, rename,
 // fsync the folder, commit), one frame after another on one thread.
-void BM_EncodeRgbdPngs(benchmark::State& state) {
+cv::Mat DepthMm(const drivers::RgbdFrame& f) {
+  cv::Mat metres = f.depth_m.clone(), mm;
+  cv::patchNaNs(metres, 0.0);
+  metres.convertTo(mm, CV_16UC1, 1000.0);
+  return mm;
+}
+
+// arg 0: 0 = zstd TIFF (tiff_codec.h, level 1, what the session writer uses), 1 = deflate TIFF
+// (level 1), 2 = OpenCV's PNG default (zlib level 1, RLE strategy), 3 = PNG at zlib level 0,
+// 4 = PNG Huffman-only.
+void BM_EncodeRgbd(benchmark::State& state) {
   const std::vector<drivers::RgbdFrame>& frames = Frames();
-  std::size_t i = 0, bytes = 0;
-  // arg 0: -1 = OpenCV's default (level 1, RLE strategy, what the session writer uses), else
-  // a zlib level with the default strategy; arg 1: 1 = Huffman-only strategy instead.
-  std::vector<int> params;
-  if (state.range(0) >= 0) params = {cv::IMWRITE_PNG_COMPRESSION, static_cast<int>(state.range(0))};
-  if (state.range(1) == 1)
-    params.insert(params.end(), {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY});
+  std::vector<cv::Mat> depth_mm;
+  for (const drivers::RgbdFrame& f : frames) depth_mm.push_back(DepthMm(f));
+  const int variant = static_cast<int>(state.range(0));
+  std::vector<int> png_params;
+  if (variant == 3) png_params = {cv::IMWRITE_PNG_COMPRESSION, 0};
+  if (variant == 4) png_params = {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY};
+  TiffOptions tiff;
+  if (variant == 1) tiff.compression = TiffOptions::Compression::kDeflate;
+  auto encode = [&](const cv::Mat& m) {
+    if (variant <= 1) return EncodeTiff(m, tiff);
+    std::vector<std::uint8_t> bytes;
+    cv::imencode(".png", m, bytes, png_params);
+    return bytes;
+  };
+  std::size_t i = 0, depth_bytes = 0, color_bytes = 0;
   for (auto _ : state) {
-    const drivers::RgbdFrame& f = frames[i++ % frames.size()];
-    cv::Mat metres = f.depth_m.clone(), mm;
-    cv::patchNaNs(metres, 0.0);
-    metres.convertTo(mm, CV_16UC1, 1000.0);
-    std::vector<std::uint8_t> a, b;
-    cv::imencode(".png", mm, a, params);
-    cv::imencode(".png", f.color.pixels, b, params);
-    bytes += a.size() + b.size();
+    const std::size_t k = i++ % frames.size();
+    depth_bytes += encode(depth_mm[k]).size();
+    color_bytes += encode(frames[k].color.pixels).size();
   }
-  state.counters["bytes_per_frame"] = static_cast<double>(bytes) / static_cast<double>(state.iterations());
+  const auto n = static_cast<double>(state.iterations());
+  state.counters["depth_bytes"] = static_cast<double>(depth_bytes) / n;
+  state.counters["color_bytes"] = static_cast<double>(color_bytes) / n;
   state.SetItemsProcessed(state.iterations());
 }
-BENCHMARK(BM_EncodeRgbdPngs)->Args({-1, 0})->Args({0, 0})->Args({1, 0})->Args({-1, 1})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EncodeRgbd)->DenseRange(0, 4)->Unit(benchmark::kMillisecond);
 
+// arg 0: 0 = zstd TIFF, 1 = PNG.
 void BM_WriteRgbdFrame(benchmark::State& state) {
   const std::vector<drivers::RgbdFrame>& frames = Frames();
   const fs::path dir = BenchmarkDir() / "relume_rgbd_write_benchmark";
@@ -224,7 +250,9 @@ void BM_WriteRgbdFrame(benchmark::State& state) {
   SessionInfo info;
   info.name = "write benchmark";
   info.site = Site::FromDegrees(37.97, 23.72, 150);
-  auto writer = SessionWriter::Create(dir, info);
+  SessionWriterOptions storage;
+  storage.rgbd_format = state.range(0) == 1 ? RgbdFileFormat::kPng : RgbdFileFormat::kTiffZstd;
+  auto writer = SessionWriter::Create(dir, info, storage);
   std::size_t i = 0;
   for (auto _ : state) writer->WriteRgbdFrame(frames[i++ % frames.size()]);
   state.counters["bytes_per_frame"] =
@@ -233,7 +261,7 @@ void BM_WriteRgbdFrame(benchmark::State& state) {
   writer.reset();
   fs::remove_all(dir);
 }
-BENCHMARK(BM_WriteRgbdFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WriteRgbdFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace relume::capture

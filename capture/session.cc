@@ -10,7 +10,9 @@
 
 #include "capture/durable_file.h"
 #include "capture/rgbd_geometry.h"
+#include "capture/tiff_codec.h"
 #include "core/error.h"
+#include "core/raw_file.h"
 
 namespace relume::capture {
 
@@ -124,14 +126,21 @@ std::vector<std::uint8_t> ReadFile(const fs::path& path) {
 
 }  // namespace
 
-SessionWriter::SessionWriter(fs::path dir, std::unique_ptr<Database> db, Site site)
-    : dir_(std::move(dir)), db_(std::move(db)), site_(site), sun_(site) {
+RgbdFileFormat ParseRgbdFileFormat(const std::string& text) {
+  if (text == "tiff") return RgbdFileFormat::kTiffZstd;
+  if (text == "png") return RgbdFileFormat::kPng;
+  throw InvalidArgumentError("unknown RGB-D file format '" + text + "': expected tiff (zstd, the default) or png");
+}
+
+SessionWriter::SessionWriter(fs::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options)
+    : dir_(std::move(dir)), db_(std::move(db)), site_(site), options_(options), sun_(site) {
   Statement count = db_->Prepare("SELECT coalesce(max(id), 0) FROM frames");
   count.Step();
   file_counter_ = count.Int(0);
 }
 
-std::unique_ptr<SessionWriter> SessionWriter::Create(const fs::path& dir, const SessionInfo& info) {
+std::unique_ptr<SessionWriter> SessionWriter::Create(const fs::path& dir, const SessionInfo& info,
+                                                     const SessionWriterOptions& options) {
   std::string why;
   if (!info.site.IsValid(&why)) throw InvalidArgumentError("session site: " + why);
   if (fs::exists(dir / kSessionDatabaseName)) {
@@ -156,13 +165,13 @@ std::unique_ptr<SessionWriter> SessionWriter::Create(const fs::path& dir, const 
     transaction.Commit();
   }
   SyncDirectory(dir);
-  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), info.site));
+  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), info.site, options));
 }
 
-std::unique_ptr<SessionWriter> SessionWriter::Append(const fs::path& dir) {
+std::unique_ptr<SessionWriter> SessionWriter::Append(const fs::path& dir, const SessionWriterOptions& options) {
   const SessionReader reader(dir);
   auto db = OpenDatabase(dir, false);
-  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), reader.info().site));
+  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), reader.info().site, options));
 }
 
 void SessionWriter::AddDevice(const drivers::DeviceInfo& device) {
@@ -284,10 +293,22 @@ FrameRecord RecordFromImage(const std::string& device_id, const std::string& str
 FrameRecord SessionWriter::WriteStillFrame(const drivers::StillFrame& frame, std::optional<std::int64_t> bracket_id,
                                            int bracket_index) {
   std::string why;
-  if (!frame.image.IsValid(&why)) {
-    throw InvalidArgumentError("frame from " + frame.device_id + " has invalid pixels: " + why);
+  const bool decoded = frame.image.IsValid(&why);
+  if (!decoded && frame.original_file.empty()) {
+    throw InvalidArgumentError("frame from " + frame.device_id + " has invalid pixels and no camera file: " + why);
   }
-  FrameRecord record = RecordFromImage(frame.device_id, "still", frame.image, frame.timing);
+  FrameRecord record;
+  if (decoded) {
+    record = RecordFromImage(frame.device_id, "still", frame.image, frame.timing);
+  } else {
+    // The camera's file without pixels: what is known without decoding it.
+    record = RecordFromImage(frame.device_id, "still", CameraImage{}, frame.timing);
+    record.layout = ColorLayout::kMono;
+    record.encoding =
+        IsRawFormat(frame.original_format) ? SampleEncoding::kSensorLinear : SampleEncoding::kCameraResponse;
+    record.bits_per_sample = 0;
+    record.white_level = 0;
+  }
   record.bracket_id = bracket_id;
   record.bracket_index = bracket_index;
   record.exposure = frame.exposure;
@@ -341,24 +362,27 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
     depth_image.encoding = SampleEncoding::kSensorLinear;
     depth_image.bits_per_sample = 16;
     depth_image.white_level = 65535;
+    const bool png = options_.rgbd_format == RgbdFileFormat::kPng;
     FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
-    depth.file_format = "png";
+    depth.file_format = png ? "png" : "tiff";
     FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
     color.exposure = frame.color_exposure;
-    color.file_format = frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
+    color.file_format = png && frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
     records.push_back(std::move(depth));
     images.push_back(depth_image.pixels);
     records.push_back(std::move(color));
     images.push_back(frame.color.pixels);
   }
-  // PNG encoding dominates the cost of a frame: encode every image of the batch in parallel.
+  // Encoding dominates the cost of a frame: encode every image of the batch in parallel.
   std::vector<std::vector<std::uint8_t>> encoded(images.size());
   std::vector<std::string> failed(images.size());
   cv::parallel_for_(cv::Range(0, static_cast<int>(images.size())), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i) {
       const auto k = static_cast<std::size_t>(i);
       try {
-        encoded[k] = Encode(images[k], "." + records[k].file_format);
+        encoded[k] = options_.rgbd_format == RgbdFileFormat::kTiffZstd
+                         ? EncodeTiff(images[k])
+                         : Encode(images[k], "." + records[k].file_format);
       } catch (const Error& e) {
         failed[k] = e.what();
       }
@@ -562,15 +586,34 @@ cv::Mat DecodeVerified(const SessionReader& reader, const FrameRecord& frame, bo
 }
 }  // namespace
 
-CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_checksum) const {
+CameraImage DecodeFrameImage(std::span<const std::uint8_t> bytes, const FrameRecord& frame, const std::string& name) {
+  const std::string& format = frame.file_format;
+  if (IsRawFormat(format)) {
+    try {
+      return DecodeRawFile(bytes, name).image;
+    } catch (const Error& e) {
+      throw IoError(name, std::string("relume cannot decode this camera raw file (the file itself is kept intact): ") +
+                              e.what() + ". Convert it to DNG (e.g. with Adobe DNG Converter) to process it");
+    }
+  }
+  if (format != "png" && format != "tiff" && format != "jpeg" && format != "jpg") {
+    throw IoError(name, "'" + format + "' files cannot be decoded by relume (the file itself is kept intact)");
+  }
   CameraImage image;
-  image.pixels = DecodeVerified(*this, frame, verify_checksum);
+  image.pixels = cv::imdecode(cv::_InputArray(bytes.data(), static_cast<int>(bytes.size())), cv::IMREAD_UNCHANGED);
+  if (image.pixels.empty()) throw IoError(name, "cannot decode the " + format + " file");
+  if (image.pixels.channels() == 4) cv::cvtColor(image.pixels, image.pixels, cv::COLOR_BGRA2RGB);
+  if (image.pixels.channels() == 3) cv::cvtColor(image.pixels, image.pixels, cv::COLOR_BGR2RGB);
   image.layout = frame.layout;
   image.encoding = frame.encoding;
   image.bits_per_sample = frame.bits_per_sample;
   image.black_level = frame.black_level;
   image.white_level = frame.white_level;
   return image;
+}
+
+CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_checksum) const {
+  return DecodeFrameImage(ReadFrameFile(frame, verify_checksum), frame, (dir_ / frame.file_path).string());
 }
 
 cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {

@@ -9,8 +9,9 @@
 //
 // Files: still frames keep the camera's own file byte for byte when it has one (raw, JPEG,
 // TIFF); otherwise 8-bit PNG or 16-bit TIFF of the decoded pixels (RGB samples are stored in
-// the file's native BGR order, as OpenCV writes them). Depth: 16-bit PNG in millimetres,
-// 0 = no measurement (range 0.001 .. 65.535 m).
+// the file's native BGR order, as OpenCV writes them). RGB-D frames (SessionWriterOptions):
+// depth as 16-bit millimetres, 0 = no measurement (range 0.001 .. 65.535 m), and colour, each
+// as a zstd-compressed TIFF (capture/tiff_codec.h) or, on request, PNG.
 //
 // Every frame row carries the sun's azimuth/elevation at its UTC time for the session's site
 // (core/sun, algorithm named in the row).
@@ -100,19 +101,36 @@ struct CalibrationRecord {
   std::vector<std::int64_t> source_frame_ids;
 };
 
+// How the writer stores the frames it encodes itself (RGB-D depth and colour).
+enum class RgbdFileFormat {
+  kTiffZstd,  // lossless (capture/tiff_codec.h), 8.8 ms to encode a 640x480 pair (the default)
+  kPng,       // lossless, readable by older tools too; 25 ms to encode the same pair
+};
+struct SessionWriterOptions {
+  RgbdFileFormat rgbd_format = RgbdFileFormat::kTiffZstd;
+};
+// "tiff" or "png" (the rig key `rgbd_format`); throws InvalidArgumentError otherwise.
+RgbdFileFormat ParseRgbdFileFormat(const std::string& text);
+
 // Writes one session. Not thread-safe: callers serialise (the recorder owns one writer thread).
 class SessionWriter {
  public:
   // Creates a new session in `dir` (created if missing; must not already hold a session).
-  static std::unique_ptr<SessionWriter> Create(const std::filesystem::path& dir, const SessionInfo& info);
+  static std::unique_ptr<SessionWriter> Create(const std::filesystem::path& dir, const SessionInfo& info,
+                                               const SessionWriterOptions& options = {});
   // Appends to an existing session (after `recover`).
-  static std::unique_ptr<SessionWriter> Append(const std::filesystem::path& dir);
+  static std::unique_ptr<SessionWriter> Append(const std::filesystem::path& dir,
+                                               const SessionWriterOptions& options = {});
 
   void AddDevice(const drivers::DeviceInfo& device);
   std::int64_t BeginBracket(const std::string& device_id, UtcTime started_utc, int planned_count);
   void EndBracket(std::int64_t bracket_id, const std::string& status, const std::string& reason);
 
-  // Store durably, then return the committed row (the frame is then acknowledged).
+  // Store durably, then return the committed row (the frame is then acknowledged). A frame
+  // with the camera's own file (StillFrame::original_file) is stored byte for byte even when
+  // it carries no decoded pixels (a raw file relume cannot decode): its row then has width and
+  // height 0 and the pixel fields of the format's kind. Throws InvalidArgumentError for a frame
+  // with neither valid pixels nor a file, IoError when the storage fails.
   FrameRecord WriteStillFrame(const drivers::StillFrame& frame, std::optional<std::int64_t> bracket_id = std::nullopt,
                               int bracket_index = 0);
   // Two rows: depth and colour, committed together; with them, when the device's stream
@@ -132,18 +150,26 @@ class SessionWriter {
   std::uint64_t bytes_written() const { return bytes_written_; }
 
  private:
-  SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site);
+  SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options);
   FrameRecord StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder = true);
   void InsertFrame(FrameRecord& record);
 
   std::filesystem::path dir_;
   std::unique_ptr<Database> db_;
   Site site_;
+  SessionWriterOptions options_;
   SunTrack sun_;
   std::uint64_t bytes_written_ = 0;
   std::int64_t file_counter_ = 0;
   std::map<std::string, std::string> rgbd_geometry_;  // per device: the last geometry stored
 };
+
+// Decodes a stored still or colour frame file: PNG, TIFF and JPEG through OpenCV (RGB order,
+// pixel fields from the row), camera raw files through LibRaw (core/raw_file.h: the mosaic with
+// the file's own layout, black and white level). `name` names the file in messages. Throws
+// IoError (or InvalidArgumentError for a raw layout relume does not handle), saying that the
+// stored file itself is intact.
+CameraImage DecodeFrameImage(std::span<const std::uint8_t> bytes, const FrameRecord& frame, const std::string& name);
 
 // Reads a session (what calibration, processing and the player use).
 class SessionReader {
@@ -162,8 +188,8 @@ class SessionReader {
   // The frame's file, byte for byte. Throws IoError when it is missing or its checksum does not
   // match (when verify_checksum).
   std::vector<std::uint8_t> ReadFrameFile(const FrameRecord& frame, bool verify_checksum = true) const;
-  // Decodes a still or colour frame's pixels. Throws IoError when the file is missing or its
-  // checksum does not match (when verify_checksum).
+  // Decodes a still or colour frame's pixels (DecodeFrameImage). Throws IoError when the file
+  // is missing, its checksum does not match (when verify_checksum) or it cannot be decoded.
   CameraImage LoadImage(const FrameRecord& frame, bool verify_checksum = true) const;
   // Depth in metres, NaN where there was no measurement.
   cv::Mat LoadDepth(const FrameRecord& frame, bool verify_checksum = true) const;

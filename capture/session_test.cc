@@ -11,7 +11,9 @@
 #include "capture/durable_file.h"
 #include "capture/session_check.h"
 #include "core/error.h"
+#include "core/raw_file.h"
 #include "core/sun/sun_position.h"
+#include "core/testing/dng_writer.h"
 
 namespace relume::capture {
 namespace {
@@ -107,6 +109,60 @@ TEST_F(SessionTest, CameraFilesAreKeptByteForByte) {
   EXPECT_EQ(stored, frame.original_file);
   EXPECT_EQ(record.file_format, "nef");
   EXPECT_EQ(record.sha256, Sha256Hex(frame.original_file));
+}
+
+TEST_F(SessionTest, RawCameraFilesAreKeptAndDecodedThroughLibRaw) {
+  relume::testing::DngImage dng;
+  dng.mosaic = cv::Mat(24, 32, CV_16UC1);
+  cv::RNG rng(7);
+  rng.fill(dng.mosaic, cv::RNG::UNIFORM, cv::Scalar(512), cv::Scalar(16383));
+  dng.black_level = 512;
+  dng.white_level = 16383;
+  drivers::StillFrame frame = Frame16(4);
+  frame.original_file = relume::testing::EncodeDng(dng);
+  frame.original_format = "dng";
+  frame.image = DecodeRawFile(frame.original_file, "test.dng").image;  // what the driver delivers
+  auto writer = SessionWriter::Create(dir_, Info());
+  const FrameRecord record = writer->WriteStillFrame(frame);
+  writer.reset();
+  EXPECT_EQ(record.sha256, Sha256Hex(frame.original_file));
+  EXPECT_EQ(record.layout, ColorLayout::kBayerRggb);
+  EXPECT_EQ(record.width, 32);
+  const CameraImage image = SessionReader(dir_).LoadImage(record);
+  EXPECT_EQ(image.layout, ColorLayout::kBayerRggb);
+  EXPECT_EQ(image.black_level, 512);
+  EXPECT_EQ(image.white_level, 16383);
+  EXPECT_EQ(cv::norm(image.pixels, dng.mosaic, cv::NORM_INF), 0.0);
+}
+
+TEST_F(SessionTest, ACameraFileRelumeCannotDecodeIsStillStored) {
+  drivers::StillFrame frame = Frame16(5);
+  frame.image = CameraImage{};  // the driver could not decode it
+  frame.original_file = {0x46, 0x55, 0x4a, 0x49, 0x00, 0x01, 0x02};
+  frame.original_format = "raf";
+  frame.undecoded_reason = "X-Trans sensors are not supported";
+  auto writer = SessionWriter::Create(dir_, Info());
+  const FrameRecord record = writer->WriteStillFrame(frame);
+  writer.reset();
+  EXPECT_EQ(record.width, 0);
+  EXPECT_EQ(record.encoding, SampleEncoding::kSensorLinear);
+  EXPECT_DOUBLE_EQ(record.exposure.exposure_time_s, 1.0 / 125);
+  EXPECT_TRUE(VerifySession(dir_).ok()) << VerifySession(dir_).Summary();
+  const SessionReader reader(dir_);
+  EXPECT_EQ(reader.ReadFrameFile(reader.Frames().at(0)), frame.original_file);
+  try {
+    reader.LoadImage(reader.Frames().at(0));
+    ADD_FAILURE() << "undecodable raw file decoded";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("kept intact"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(SessionTest, AFrameWithNeitherPixelsNorAFileIsRefused) {
+  drivers::StillFrame frame = Frame16(6);
+  frame.image = CameraImage{};
+  auto writer = SessionWriter::Create(dir_, Info());
+  EXPECT_THROW(writer->WriteStillFrame(frame), InvalidArgumentError);
 }
 
 TEST_F(SessionTest, RgbdDepthInMillimetres) {

@@ -15,3 +15,5 @@ endif()
 pkg_check_modules(GEOGRAPHICLIB REQUIRED IMPORTED_TARGET geographiclib)
 # ERFA (IAU SOFA-derived) is the independent reference for the sun position tests.
 pkg_check_modules(ERFA REQUIRED IMPORTED_TARGET erfa)
+# Camera raw files (core/raw_file.h).
+pkg_check_modules(LIBRAW REQUIRED IMPORTED_TARGET libraw)

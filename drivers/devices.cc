@@ -1,4 +1,5 @@
 #include <cmath>
+#include <sstream>
 
 #include "drivers/backend.h"
 #include "drivers/device_error.h"
@@ -34,6 +35,14 @@ bool RgbdStreamConfig::IsValid(std::string* why) const {
     return false;
   }
   return true;
+}
+
+std::string RgbdStreamConfig::Describe() const {
+  std::ostringstream s;
+  s << "depth " << depth_width << "x" << depth_height << " + colour " << color_width << "x" << color_height << " @ "
+    << fps << " fps, " << (register_depth_to_color ? "registered" : "unregistered") << ", "
+    << (sync_depth_and_color ? "synced" : "unsynced");
+  return s.str();
 }
 
 void DeviceRegistry::Add(std::shared_ptr<Backend> backend) {

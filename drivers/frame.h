@@ -39,6 +39,10 @@ struct StillFrame {
   // capture layer stores it unchanged. original_format: "jpeg", "nef", "cr2", "tiff", ...
   std::vector<std::uint8_t> original_file;
   std::string original_format;
+  // Why `image` is empty although original_file is not (a camera file relume cannot decode,
+  // e.g. a raw sensor layout LibRaw or relume does not handle); empty otherwise. The file is
+  // still stored; only metering and processing need the pixels.
+  std::string undecoded_reason;
   ExposureRecord exposure;
   FrameTiming timing;
   std::optional<double> sensor_temperature_c;

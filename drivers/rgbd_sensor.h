@@ -1,6 +1,7 @@
 // A streaming depth + colour sensor (OpenNI2 devices, the simulator).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "core/time.h"
@@ -18,6 +19,8 @@ struct RgbdStreamConfig {
   bool register_depth_to_color = true;
   bool sync_depth_and_color = true;
   bool IsValid(std::string* why) const;
+  // "depth 640x480 + colour 640x480 @ 30 fps, registered, synced" (as `relume devices` lists it).
+  std::string Describe() const;
 };
 
 class RgbdSensor {

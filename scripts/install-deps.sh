@@ -9,7 +9,7 @@ PACKAGES=(
   # core, calibration, processing
   libeigen3-dev libgeographiclib-dev liberfa-dev libopencv-dev libopencv-contrib-dev libembree-dev libraw-dev
   # storage, config, CLI, logs, reports
-  libsqlite3-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
+  libsqlite3-dev libtiff-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the HTML report is checked by loading it in headless Chromium

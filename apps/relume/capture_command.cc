@@ -7,6 +7,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <functional>
 #include <iostream>
 
 #include "apps/relume/device_backends.h"
@@ -112,6 +113,76 @@ drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, co
                              "matches several devices (" + which + "); add serial or port to the rig file");
 }
 
+namespace {
+
+// A rig device opened for the capture, with how to open it again after a disconnect.
+struct OpenedDevice {
+  std::unique_ptr<drivers::StillCamera> camera;
+  capture::StillCameraOpener reopen_camera;
+  std::unique_ptr<drivers::RgbdSensor> sensor;
+  capture::RgbdSensorOpener reopen_sensor;
+  drivers::RgbdStreamConfig stream;
+};
+
+// The stream to record from an RGB-D sensor: the one the rig asks for; for a simulated sensor
+// the one at its rig camera's size (registered, synchronised) when offered, so a rig's
+// `camera:` size is what gets recorded; otherwise the sensor's first stream.
+drivers::RgbdStreamConfig ChooseRgbdStream(const drivers::RgbdSensor& sensor, const RigConfig& rig,
+                                           const RegistryDeviceSpec* spec) {
+  const std::vector<drivers::RgbdStreamConfig> configs = sensor.SupportedConfigs();
+  if (configs.empty()) {
+    throw drivers::DeviceError(drivers::DeviceErrorKind::kUnsupportedSetting, sensor.info().FullId(),
+                               "offers no depth + colour stream");
+  }
+  if (spec && spec->stream) {
+    std::string offered;
+    for (const drivers::RgbdStreamConfig& c : configs) {
+      if (spec->stream->Matches(c)) return c;
+      offered += "\n  " + c.Describe();
+    }
+    throw drivers::DeviceError(drivers::DeviceErrorKind::kUnsupportedSetting, spec->Describe(),
+                               "offers no stream with " + spec->stream->Describe() +
+                                   "; change `stream:` in the rig to one it offers:" + offered);
+  }
+  for (const sim::SimDeviceSpec& sim_spec : rig.devices) {
+    if (spec || sim_spec.id != sensor.info().id) continue;
+    for (const drivers::RgbdStreamConfig& c : configs) {
+      if (c.depth_width == sim_spec.camera.intrinsics.width && c.depth_height == sim_spec.camera.intrinsics.height &&
+          c.register_depth_to_color && c.sync_depth_and_color) {
+        return c;
+      }
+    }
+  }
+  return configs.front();
+}
+
+// Opens a rig device; `spec` is null for simulated devices. The rig's camera settings are set
+// again on every reconnect.
+OpenedDevice OpenRigDevice(const std::shared_ptr<drivers::DeviceRegistry>& registry, const drivers::DeviceInfo& device,
+                           std::function<drivers::DeviceInfo()> find_again, const RegistryDeviceSpec* spec,
+                           const RigConfig& rig) {
+  OpenedDevice out;
+  if (device.kind == drivers::DeviceKind::kStillCamera) {
+    if (spec && spec->stream) {
+      throw drivers::DeviceError(drivers::DeviceErrorKind::kUnsupportedSetting, spec->Describe(),
+                                 "is a still camera: `stream:` is for RGB-D sensors; remove it from the rig");
+    }
+    const std::vector<std::pair<std::string, std::string>> settings =
+        spec ? spec->camera_settings : std::vector<std::pair<std::string, std::string>>{};
+    out.camera = OpenStillCameraWithSettings(*registry, device, settings);
+    out.reopen_camera = [registry, find_again, settings]() {
+      return OpenStillCameraWithSettings(*registry, find_again(), settings);
+    };
+  } else {
+    out.sensor = registry->OpenRgbdSensor(device);
+    out.stream = ChooseRgbdStream(*out.sensor, rig, spec);
+    out.reopen_sensor = [registry, find_again]() { return registry->OpenRgbdSensor(find_again()); };
+  }
+  return out;
+}
+
+}  // namespace
+
 int RunCapture(const CaptureRequest& request) {
   RigConfig rig = LoadRigConfig(request.rig_path);
   if (request.duration_minutes > 0.0) {
@@ -129,9 +200,24 @@ int RunCapture(const CaptureRequest& request) {
         rig.clock_start, "simulated, event-driven, from " + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0));
   }
   const std::shared_ptr<drivers::DeviceRegistry> registry = BuildRigRegistry(rig, clock);
-  // Every named device must be present before a session folder is made.
-  std::vector<drivers::DeviceInfo> resolved;
-  for (const RegistryDeviceSpec& spec : rig.registry_devices) resolved.push_back(ResolveRigDevice(*registry, spec));
+  // Every device is found, opened and set up (camera settings, RGB-D stream) before a session
+  // folder is made: a missing device or a setting the camera refuses leaves nothing behind.
+  std::vector<OpenedDevice> opened;
+  if (!rig.devices.empty()) {
+    for (const auto& backend : registry->backends()) {
+      if (backend->name() != "sim") continue;
+      for (const drivers::DeviceInfo& device : backend->Enumerate()) {
+        const std::string id = device.FullId();
+        opened.push_back(OpenRigDevice(
+            registry, device, [registry, id]() { return registry->Find(id); }, nullptr, rig));
+      }
+    }
+  }
+  for (const RegistryDeviceSpec& spec : rig.registry_devices) {
+    opened.push_back(OpenRigDevice(
+        registry, ResolveRigDevice(*registry, spec), [registry, spec]() { return ResolveRigDevice(*registry, spec); },
+        &spec, rig));
+  }
   capture::SessionInfo info;
   info.name = rig.name;
   info.site = rig.site;
@@ -139,46 +225,17 @@ int RunCapture(const CaptureRequest& request) {
   info.software_version = std::string("relume ") + RELUME_VERSION;
   info.clock_name = clock->name();
   info.created_utc = clock->NowUtc();
-  std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info);
+  std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info, rig.storage);
   StoreRigWithSession(rig, request.out_dir);  // processing finds the geometry and cameras here
 
   capture::Recorder recorder(*writer, *clock, rig.recorder);
-  auto add = [&](const drivers::DeviceInfo& device, auto find_again) {
-    if (device.kind == drivers::DeviceKind::kStillCamera) {
-      recorder.AddStillCamera(registry->OpenStillCamera(device),
-                              [registry, find_again]() { return registry->OpenStillCamera(find_again()); });
+  for (OpenedDevice& device : opened) {
+    if (device.camera) {
+      recorder.AddStillCamera(std::move(device.camera), std::move(device.reopen_camera));
     } else {
-      auto sensor = registry->OpenRgbdSensor(device);
-      // The stream at the device's native size when it offers one (registered, synchronised),
-      // so a rig's `camera:` size is what gets recorded; otherwise the sensor's first stream.
-      drivers::RgbdStreamConfig config = sensor->SupportedConfigs().front();
-      for (const sim::SimDeviceSpec& spec : rig.devices) {
-        if (spec.id != device.id) continue;
-        for (const drivers::RgbdStreamConfig& c : sensor->SupportedConfigs()) {
-          if (c.depth_width == spec.camera.intrinsics.width && c.depth_height == spec.camera.intrinsics.height &&
-              c.register_depth_to_color && c.sync_depth_and_color) {
-            config = c;
-            break;
-          }
-        }
-      }
-      recorder.AddRgbdSensor(
-          std::move(sensor), [registry, find_again]() { return registry->OpenRgbdSensor(find_again()); }, config,
-          rig.rgbd_burst_frames);
+      recorder.AddRgbdSensor(std::move(device.sensor), std::move(device.reopen_sensor), device.stream,
+                             rig.rgbd_burst_frames);
     }
-  };
-  if (!rig.devices.empty()) {
-    for (const auto& backend : registry->backends()) {
-      if (backend->name() != "sim") continue;
-      for (const drivers::DeviceInfo& device : backend->Enumerate()) {
-        const std::string id = device.FullId();
-        add(device, [registry, id]() { return registry->Find(id); });
-      }
-    }
-  }
-  for (std::size_t i = 0; i < rig.registry_devices.size(); ++i) {
-    const RegistryDeviceSpec spec = rig.registry_devices[i];
-    add(resolved[i], [registry, spec]() { return ResolveRigDevice(*registry, spec); });
   }
 
   g_stop = false;

@@ -49,6 +49,33 @@ std::vector<std::string> LeftOutBackends() {
   return out;
 }
 
+std::unique_ptr<drivers::StillCamera> OpenStillCameraWithSettings(
+    const drivers::DeviceRegistry& registry, const drivers::DeviceInfo& device,
+    const std::vector<std::pair<std::string, std::string>>& settings) {
+  std::unique_ptr<drivers::StillCamera> camera = registry.OpenStillCamera(device);
+  if (settings.empty()) return camera;
+#if RELUME_HAVE_GPHOTO2
+  if (auto* gphoto2 = dynamic_cast<drivers::gphoto2::GPhoto2Camera*>(camera.get())) {
+    for (const auto& [name, value] : settings) {
+      try {
+        gphoto2->SetConfigValue(name, value);
+      } catch (const drivers::DeviceError& e) {
+        std::string choices;
+        try {
+          for (const std::string& c : gphoto2->ConfigChoices(name)) choices += (choices.empty() ? "" : ", ") + c;
+        } catch (const drivers::DeviceError&) {
+        }
+        throw drivers::DeviceError(e.kind(), device.FullId(),
+                                   "setting " + name + " = \"" + value + "\" from the rig: " + e.what() +
+                                       (choices.empty() ? "" : " (the camera offers: " + choices + ")"));
+      }
+    }
+    return camera;
+  }
+#endif
+  throw InvalidArgumentError(device.FullId() + ": camera settings are for gphoto2 cameras only");
+}
+
 std::pair<std::string, std::string> SplitModelAtPort(const std::string& text) {
   const std::size_t at = text.rfind('@');
   if (at == std::string::npos || at == 0 || at + 1 == text.size()) {

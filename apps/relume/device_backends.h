@@ -9,6 +9,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/clock.h"
@@ -57,6 +58,13 @@ std::shared_ptr<drivers::DeviceRegistry> BuildDeviceRegistry(const DeviceBackend
 // the build; throws IoError when libusb cannot start.
 bool UsbListingCompiled();
 std::vector<drivers::DeviceInfo> ListKnownUsbDevices();
+
+// Opens a still camera and sets the given configuration values on it, in order. Only gphoto2
+// cameras take settings (rig files refuse them elsewhere). Throws drivers::DeviceError naming
+// the setting when the camera has no such setting or does not offer the value.
+std::unique_ptr<drivers::StillCamera> OpenStillCameraWithSettings(
+    const drivers::DeviceRegistry& registry, const drivers::DeviceInfo& device,
+    const std::vector<std::pair<std::string, std::string>>& settings);
 
 // "MODEL@PORT" -> {model, port}; the last '@' splits (models may contain '@'; ports do not).
 // Throws InvalidArgumentError naming the text when it has no '@' or an empty side.

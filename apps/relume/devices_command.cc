@@ -73,14 +73,6 @@ void PrintStillCapabilities(const drivers::ExposureCapabilities& c, std::ostream
   }
 }
 
-std::string DescribeConfig(const drivers::RgbdStreamConfig& c) {
-  std::ostringstream s;
-  s << "depth " << c.depth_width << "x" << c.depth_height << " + colour " << c.color_width << "x" << c.color_height
-    << " @ " << c.fps << " fps, " << (c.register_depth_to_color ? "registered" : "unregistered") << ", "
-    << (c.sync_depth_and_color ? "synced" : "unsynced");
-  return s.str();
-}
-
 void PrintDevice(const drivers::DeviceRegistry& registry, const drivers::DeviceInfo& info, bool open,
                  std::ostream& out) {
   out << "  " << info.FullId() << "  " << drivers::ToString(info.kind);
@@ -96,7 +88,7 @@ void PrintDevice(const drivers::DeviceRegistry& registry, const drivers::DeviceI
     } else {
       const std::vector<drivers::RgbdStreamConfig> configs = registry.OpenRgbdSensor(info)->SupportedConfigs();
       out << "    streams: " << configs.size() << "\n";
-      for (const auto& c : configs) out << "      " << DescribeConfig(c) << "\n";
+      for (const auto& c : configs) out << "      " << c.Describe() << "\n";
     }
   } catch (const Error& e) {
     out << "    not opened: " << e.what() << "\n";
@@ -247,7 +239,7 @@ void CheckDevice(const drivers::DeviceRegistry& registry, const DevicesRequest& 
     }
     t0 = Clock::now();
     sensor->Start(configs.front());
-    out << "  start (" << DescribeConfig(configs.front()) << "): " << Milliseconds(Clock::now() - t0) << "\n";
+    out << "  start (" << configs.front().Describe() << "): " << Milliseconds(Clock::now() - t0) << "\n";
     t0 = Clock::now();
     const drivers::RgbdFrame frame = sensor->WaitForFrame(
         std::chrono::duration_cast<Nanoseconds>(std::chrono::duration<double>(request.frame_timeout_s)));

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -44,8 +45,44 @@ YAML::Node ExpandSceneCamera(const YamlFile& file, const YAML::Node& device, con
   return expanded;
 }
 
+// stream.KEY: "640x480" -> {640, 480}.
+std::pair<int, int> ParseSize(const YamlFile& file, const YAML::Node& stream, const char* key) {
+  const std::string text = file.RequireString(stream, key);
+  int width = 0, height = 0;
+  char x = 0, rest = 0;
+  std::istringstream in(text);
+  if (!(in >> width >> x >> height) || x != 'x' || in >> rest || width <= 0 || height <= 0) {
+    file.Fail(stream[key], std::string("stream.") + key, "expected WIDTHxHEIGHT, e.g. 640x480");
+  }
+  return {width, height};
+}
+
+RgbdStreamRequest ParseStreamRequest(const YamlFile& file, const YAML::Node& stream) {
+  if (!stream.IsMap()) file.Fail(stream, "stream", "expected a map, e.g. {depth: 640x480, fps: 30}");
+  file.RejectUnknownKeys(stream, {"depth", "color", "fps", "registered", "synced"});
+  RgbdStreamRequest request;
+  if (stream["depth"]) request.depth_size = ParseSize(file, stream, "depth");
+  if (stream["color"]) request.color_size = ParseSize(file, stream, "color");
+  if (stream["fps"]) {
+    request.fps = file.RequireDouble(stream, "fps");
+    if (!(*request.fps > 0.0)) file.Fail(stream["fps"], "stream.fps", "must be positive");
+  }
+  auto flag = [&](const char* key) -> std::optional<bool> {
+    if (!stream[key]) return std::nullopt;
+    try {
+      return stream[key].as<bool>();
+    } catch (const YAML::Exception&) {
+      file.Fail(stream[key], std::string("stream.") + key, "expected true or false");
+    }
+  };
+  request.registered = flag("registered");
+  request.synced = flag("synced");
+  return request;
+}
+
 RegistryDeviceSpec ParseRegistryDevice(const YamlFile& file, const YAML::Node& device) {
-  file.RejectUnknownKeys(device, {"backend", "id", "model", "serial", "port", "uri", "session", "device"});
+  file.RejectUnknownKeys(
+      device, {"backend", "id", "model", "serial", "port", "uri", "session", "device", "settings", "stream"});
   RegistryDeviceSpec spec;
   spec.backend = file.RequireString(device, "backend");
   spec.line = device.Mark().line + 1;
@@ -59,6 +96,24 @@ RegistryDeviceSpec ParseRegistryDevice(const YamlFile& file, const YAML::Node& d
   spec.serial = optional("serial");
   spec.port = optional("port");
   spec.uri = optional("uri");
+  if (const YAML::Node settings = device["settings"]) {
+    if (spec.backend != "gphoto2") {
+      file.Fail(settings, "settings", "camera settings are for `backend: gphoto2` cameras only");
+    }
+    if (!settings.IsMap() || settings.size() == 0) {
+      file.Fail(settings, "settings", "expected a map of camera settings, e.g. {imageformat: RAW}");
+    }
+    for (const auto& entry : settings) {
+      if (!entry.second.IsScalar()) file.Fail(entry.second, "settings", "expected a value for each setting");
+      spec.camera_settings.emplace_back(entry.first.as<std::string>(), entry.second.as<std::string>());
+    }
+  }
+  if (const YAML::Node stream = device["stream"]) {
+    if (spec.backend != "openni2" && spec.backend != "playback") {
+      file.Fail(stream, "stream", "a stream is chosen for RGB-D sensors (`backend: openni2` or `playback`) only");
+    }
+    spec.stream = ParseStreamRequest(file, stream);
+  }
   if (spec.backend == "playback") {
     spec.session = (std::filesystem::path(file.path()).parent_path() / file.RequireString(device, "session")).string();
     spec.device = file.RequireString(device, "device");
@@ -71,6 +126,27 @@ RegistryDeviceSpec ParseRegistryDevice(const YamlFile& file, const YAML::Node& d
 }
 
 }  // namespace
+
+bool RgbdStreamRequest::Matches(const drivers::RgbdStreamConfig& c) const {
+  return (!depth_size || *depth_size == std::pair(c.depth_width, c.depth_height)) &&
+         (!color_size || *color_size == std::pair(c.color_width, c.color_height)) &&
+         (!fps || std::abs(*fps - c.fps) < 1e-6 * std::max(1.0, c.fps)) &&
+         (!registered || *registered == c.register_depth_to_color) && (!synced || *synced == c.sync_depth_and_color);
+}
+
+std::string RgbdStreamRequest::Describe() const {
+  std::ostringstream s;
+  auto sep = [&]() -> std::ostringstream& {
+    if (s.tellp() > 0) s << ", ";
+    return s;
+  };
+  if (depth_size) sep() << "depth " << depth_size->first << "x" << depth_size->second;
+  if (color_size) sep() << "colour " << color_size->first << "x" << color_size->second;
+  if (fps) sep() << *fps << " fps";
+  if (registered) sep() << (*registered ? "registered" : "unregistered");
+  if (synced) sep() << (*synced ? "synced" : "unsynced");
+  return s.tellp() > 0 ? s.str() : "any stream";
+}
 
 std::string RegistryDeviceSpec::Describe() const {
   std::string keys;
@@ -91,7 +167,7 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   const YamlFile file(path);
   const YAML::Node& root = file.root();
   file.RejectUnknownKeys(root, {"name", "scene", "site", "clock", "schedule", "duration_minutes", "bracket", "retry",
-                                "rgbd_burst_frames", "devices"});
+                                "rgbd_burst_frames", "rgbd_format", "devices"});
   RigConfig rig;
   rig.path = path;
   rig.name = file.RequireString(root, "name");
@@ -236,6 +312,13 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   if (root["rgbd_burst_frames"]) {
     rig.rgbd_burst_frames = static_cast<int>(file.RequireDouble(root, "rgbd_burst_frames"));
     if (rig.rgbd_burst_frames < 0) file.Fail(root["rgbd_burst_frames"], "rgbd_burst_frames", "must be >= 0");
+  }
+  if (root["rgbd_format"]) {
+    try {
+      rig.storage.rgbd_format = capture::ParseRgbdFileFormat(file.RequireString(root, "rgbd_format"));
+    } catch (const InvalidArgumentError& e) {
+      file.Fail(root["rgbd_format"], "rgbd_format", e.what());
+    }
   }
   YAML::Node expanded(YAML::NodeType::Sequence);
   for (const YAML::Node& device : sim_devices) expanded.push_back(ExpandSceneCamera(file, device, *rig.world));

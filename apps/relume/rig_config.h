@@ -10,6 +10,7 @@
 //   bracket: {saturation_fraction, min_signal_fraction, overlap_stops, max_exposures}
 //   retry: {max_attempts, initial_backoff_ms}
 //   rgbd_burst_frames: 30                    # RGB-D frames per trigger (0 = stream continuously)
+//   rgbd_format: tiff                        # RGB-D files: tiff (zstd, default) or png
 //   devices:                                 # sim device specs (sim/devices/sim_backend.h), where
 //     - id: dslr                             # `scene_camera: NAME` may replace `camera:` to take
 //       scene_camera: street                 # the pose, size and field of view of a scene camera
@@ -19,6 +20,10 @@
 //       port: "usb:001,007"                  # serial, uri (see RegistryDeviceSpec); a rig with
 //     - backend: openni2                     # real devices runs on the host clock and needs
 //       uri: "1d27/0601@1/5"                 # `site: FILE` (no simulated world to take it from)
+//       stream: {depth: 640x480, fps: 30}    # RGB-D: which of the sensor's streams (RgbdStreamRequest)
+//     - backend: gphoto2
+//       model: "Nikon DSC D750"
+//       settings: {imageformat: RAW}         # gphoto2: configuration values set at every open
 //     - backend: playback                    # a recorded session's device played back
 //       session: ../sessions/monday          # (capture/playback.h), relative to this file
 //       device: sim:dslr
@@ -28,14 +33,28 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "capture/recorder.h"
+#include "capture/session.h"
 #include "core/site.h"
+#include "drivers/rgbd_sensor.h"
 #include "sim/devices/sim_backend.h"
 #include "sim/world/world.h"
 
 namespace relume::app {
+
+// Which of an RGB-D sensor's streams a rig asks for; unset keys match anything. The capture
+// records the first of the sensor's SupportedConfigs() that matches every key given.
+//   stream: {depth: 640x480, color: 1280x960, fps: 30, registered: true, synced: true}
+struct RgbdStreamRequest {
+  std::optional<std::pair<int, int>> depth_size, color_size;  // width, height
+  std::optional<double> fps;
+  std::optional<bool> registered, synced;
+  bool Matches(const drivers::RgbdStreamConfig& config) const;
+  std::string Describe() const;  // "depth 640x480, fps 30"
+};
 
 // A device of the rig that is opened through the device registry (not simulated here).
 struct RegistryDeviceSpec {
@@ -43,10 +62,14 @@ struct RegistryDeviceSpec {
   // Match keys: every one given must equal the enumerated device's (port and uri compare with
   // DeviceInfo::address, id with DeviceInfo::id).
   std::string id, model, serial, port, uri;
-  std::string session;           // playback: the recorded session folder (resolved against the rig file)
-  std::string device;            // playback: the recorded device's full id ("sim:dslr")
-  int line = 0;                  // in the rig file, for messages
-  std::string Describe() const;  // "gphoto2 device (model \"X\", port \"Y\") at rig.yaml:12"
+  std::string session;  // playback: the recorded session folder (resolved against the rig file)
+  std::string device;   // playback: the recorded device's full id ("sim:dslr")
+  // gphoto2: camera configuration values set whenever the camera is opened, in the order given
+  // (`settings: {imageformat: RAW, iso: "100"}`; names and values as `relume devices` shows them).
+  std::vector<std::pair<std::string, std::string>> camera_settings;
+  std::optional<RgbdStreamRequest> stream;  // RGB-D devices (openni2, playback)
+  int line = 0;                             // in the rig file, for messages
+  std::string Describe() const;             // "gphoto2 device (model \"X\", port \"Y\") at rig.yaml:12"
 };
 
 struct RigConfig {
@@ -60,6 +83,7 @@ struct RigConfig {
   double clock_speedup = 0.0;  // 0: event-driven clock
   capture::RecorderOptions recorder;
   int rgbd_burst_frames = 30;
+  capture::SessionWriterOptions storage;    // `rgbd_format:`
   std::vector<sim::SimDeviceSpec> devices;  // simulated devices (need `scene:`)
   std::vector<RegistryDeviceSpec> registry_devices;
   // Which clock: simulated rigs and playback-only rigs run on a simulated clock; rigs with

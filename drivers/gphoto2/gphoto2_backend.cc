@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/raw_file.h"
 #include "drivers/gphoto2/gphoto2_values.h"
 
 namespace relume::drivers::gphoto2 {
@@ -453,7 +454,13 @@ StillFrame GPhoto2Camera::Capture() {
   frame.device_id = id;
   frame.model = info_.model;
   frame.exposure = current_;
-  if (!IsRawFormat(frame.original_format)) {
+  if (IsRawFormat(frame.original_format)) {
+    try {
+      frame.image = DecodeRawFile(frame.original_file, id + " " + path.name).image;
+    } catch (const Error& e) {
+      frame.undecoded_reason = e.what();  // the camera's file is still delivered
+    }
+  } else {
     const cv::Mat decoded = cv::imdecode(frame.original_file, cv::IMREAD_UNCHANGED);
     if (decoded.empty()) {
       throw DeviceError(DeviceErrorKind::kCorruptFrame, id,

@@ -13,9 +13,12 @@
 //    offered throws DeviceError(kUnsupportedSetting) and changes nothing.
 //  - Capture = gp_camera_capture + gp_camera_file_get. StillFrame::original_file holds the
 //    camera's file byte for byte; original_format comes from the file name (else the MIME type).
-//    StillFrame::image holds decoded pixels (RGB, 8 or 16 bit, SampleEncoding::kCameraResponse)
-//    for JPEG, TIFF and PNG; for raw formats (NEF, CR2, ...) it is left empty on purpose: the
-//    calibration layer decodes raw files with LibRaw.
+//    StillFrame::image holds decoded pixels: RGB, 8 or 16 bit, SampleEncoding::kCameraResponse
+//    for JPEG, TIFF and PNG; for raw formats (NEF, CR2, CR3, ARW, DNG, ...) the sensor's mosaic
+//    decoded by LibRaw (core/raw_file.h: kSensorLinear, Bayer layout, black and white level),
+//    so the recorder can meter with it. A raw file LibRaw cannot decode (an unsupported sensor
+//    layout such as X-Trans) is still delivered, byte for byte, with an empty image; the reason
+//    is in StillFrame::undecoded_reason and the capture layer stores the file as is.
 //  - ExposureRecord comes from the configuration values in force at the capture (what the
 //    camera reported, not what was asked): NaN for "Auto" ISO or a "bulb" shutter.
 //  - Errors: libgphoto2 result codes map onto DeviceErrorKind (gphoto2_values.h): "PTP Device

@@ -213,6 +213,33 @@ TEST_F(Gphoto2BackendTest, CapturesJpegKeptByteForByte) {
   EXPECT_LE(worst, 4.0);  // JPEG quantisation at quality 95
 }
 
+TEST_F(Gphoto2BackendTest, CapturesRawKeptByteForByteAndDecodesTheMosaic) {
+  GPhoto2Backend backend(Options());
+  const std::unique_ptr<GPhoto2Camera> camera = backend.Open(Address());
+  camera->SetConfigValue("imageformat", "RAW");
+  camera->Apply(Settings(1.0 / 250.0, std::nullopt, 8.0, 100.0));
+  const StillFrame frame = camera->Capture();
+  EXPECT_EQ(frame.original_format, "dng");
+  EXPECT_TRUE(frame.undecoded_reason.empty()) << frame.undecoded_reason;
+  ASSERT_EQ(frame.image.pixels.type(), CV_16UC1);
+  EXPECT_EQ(frame.image.layout, ColorLayout::kBayerRggb);
+  EXPECT_EQ(frame.image.encoding, SampleEncoding::kSensorLinear);
+  EXPECT_EQ(frame.image.black_level, 512);
+  EXPECT_EQ(frame.image.white_level, 16383);
+  EXPECT_EQ(frame.image.bits_per_sample, 14);
+  EXPECT_DOUBLE_EQ(frame.exposure.exposure_time_s, 1.0 / 250.0);
+  // Every site of the mosaic holds its channel's analytic signal (simcam_scene.h: RAW).
+  int wrong = 0;
+  for (int v = 0; v < 160; ++v) {
+    for (int u = 0; u < 240; ++u) {
+      const int c = (v % 2 == 0) ? (u % 2 == 0 ? 0 : 1) : (u % 2 == 0 ? 1 : 2);
+      const double expected = 512 + std::round(15871.0 * ExpectedSignal(u, v, c, 1.0 / 250.0, 8.0, 100.0, 0.0));
+      wrong += std::abs(frame.image.pixels.at<std::uint16_t>(v, u) - expected) <= 1.0 ? 0 : 1;  // rounding
+    }
+  }
+  EXPECT_EQ(wrong, 0);
+}
+
 TEST_F(Gphoto2BackendTest, RejectsValuesTheCameraDoesNotOfferAndChangesNothing) {
   GPhoto2Backend backend(Options());
   const std::unique_ptr<GPhoto2Camera> camera = backend.Open(Address());

@@ -130,12 +130,6 @@ std::string FileFormat(const std::string& file_name, const std::string& mime_typ
   return "";
 }
 
-bool IsRawFormat(const std::string& format) {
-  static const char* const kRaw[] = {"nef", "nrw", "cr2", "cr3", "crw", "arw", "srf", "sr2", "dng",
-                                     "orf", "rw2", "raf", "pef", "srw", "x3f", "3fr", "iiq", "raw"};
-  return std::any_of(std::begin(kRaw), std::end(kRaw), [&](const char* raw) { return format == raw; });
-}
-
 DeviceErrorKind KindFromGphotoResult(int result, bool opening) {
   switch (result) {
     case GP_ERROR_CAMERA_BUSY: return DeviceErrorKind::kBusy;

@@ -36,8 +36,6 @@ std::vector<double> NumericChoices(ValueKind kind, const std::vector<std::string
 // "jpeg", "tiff", "png", "nef", "cr2", ... from the file name's extension, else from the MIME
 // type; "" when neither says.
 std::string FileFormat(const std::string& file_name, const std::string& mime_type);
-// True for camera raw formats (OpenCV cannot decode them; the calibration layer uses LibRaw).
-bool IsRawFormat(const std::string& format);
 
 // How a libgphoto2 result code (< 0) maps onto a DeviceErrorKind. `opening` is true while a
 // camera is being opened, where "device not found" means kNotFound rather than kDisconnected.

@@ -62,10 +62,6 @@ TEST(Gphoto2ValuesTest, NamesFileFormats) {
   EXPECT_EQ(FileFormat("SIM_0001.TIF", ""), "tiff");
   EXPECT_EQ(FileFormat("noextension", "image/jpeg"), "jpeg");
   EXPECT_EQ(FileFormat("noextension", ""), "");
-  EXPECT_TRUE(IsRawFormat("nef"));
-  EXPECT_TRUE(IsRawFormat("cr3"));
-  EXPECT_FALSE(IsRawFormat("jpeg"));
-  EXPECT_FALSE(IsRawFormat("tiff"));
 }
 
 TEST(Gphoto2ValuesTest, MapsResultCodesOntoDeviceErrors) {

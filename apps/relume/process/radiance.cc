@@ -8,9 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calibration/calibration_profile.h"
+#include "calibration/demosaic.h"
 #include "calibration/hdr_merge.h"
 #include "calibration/image_file.h"
-#include "calibration/raw_loader.h"
 #include "calibration/response.h"
 #include "core/color.h"
 #include "core/error.h"

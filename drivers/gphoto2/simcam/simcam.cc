@@ -43,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "core/testing/dng_writer.h"
 #include "drivers/gphoto2/simcam/simcam_scene.h"
 
 struct _CameraPrivateLibrary {
@@ -95,7 +96,7 @@ std::vector<std::string> EvChoices() {
   return out;
 }
 std::vector<std::string> FormatChoices() {
-  return {"JPEG", "TIFF 16-bit"};
+  return {"JPEG", "TIFF 16-bit", "RAW"};
 }
 std::vector<std::string> TargetChoices() {
   return {"Internal RAM", "Memory card"};
@@ -273,30 +274,53 @@ int SimCapture(Camera* camera, CameraCaptureType type, CameraFilePath* path, GPC
   if (time_s <= 0.0 || aperture_f <= 0.0 || iso <= 0.0) return GP_ERROR_BAD_PARAMETERS;
   const double scale = relume::drivers::simcam::ExposureScale(time_s, aperture_f, iso, ev);
 
-  const bool tiff = pl->imageformat == "TIFF 16-bit";
-  cv::Mat bgr(kHeight, kWidth, tiff ? CV_16UC3 : CV_8UC3);
-  for (int v = 0; v < kHeight; ++v) {
-    for (int u = 0; u < kWidth; ++u) {
-      for (int c = 0; c < 3; ++c) {
-        const double s = std::min(1.0, scale * relume::drivers::simcam::SceneRadiance(u, v, c, kWidth, kHeight));
-        const int bgr_channel = 2 - c;
-        if (tiff) {
-          bgr.ptr<std::uint16_t>(v)[3 * u + bgr_channel] = static_cast<std::uint16_t>(std::lround(65535.0 * s));
-        } else {
-          bgr.ptr<std::uint8_t>(v)[3 * u + bgr_channel] =
-              static_cast<std::uint8_t>(std::lround(255.0 * std::pow(s, 1.0 / 2.2)));
+  CameraPrivateLibrary::StoredFile file;
+  const char* extension = "JPG";
+  if (pl->imageformat == "RAW") {
+    // The sensor's RGGB mosaic as a DNG (simcam_scene.h: RAW).
+    relume::testing::DngImage raw;
+    raw.mosaic = cv::Mat(kHeight, kWidth, CV_16UC1);
+    raw.black_level = relume::drivers::simcam::kRawBlack;
+    raw.white_level = relume::drivers::simcam::kRawWhite;
+    raw.exposure_time_s = time_s;
+    raw.aperture_f = aperture_f;
+    raw.model = kModel;
+    for (int v = 0; v < kHeight; ++v) {
+      for (int u = 0; u < kWidth; ++u) {
+        const int c = (v % 2 == 0) ? (u % 2 == 0 ? 0 : 1) : (u % 2 == 0 ? 1 : 2);
+        raw.mosaic.ptr<std::uint16_t>(v)[u] = relume::drivers::simcam::RawCount(
+            std::min(1.0, scale * relume::drivers::simcam::SceneRadiance(u, v, c, kWidth, kHeight)));
+      }
+    }
+    file.bytes = relume::testing::EncodeDng(raw);
+    file.mime = "image/x-adobe-dng";
+    extension = "DNG";
+  } else {
+    const bool tiff = pl->imageformat == "TIFF 16-bit";
+    cv::Mat bgr(kHeight, kWidth, tiff ? CV_16UC3 : CV_8UC3);
+    for (int v = 0; v < kHeight; ++v) {
+      for (int u = 0; u < kWidth; ++u) {
+        for (int c = 0; c < 3; ++c) {
+          const double s = std::min(1.0, scale * relume::drivers::simcam::SceneRadiance(u, v, c, kWidth, kHeight));
+          const int bgr_channel = 2 - c;
+          if (tiff) {
+            bgr.ptr<std::uint16_t>(v)[3 * u + bgr_channel] = static_cast<std::uint16_t>(std::lround(65535.0 * s));
+          } else {
+            bgr.ptr<std::uint8_t>(v)[3 * u + bgr_channel] =
+                static_cast<std::uint8_t>(std::lround(255.0 * std::pow(s, 1.0 / 2.2)));
+          }
         }
       }
     }
+    std::vector<int> params;
+    if (!tiff) params = {cv::IMWRITE_JPEG_QUALITY, 95};
+    if (!cv::imencode(tiff ? ".tif" : ".jpg", bgr, file.bytes, params)) return GP_ERROR_CORRUPTED_DATA;
+    file.mime = tiff ? GP_MIME_TIFF : GP_MIME_JPEG;
+    if (tiff) extension = "TIF";
   }
-  CameraPrivateLibrary::StoredFile file;
-  std::vector<int> params;
-  if (!tiff) params = {cv::IMWRITE_JPEG_QUALITY, 95};
-  if (!cv::imencode(tiff ? ".tif" : ".jpg", bgr, file.bytes, params)) return GP_ERROR_CORRUPTED_DATA;
-  file.mime = tiff ? GP_MIME_TIFF : GP_MIME_JPEG;
   file.mtime = std::time(nullptr);
   char name[32];
-  std::snprintf(name, sizeof(name), "SIM_%04d.%s", pl->next_number++ % 10000, tiff ? "TIF" : "JPG");
+  std::snprintf(name, sizeof(name), "SIM_%04d.%s", pl->next_number++ % 10000, extension);
   if (pl->capturetarget == "Memory card") {
     const std::filesystem::path card = std::filesystem::path(pl->folder) / "DCIM" / "100SIMCM";
     std::error_code error;

@@ -12,14 +12,20 @@
 //    1/60 s, f/8, ISO 100, EV 0 brings the brightest pixel exactly to full scale.
 //  - 16-bit TIFF: linear counts round(65535 * min(s, 1)), black level 0.
 //  - JPEG: 8-bit, round(255 * min(s, 1)^(1 / 2.2)) (a pure power-law "camera response").
+//  - RAW: a DNG (core/testing/dng_writer.h) holding the RGGB mosaic (channel of pixel (u, v):
+//    R at even u and v, B at odd u and v, G elsewhere), 14-bit counts
+//    kRawBlack + round((kRawWhite - kRawBlack) * min(s, 1)), with exposure time and f-number.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace relume::drivers::simcam {
 
 inline constexpr double kChannelGain[3] = {1.0, 0.8, 0.6};
+inline constexpr int kRawBlack = 512;
+inline constexpr int kRawWhite = 16383;
 
 // Relative radiance of channel c at the centre of pixel (u, v) of a width x height frame.
 inline double SceneRadiance(int u, int v, int c, int width, int height) {
@@ -31,6 +37,11 @@ inline double SceneRadiance(int u, int v, int c, int width, int height) {
 // The factor s / r of the exposure law above.
 inline double ExposureScale(double exposure_time_s, double aperture_f, double iso, double ev_compensation) {
   return exposure_time_s * 60.0 * (iso / 100.0) * (8.0 / aperture_f) * (8.0 / aperture_f) * std::exp2(ev_compensation);
+}
+
+// The RAW count of a fraction s in [0, 1] of full scale.
+inline std::uint16_t RawCount(double s) {
+  return static_cast<std::uint16_t>(kRawBlack + std::lround((kRawWhite - kRawBlack) * std::clamp(s, 0.0, 1.0)));
 }
 
 }  // namespace relume::drivers::simcam

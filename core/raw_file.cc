@@ -1,14 +1,16 @@
-#include "calibration/raw_loader.h"
+#include "core/raw_file.h"
 
 #include <libraw/libraw.h>
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <memory>
-#include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "core/error.h"
 
-namespace relume::calibration {
+namespace relume {
 namespace {
 
 ColorLayout LayoutFromPattern(int c00, int c01, int c10, int c11) {
@@ -23,19 +25,27 @@ ColorLayout LayoutFromPattern(int c00, int c01, int c10, int c11) {
 
 }  // namespace
 
-RawFile LoadRawFile(const std::string& path) {
+bool IsRawFormat(std::string_view format) {
+  static constexpr std::string_view kRaw[] = {"nef", "nrw", "cr2", "cr3", "crw", "arw", "srf", "sr2", "dng",
+                                              "orf", "rw2", "raf", "pef", "srw", "x3f", "3fr", "iiq", "raw"};
+  return std::find(std::begin(kRaw), std::end(kRaw), format) != std::end(kRaw);
+}
+
+RawFile DecodeRawFile(std::span<const std::uint8_t> bytes, const std::string& name) {
   auto raw = std::make_unique<LibRaw>();
-  int rc = raw->open_file(path.c_str());
-  if (rc != LIBRAW_SUCCESS) throw IoError(path, std::string("LibRaw cannot open it: ") + libraw_strerror(rc));
+  // LibRaw's buffer interface is not const-correct; it only reads the buffer.
+  std::vector<std::uint8_t> copy(bytes.begin(), bytes.end());
+  int rc = raw->open_buffer(copy.data(), copy.size());
+  if (rc != LIBRAW_SUCCESS) throw IoError(name, std::string("LibRaw cannot open it: ") + libraw_strerror(rc));
   rc = raw->unpack();
-  if (rc != LIBRAW_SUCCESS) throw IoError(path, std::string("LibRaw cannot decode it: ") + libraw_strerror(rc));
+  if (rc != LIBRAW_SUCCESS) throw IoError(name, std::string("LibRaw cannot decode it: ") + libraw_strerror(rc));
   const auto& sizes = raw->imgdata.sizes;
   const auto& idata = raw->imgdata.idata;
   if (raw->imgdata.rawdata.raw_image == nullptr) {
-    throw InvalidArgumentError(path +
+    throw InvalidArgumentError(name +
                                ": not a single-plane raw (linear RGB or Foveon); relume reads Bayer and mono raw");
   }
-  if (idata.filters == 9) throw InvalidArgumentError(path + ": X-Trans sensors are not supported");
+  if (idata.filters == 9) throw InvalidArgumentError(name + ": X-Trans sensors are not supported");
   RawFile out;
   out.make = idata.make;
   out.model = idata.model;
@@ -63,26 +73,16 @@ RawFile LoadRawFile(const std::string& path) {
   while (bits < 16 && (1 << bits) - 1 < image.white_level) ++bits;
   image.bits_per_sample = bits;
   std::string why;
-  if (!image.IsValid(&why)) throw IoError(path, "LibRaw's levels are inconsistent: " + why);
+  if (!image.IsValid(&why)) throw IoError(name, "LibRaw's levels are inconsistent: " + why);
   return out;
 }
 
-CameraImage DemosaicBilinear(const CameraImage& bayer) {
-  std::string why;
-  if (!bayer.IsValid(&why)) throw InvalidArgumentError("raw frame: " + why);
-  int code = -1;
-  // OpenCV names Bayer patterns by the second row's first two pixels.
-  switch (bayer.layout) {
-    case ColorLayout::kBayerRggb: code = cv::COLOR_BayerBG2RGB; break;
-    case ColorLayout::kBayerBggr: code = cv::COLOR_BayerRG2RGB; break;
-    case ColorLayout::kBayerGrbg: code = cv::COLOR_BayerGB2RGB; break;
-    case ColorLayout::kBayerGbrg: code = cv::COLOR_BayerGR2RGB; break;
-    default: throw InvalidArgumentError("demosaicing needs a Bayer layout, got " + std::string(ToString(bayer.layout)));
-  }
-  CameraImage rgb = bayer;
-  cv::cvtColor(bayer.pixels, rgb.pixels, code);
-  rgb.layout = ColorLayout::kRgb;
-  return rgb;
+RawFile LoadRawFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path, "cannot open the file; check the path");
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw IoError(path, "read error");
+  return DecodeRawFile(bytes, path);
 }
 
-}  // namespace relume::calibration
+}  // namespace relume
