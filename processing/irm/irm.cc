@@ -325,7 +325,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       }
     }
   }
-  set.single_map = !any_shadow;
+  set.single_map = !any_shadow && options.single_map_without_shadow;
   set.model_correction = options.model_correction;
   // One row per measured bin: its mean normal, its robust ratio, its pure sun states.
   std::vector<Sample> bin_rows;

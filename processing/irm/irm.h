@@ -59,6 +59,9 @@ struct IrmOptions {
   // normal) when the sun + sky model is valid: the maps keep what the model misses, the model
   // carries the variation inside a bin (beyond the paper).
   bool model_correction = true;
+  // One map (lit to lit) when no sample is in cast shadow in either photograph: the planner's
+  // skip. false fills all four maps anyway (how `relume bench --stage planner` times the skip).
+  bool single_map_without_shadow = true;
   float smoothing_sigma_rad = 0.2f;  // kSmoothing kernel width
   bool IsValid(std::string* why) const;
 };
