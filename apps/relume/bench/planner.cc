@@ -159,6 +159,17 @@ void ShOrderSkip(bool quick, std::vector<Row>& rows) {
               ", on every object normal " + Format(IrradianceRelativeRms(s, b.estimate.light, s.src.object_mask)));
 }
 
+// Area-weighted mean of the patches' true albedo (the scale the albedo errors compare with).
+double MeanTrueAlbedo(const RadiosityRoom& room) {
+  double sum = 0.0, area = 0.0;
+  const std::vector<radiosity::Rgb> albedo = room.hierarchy->LeafAlbedo();
+  for (int p = 0; p < room.hierarchy->LeafCount(); ++p) {
+    sum += room.hierarchy->leaf(p).area_m2 * albedo[static_cast<std::size_t>(p)].mean();
+    area += room.hierarchy->leaf(p).area_m2;
+  }
+  return sum / area;
+}
+
 // No radiosity when the indirect share is below tolerance: the test room with dark materials.
 void RadiositySkip(bool quick, std::vector<Row>& rows) {
   const double scale = 0.05, tolerance = 0.05;
@@ -180,7 +191,8 @@ void RadiositySkip(bool quick, std::vector<Row>& rows) {
   AddPair(rows, "no radiosity (indirect share below tolerance)",
           "test room, albedo x " + Format(scale) + ", 2 lamp images, patch edge 600 mm, tolerance " + Format(tolerance),
           skip_s, forced_s, MeanAlbedoError(room, a), MeanAlbedoError(room, b), "mean albedo error",
-          "indirect share estimate " + Format(a.indirect.indirect_share) + "; " + a.reason,
+          "indirect share estimate " + Format(a.indirect.indirect_share) + ", mean true albedo " +
+              Format(MeanTrueAlbedo(room)) + "; " + a.reason,
           std::to_string(b.iterations) + " radiosity iterations");
 }
 
