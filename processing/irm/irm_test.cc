@@ -130,6 +130,24 @@ TEST(IrmTest, OneMapWhenNothingIsInCastShadow) {
   EXPECT_EQ(set.maps[1].measured_bins(), 0);
 }
 
+TEST(IrmTest, FourMapsWhenTheSkipIsTurnedOffAndTheSameRatios) {
+  // The planner bench's forced run: all four maps filled, the lit-to-lit ratios unchanged.
+  const Truth truth;
+  std::mt19937 rng(3);
+  const std::vector<Sample> samples = MakeSamples(truth, 5000, false, rng);
+  IrmOptions forced;
+  forced.single_map_without_shadow = false;
+  const IrmSet one = BuildIrms(samples, truth.sun_s, truth.sun_t, IrmOptions{});
+  const IrmSet four = BuildIrms(samples, truth.sun_s, truth.sun_t, forced);
+  ASSERT_TRUE(one.single_map);
+  EXPECT_FALSE(four.single_map);
+  EXPECT_NE(four.summary.find("four IRMs"), std::string::npos) << four.summary;
+  for (const Eigen::Vector3f& n : {Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(0.6f, 0, 0.8f)}) {
+    const Eigen::Vector3f a = one.Ratio(n, 1.0f, 1.0f), b = four.Ratio(n, 1.0f, 1.0f);
+    EXPECT_LT((a - b).norm(), 1e-6f * a.norm()) << n.transpose();
+  }
+}
+
 TEST(IrmTest, ModelFillExtrapolatesBetterThanSmoothingOnHeldOutNormals) {
   // Samples only from normals with x >= 0: how well does each fill predict the x < 0 half?
   const Truth truth;
