@@ -46,7 +46,7 @@ int ChooseOrder(const std::vector<ShObservation>& observations, const ShFitOptio
   summary->observation_count = n;
   summary->normal_solid_angle_sr = NormalSolidAngleSr(observations);
   summary->condition_number_order2 = ConditionFromGram(gram, 2);
-  std::ostringstream why;
+  std::string why;  // "order 2 not supported (...); order 1 not supported (...)"
   for (int order = options.max_order; order >= 0; --order) {
     const double condition = order == 2 ? summary->condition_number_order2 : ConditionFromGram(gram, order);
     const bool enough = n >= options.min_observations_per_coefficient * ShCountForOrder(order);
@@ -56,19 +56,21 @@ int ChooseOrder(const std::vector<ShObservation>& observations, const ShFitOptio
       summary->order_used = order;
       summary->condition_number = condition;
       summary->order_reduced = order < options.max_order;
-      if (summary->order_reduced) summary->message = "order reduced to " + std::to_string(order) + ": " + why.str();
+      if (summary->order_reduced) summary->message = "order reduced to " + std::to_string(order) + ": " + why;
       return order;
     }
-    why << "order " << order << " not supported (";
+    std::ostringstream reason;
+    reason << (why.empty() ? "" : "; ") << "order " << order << " not supported (";
     if (!enough)
-      why << n << " observations < " << options.min_observations_per_coefficient * ShCountForOrder(order);
+      reason << n << " observations < " << options.min_observations_per_coefficient * ShCountForOrder(order);
     else if (!well_conditioned)
-      why << "condition number " << condition << " > " << options.max_condition_number;
+      reason << "condition number " << condition << " > " << options.max_condition_number;
     else
-      why << "normals cover " << summary->normal_solid_angle_sr << " sr < " << options.min_solid_angle_order2_sr;
-    why << "); ";
+      reason << "normals cover " << summary->normal_solid_angle_sr << " sr < " << options.min_solid_angle_order2_sr;
+    reason << ")";
+    why += reason.str();
   }
-  summary->message = "no order supported: " + why.str();
+  summary->message = "no order supported: " + why;
   return -1;
 }
 
