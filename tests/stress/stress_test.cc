@@ -1,7 +1,8 @@
 // Numerical stress across stages. Each case is an input the design card names as dangerous
 // (near-zero denominators, normals covering a small part of the sphere, saturated and black
 // pixels, NaN/Inf and holes in depth, the sun at the horizon and below it, polar sites, far
-// dates), drawn at random with a fixed seed, and has a defined outcome: a correct result, a
+// dates, ill-conditioned colour fits, IRM ratios of near-zero radiance, albedo near 1 in
+// radiosity), drawn at random with a fixed seed, and has a defined outcome: a correct result, a
 // result flagged as low-confidence with the reason, or a clear error — never a silent NaN.
 // Every test counts its cases; the last one prints the total.
 #include <gtest/gtest.h>
@@ -10,13 +11,18 @@
 #include <opencv2/core.hpp>
 #include <random>
 
+#include "calibration/colorchecker_fit.h"
 #include "calibration/hdr_merge.h"
 #include "calibration/response.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "core/pinhole.h"
 #include "core/site.h"
 #include "core/sun/sun_position.h"
+#include "processing/irm/irm.h"
 #include "processing/normals.h"
+#include "processing/radiosity/direct_light.h"
+#include "processing/radiosity/radiosity_solver.h"
 #include "processing/relight.h"
 #include "processing/sh.h"
 #include "processing/sh_fit.h"
@@ -249,6 +255,178 @@ TEST_F(StressTest, NormalsFromBrokenDepthAreFiniteOrFlagged) {
         ASSERT_TRUE(std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]));
         EXPECT_NEAR(std::sqrt(n.dot(n)), 1.0, 1e-4);
       }
+    }
+  }
+}
+
+// Colour fits from charts that do not constrain a 3x3 matrix: a camera whose channels are
+// (nearly) linearly dependent, a chart of one grey, only the neutrals usable, random patches
+// flagged, values at 1e-12 or 1e12, NaN and Inf medians on patches marked usable. Outcome: a
+// finite gain and matrix always; `usable = false` with a reason, or a fit whose condition
+// above the limit is flagged low-confidence; finite Delta E for every used patch.
+TEST_F(StressTest, ColourFitsThatCannotBeConstrainedAreFlaggedAndFinite) {
+  const ColorCheckerReference reference =
+      LoadColorCheckerReference("config/colorchecker/xrite_classic_2014_lab_d50.yaml");
+  std::mt19937_64 rng(20261201);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const calibration::ColorFitOptions options;
+  int unusable = 0, low_confidence = 0;
+  for (int k = 0; k < 300; ++k) {
+    ++g_cases;
+    const int kind = k % 6;
+    Eigen::Matrix3d mix;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) mix(r, c) = (r == c ? 0.7 : 0.0) + 0.3 * u(rng);
+    }
+    if (kind == 0) mix.row(2) = 0.4 * mix.row(0) + 0.6 * mix.row(1);  // rank 2 camera
+    const double scale = kind == 4 ? (u(rng) < 0.5 ? 1e-12 : 1e12) : 0.2 + u(rng);
+    std::vector<calibration::PatchSample> patches(24);
+    for (int i = 0; i < 24; ++i) {
+      Eigen::Vector3d v = kind == 1 ? Eigen::Vector3d(Eigen::Vector3d::Constant(0.18))
+                                    : Eigen::Vector3d(mix * reference.patches[i].linear_rgb);
+      v = scale * v + 1e-6 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+      patches[i].median = cv::Vec3d(v[0], v[1], v[2]);
+      if (kind == 2 && i < 18) patches[i].status = calibration::PatchStatus::kSaturated;
+      if (kind == 3 && u(rng) < 0.6) patches[i].status = calibration::PatchStatus::kNonUniform;
+    }
+    if (kind == 5) {
+      for (int j = 0; j < 3; ++j) {
+        const int i = static_cast<int>(u(rng) * 24) % 24;
+        patches[i].median[j % 3] = j == 0 ? std::nan("") : (j == 1 ? INFINITY : -INFINITY);
+      }
+    }
+    const calibration::ColorFit fit = calibration::FitColorChecker(patches, reference, options);
+    ASSERT_TRUE(fit.ccm.allFinite()) << "case " << k << ": " << fit.summary.BriefReport();
+    for (int c = 0; c < 3; ++c) {
+      for (std::size_t n = 0; n < fit.gain.x[c].size(); ++n) {
+        ASSERT_TRUE(std::isfinite(fit.gain.x[c][n]) && std::isfinite(fit.gain.y[c][n])) << "case " << k;
+      }
+    }
+    if (!fit.summary.usable) {
+      ++unusable;
+      EXPECT_FALSE(fit.summary.reason.empty()) << "case " << k;
+      continue;
+    }
+    EXPECT_TRUE(std::isfinite(fit.summary.condition) && std::isfinite(fit.summary.mean_delta_e))
+        << "case " << k << ": " << fit.summary.BriefReport();
+    if (fit.summary.condition > options.max_condition) {
+      EXPECT_TRUE(fit.summary.low_confidence) << "case " << k;
+    }
+    low_confidence += fit.summary.low_confidence ? 1 : 0;
+    for (const calibration::PatchFit& patch : fit.patches) {
+      if (!patch.used) continue;
+      EXPECT_TRUE(patch.corrected.allFinite() && std::isfinite(patch.delta_e)) << "case " << k;
+    }
+  }
+  std::printf("colour fits: %d unusable (with a reason), %d low-confidence, of 300\n", unusable, low_confidence);
+}
+
+// IRMs from samples whose radiance is zero, denormal, negative, NaN or Inf, with sun fractions
+// anywhere in [0, 1] (and NaN), normals anywhere (and zero). Outcome: every measured bin holds a
+// finite, positive ratio, empty bins are NaN, and a lookup is finite or NaN (the pixel is then
+// left untouched as "no ratio"), never Inf.
+TEST_F(StressTest, IrmsFromNearZeroRadianceHoldFiniteRatiosOrNone) {
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  auto radiance = [&]() -> float {
+    const float r = u(rng);
+    if (r < 0.1f) return 0.0f;
+    if (r < 0.15f) return 1e-38f;
+    if (r < 0.2f) return -0.5f;
+    if (r < 0.22f) return std::nanf("");
+    if (r < 0.24f) return INFINITY;
+    return 0.01f + 100.0f * u(rng);
+  };
+  for (int k = 0; k < 120; ++k) {
+    ++g_cases;
+    std::vector<irm::Sample> samples(static_cast<std::size_t>(u(rng) * 1500.0f));
+    for (irm::Sample& s : samples) {
+      s.normal = Eigen::Vector3f(g(rng), g(rng), g(rng));
+      if (u(rng) < 0.02f) s.normal.setZero();
+      s.source_rgb = Eigen::Vector3f(radiance(), radiance(), radiance());
+      s.target_rgb = Eigen::Vector3f(radiance(), radiance(), radiance());
+      const float r = u(rng);
+      s.source_sun = r < 0.4f ? 1.0f : r < 0.7f ? 0.0f : r < 0.72f ? std::nanf("") : u(rng);
+      s.target_sun = u(rng) < 0.5f ? 1.0f : u(rng);
+      s.sky_view = u(rng) < 0.3f ? std::nanf("") : u(rng);
+    }
+    irm::IrmOptions options;
+    options.bins = 8 + static_cast<int>(u(rng) * 32.0f);
+    const Eigen::Vector3f sun_s = Eigen::Vector3f(g(rng), g(rng), std::abs(g(rng))).normalized();
+    const Eigen::Vector3f sun_t = Eigen::Vector3f(g(rng), g(rng), std::abs(g(rng))).normalized();
+    const irm::IrmSet set = irm::BuildIrms(samples, sun_s, sun_t, options);
+    for (const irm::RatioMap& map : set.maps) {
+      for (std::size_t b = 0; b < map.ratio.size(); ++b) {
+        if (map.source.empty() || map.source[b] == 0) {
+          ASSERT_TRUE(map.ratio[b].array().isNaN().all()) << "case " << k << ": empty bin " << b << " has a value";
+        } else {
+          ASSERT_TRUE(map.ratio[b].allFinite() && (map.ratio[b].array() >= 0.0f).all())
+              << "case " << k << ": bin " << b << " = " << map.ratio[b].transpose() << " (source " << int{map.source[b]}
+              << ")";
+        }
+      }
+    }
+    for (int q = 0; q < 200; ++q) {
+      const Eigen::Vector3f n = Eigen::Vector3f(g(rng), g(rng), g(rng)).normalized();
+      const Eigen::Vector3f ratio = set.Ratio(n, u(rng), u(rng), u(rng) < 0.5f ? std::nanf("") : u(rng));
+      ASSERT_FALSE(ratio.array().isInf().any()) << "case " << k << ": " << ratio.transpose();
+      ASSERT_TRUE(ratio.allFinite() || ratio.array().isNaN().all()) << "case " << k << ": " << ratio.transpose();
+    }
+  }
+}
+
+// Radiosity in closed and open boxes with albedo near and at 1, emission or none, patch sizes
+// from a quarter of the room to all of a wall. Outcome: radiosity finite and non-negative; a
+// converged solve has its residual under the tolerance; albedo 1 in a closed room never claims
+// convergence; no light gives exactly zero; the energy balance is finite.
+TEST_F(StressTest, RadiosityWithAlbedoNearOneStopsWithAReasonAndStaysFinite) {
+  std::mt19937_64 rng(1991);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double albedos[] = {0.0, 0.5, 0.9, 0.99, 0.999, 1.0};
+  for (int k = 0; k < 18; ++k) {
+    ++g_cases;
+    const double albedo = albedos[k % 6];
+    const bool closed = (k / 6) % 2 == 0;
+    const bool lit = k < 12 || u(rng) < 0.5;
+    radiosity::Mesh mesh;
+    const int wall = mesh.AddMaterial({"wall", radiosity::Rgb::Constant(albedo), radiosity::Rgb::Zero()});
+    const int lamp = mesh.AddMaterial(
+        {"lamp", radiosity::Rgb::Constant(albedo), lit ? radiosity::Rgb(1.0, 2.0, 0.5) : radiosity::Rgb::Zero()});
+    mesh.AddRoom({0, 0, 0}, {2, 2, 2}, /*floor=*/lamp, /*ceiling=*/wall, /*walls=*/wall);
+    if (!closed) {  // without its ceiling (triangles 2 and 3) the room is a box open to the sky
+      mesh.triangles.erase(mesh.triangles.begin() + 2, mesh.triangles.begin() + 4);
+      mesh.triangle_material.erase(mesh.triangle_material.begin() + 2, mesh.triangle_material.begin() + 4);
+    }
+    radiosity::HierarchyOptions hierarchy_options;
+    hierarchy_options.max_patch_edge_m = 0.5 + 1.5 * u(rng);
+    const radiosity::PatchHierarchy h(mesh, hierarchy_options);
+    const radiosity::RayCaster caster(mesh);
+    radiosity::RadiosityOptions options;
+    options.max_iterations = 150;
+    options.residual_tolerance = 1e-3;
+    radiosity::RadiositySolver solver(h, caster, options);
+    radiosity::RadiositySolution solution;
+    const std::vector<radiosity::Rgb> direct(static_cast<std::size_t>(h.LeafCount()), radiosity::Rgb::Zero());
+    const radiosity::RadiositySummary summary = solver.Solve(h.LeafAlbedo(), direct, h.LeafEmission(), &solution);
+    bool any_light = false;
+    for (const radiosity::Rgb& e : h.LeafEmission()) any_light = any_light || e.maxCoeff() > 0.0;
+    for (const radiosity::Rgb& b : solution.radiosity) {
+      ASSERT_TRUE(b.allFinite() && b.minCoeff() >= 0.0) << "case " << k << ": " << summary.BriefReport();
+      if (!any_light) {
+        ASSERT_EQ(b.maxCoeff(), 0.0) << "case " << k;
+      }
+    }
+    EXPECT_TRUE(std::isfinite(summary.balance_error) && std::isfinite(summary.residual)) << summary.BriefReport();
+    EXPECT_FALSE(summary.reason.empty()) << "case " << k;
+    if (summary.converged && any_light) {
+      EXPECT_LE(summary.residual, options.residual_tolerance) << summary.BriefReport();
+    }
+    if (closed && albedo == 1.0 && any_light) {
+      EXPECT_FALSE(summary.converged) << "case " << k << ": " << summary.BriefReport();
+    }
+    if (!any_light) {
+      EXPECT_EQ(summary.termination, radiosity::RadiosityTermination::kNoLight) << summary.BriefReport();
     }
   }
 }
