@@ -4,7 +4,9 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <functional>
@@ -242,8 +244,21 @@ int RunCapture(const CaptureRequest& request) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   const bool tty = request.progress && isatty(STDERR_FILENO);
+  // On a terminal the line is rewritten in place at every update. Into a log (not a terminal)
+  // a line is written when a still frame, bracket or fault is added, and otherwise (RGB-D
+  // frames streaming in, the recorder waiting for its next trigger, which on a simulated clock
+  // reports many times a second) at most every 10 s of wall time.
+  std::array<std::int64_t, 4> last_counts{-1, -1, -1, -1};
+  auto last_line = std::chrono::steady_clock::now();
   auto progress = [&](const capture::RecorderStatus& s) {
     if (!request.progress) return;
+    if (!tty) {
+      const std::array<std::int64_t, 4> counts{s.still_frames, s.brackets, s.partial_brackets, s.faults};
+      const auto now = std::chrono::steady_clock::now();
+      if (counts == last_counts && now - last_line < std::chrono::seconds(10)) return;
+      last_counts = counts;
+      last_line = now;
+    }
     std::fprintf(
         stderr, "%s%s  frames %lld still + %lld rgbd  brackets %lld (%lld partial)  faults %lld  disk %s  next %s%s",
         tty ? "\r" : "", FormatIso8601(s.now, std::chrono::seconds{0}, 0).c_str(),
