@@ -591,9 +591,13 @@ CameraImage DecodeFrameImage(std::span<const std::uint8_t> bytes, const FrameRec
   if (IsRawFormat(format)) {
     try {
       return DecodeRawFile(bytes, name).image;
-    } catch (const Error& e) {
+    } catch (const InvalidArgumentError& e) {  // a sensor layout relume does not process
+      throw IoError(name, std::string("relume cannot process this camera raw file (the file itself is kept "
+                                      "intact): ") +
+                              e.what());
+    } catch (const Error& e) {  // LibRaw does not know the format
       throw IoError(name, std::string("relume cannot decode this camera raw file (the file itself is kept intact): ") +
-                              e.what() + ". Convert it to DNG (e.g. with Adobe DNG Converter) to process it");
+                              e.what() + ". A DNG converter that knows the camera makes a file LibRaw reads");
     }
   }
   if (format != "png" && format != "tiff" && format != "jpeg" && format != "jpg") {
