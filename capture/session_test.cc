@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <utility>
 
 #include "capture/durable_file.h"
 #include "capture/session_check.h"
@@ -181,6 +182,34 @@ TEST_F(SessionTest, RgbdDepthInMillimetres) {
   EXPECT_TRUE(std::isnan(depth_m.at<float>(1, 1)));
   EXPECT_TRUE(std::isnan(depth_m.at<float>(2, 2)));
   EXPECT_EQ(reader.LoadImage(color).pixels.at<cv::Vec3b>(0, 0), cv::Vec3b(10, 20, 30));
+}
+
+TEST_F(SessionTest, RgbdFramesAreZstdTiffByDefaultAndPngOnRequest) {
+  drivers::RgbdFrame frame;
+  frame.device_id = "sim:kinect";
+  frame.depth_m = cv::Mat(6, 7, CV_32FC1, cv::Scalar(2.5f));
+  frame.depth_m.at<float>(3, 4) = NAN;
+  frame.color.pixels = cv::Mat(6, 7, CV_8UC3, cv::Scalar(40, 50, 60));
+  frame.depth_timing.host_utc = frame.color_timing.host_utc = ParseIso8601("2026-06-21T09:00:00Z").utc;
+  for (const auto& [format, name] : {std::pair{RgbdFileFormat::kTiffZstd, "tiff"}, {RgbdFileFormat::kPng, "png"}}) {
+    const fs::path dir = dir_ / name;
+    SessionWriterOptions options;
+    options.rgbd_format = format;
+    auto writer = SessionWriter::Create(dir, Info(), options);
+    const auto [depth, color] = writer->WriteRgbdFrame(frame);
+    writer.reset();
+    EXPECT_EQ(depth.file_format, name);
+    EXPECT_EQ(color.file_format, name);
+    const SessionReader reader(dir);
+    const cv::Mat depth_m = reader.LoadDepth(depth);
+    EXPECT_FLOAT_EQ(depth_m.at<float>(0, 0), 2.5f) << name;
+    EXPECT_TRUE(std::isnan(depth_m.at<float>(3, 4))) << name;
+    EXPECT_EQ(reader.LoadImage(color).pixels.at<cv::Vec3b>(5, 6), cv::Vec3b(40, 50, 60)) << name;
+    EXPECT_TRUE(VerifySession(dir).ok()) << VerifySession(dir).Summary();
+  }
+  EXPECT_EQ(ParseRgbdFileFormat("tiff"), RgbdFileFormat::kTiffZstd);
+  EXPECT_EQ(ParseRgbdFileFormat("png"), RgbdFileFormat::kPng);
+  EXPECT_THROW(ParseRgbdFileFormat("jpeg"), InvalidArgumentError);
 }
 
 TEST_F(SessionTest, VerifyFindsTamperingAndMissingFiles) {

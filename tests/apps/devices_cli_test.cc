@@ -11,6 +11,8 @@
 #include <fstream>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
+#include <utility>
+#include <vector>
 
 #include "capture/session.h"
 #include "drivers/gphoto2/simcam/simcam_scene.h"
@@ -324,6 +326,27 @@ TEST_F(CaptureRealDevicesTest, ASettingOrStreamTheDeviceDoesNotOfferStopsBeforeT
   r = RunRelume("capture --rig " + rig.string() + " --out " + (root_ / "cs").string() + " --no-progress");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_TRUE(Has(r, "for RGB-D sensors (`backend: openni2` or `playback`) only")) << r.output;
+}
+
+TEST_F(CaptureRealDevicesTest, MalformedStreamsSettingsAndFormatsNameTheirLineAndKey) {
+  const std::string head = "name: bad\nsite: " + fs::absolute("config/sites/athens-acropolis.yaml").string() + "\n";
+  const std::string sensor = "devices:\n  - {backend: openni2, uri: \"relume-sim://rgbd/0\"";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {head + sensor + ", stream: {depth: 640by480}}\n", "stream.depth: expected WIDTHxHEIGHT"},
+      {head + sensor + ", stream: {synced: maybe}}\n", "stream.synced: expected true or false"},
+      {head + sensor + ", stream: {fps: 30, size: 2}}\n", "size"},
+      {head + sensor + ", settings: {iso: \"100\"}}\n", "camera settings are for `backend: gphoto2` cameras only"},
+      {head + "rgbd_format: jpeg\n" + sensor + "}\n", "unknown RGB-D file format 'jpeg'"},
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const fs::path rig = WriteRig("malformed" + std::to_string(i) + ".yaml", cases[i].first);
+    const fs::path out = root_ / ("malformed" + std::to_string(i));
+    const auto r = RunRelume("capture --rig " + rig.string() + " --out " + out.string() + " --no-progress");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_TRUE(Has(r, cases[i].second)) << cases[i].first << " -> " << r.output;
+    EXPECT_TRUE(Has(r, rig.string())) << "the message names the rig file: " << r.output;
+    EXPECT_FALSE(fs::exists(out));
+  }
 }
 
 TEST_F(CaptureRealDevicesTest, AnAbsentDeviceStopsTheCaptureWithWhatToDo) {
