@@ -72,8 +72,12 @@ void SaveRadianceExr(const RadianceImage& radiance, const std::string& path) {
 }
 
 void SaveImage(const cv::Mat& image, const std::string& path) {
-  cv::Mat out = image;
-  if (image.channels() == 3) cv::cvtColor(image, out, cv::COLOR_RGB2BGR);
+  cv::Mat out;  // not a header on `image`: converting into one would swap the caller's pixels
+  if (image.channels() == 3) {
+    cv::cvtColor(image, out, cv::COLOR_RGB2BGR);
+  } else {
+    out = image;
+  }
   bool ok = false;
   try {
     ok = cv::imwrite(path, out);

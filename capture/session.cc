@@ -111,8 +111,14 @@ std::string Slug(const std::string& id) {
 }
 
 std::vector<std::uint8_t> Encode(const cv::Mat& pixels_rgb_or_mono, const std::string& extension) {
-  cv::Mat native = pixels_rgb_or_mono;
-  if (native.channels() == 3) cv::cvtColor(pixels_rgb_or_mono, native, cv::COLOR_RGB2BGR);
+  // A new Mat for the BGR copy: converting into a header that shares the caller's pixels would
+  // swap the caller's (const) frame in place.
+  cv::Mat native;
+  if (pixels_rgb_or_mono.channels() == 3) {
+    cv::cvtColor(pixels_rgb_or_mono, native, cv::COLOR_RGB2BGR);
+  } else {
+    native = pixels_rgb_or_mono;
+  }
   std::vector<std::uint8_t> bytes;
   if (!cv::imencode(extension, native, bytes)) throw IoError(extension, "OpenCV could not encode the frame");
   return bytes;

@@ -184,6 +184,25 @@ TEST_F(SessionTest, RgbdDepthInMillimetres) {
   EXPECT_EQ(reader.LoadImage(color).pixels.at<cv::Vec3b>(0, 0), cv::Vec3b(10, 20, 30));
 }
 
+TEST_F(SessionTest, WritingAFrameLeavesTheCallersPixelsAlone) {
+  // The writer encodes RGB as the BGR OpenCV's codecs expect; that copy must not be the
+  // caller's frame (the recorder meters the next exposure from it).
+  const drivers::StillFrame still = Frame16(3);
+  const cv::Mat still_before = still.image.pixels.clone();
+  drivers::RgbdFrame rgbd;
+  rgbd.device_id = "sim:kinect";
+  rgbd.depth_m = cv::Mat(4, 5, CV_32FC1, cv::Scalar(1.5f));
+  rgbd.color.pixels = cv::Mat(4, 5, CV_8UC3, cv::Scalar(1, 2, 3));
+  const cv::Mat color_before = rgbd.color.pixels.clone();
+  SessionWriterOptions png;
+  png.rgbd_format = RgbdFileFormat::kPng;
+  auto writer = SessionWriter::Create(dir_, Info(), png);
+  writer->WriteStillFrame(still);
+  writer->WriteRgbdFrame(rgbd);
+  EXPECT_EQ(cv::norm(still.image.pixels, still_before, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(rgbd.color.pixels, color_before, cv::NORM_INF), 0.0);
+}
+
 TEST_F(SessionTest, RgbdFramesAreZstdTiffByDefaultAndPngOnRequest) {
   drivers::RgbdFrame frame;
   frame.device_id = "sim:kinect";
