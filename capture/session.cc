@@ -1,5 +1,6 @@
 #include "capture/session.h"
 
+#include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
@@ -136,6 +137,14 @@ RgbdFileFormat ParseRgbdFileFormat(const std::string& text) {
   if (text == "tiff") return RgbdFileFormat::kTiffZstd;
   if (text == "png") return RgbdFileFormat::kPng;
   throw InvalidArgumentError("unknown RGB-D file format '" + text + "': expected tiff (zstd, the default) or png");
+}
+
+DepthUnits ParseDepthUnits(const std::string& text) {
+  if (text == "millimetres" || text == "mm") return DepthUnits::kMillimetres;
+  if (text == "metres" || text == "m") return DepthUnits::kMetres;
+  throw InvalidArgumentError("unknown depth unit '" + text +
+                             "': expected millimetres (16-bit, as sensors deliver it; the default) or metres (32-bit "
+                             "float, exact)");
 }
 
 SessionWriter::SessionWriter(fs::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options)
@@ -350,6 +359,23 @@ cv::Mat DepthMillimetres(const cv::Mat& depth_m) {
   }
   return depth_mm;
 }
+
+// Depth as 32-bit float metres; every value that is not a positive finite distance becomes NaN.
+cv::Mat DepthMetres(const cv::Mat& depth_m) {
+  cv::Mat out(depth_m.size(), CV_32FC1);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* in = depth_m.ptr<float>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) o[x] = std::isfinite(in[x]) && in[x] > 0.0f ? in[x] : NAN;
+  }
+  return out;
+}
+
+// OpenCV reads and writes OpenEXR only when asked to (CVE-era default); a user's explicit
+// setting wins. Must run before the process's first EXR call: OpenCV reads the variable once.
+void AllowOpenExr() {
+  setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 0);
+}
 }  // namespace
 
 std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers::RgbdFrame& frame) {
@@ -362,15 +388,17 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
   std::vector<FrameRecord> records;
   std::vector<cv::Mat> images;
   for (const drivers::RgbdFrame& frame : frames) {
+    const bool png = options_.rgbd_format == RgbdFileFormat::kPng;
+    const bool metres = options_.depth_units == DepthUnits::kMetres;
     CameraImage depth_image;
-    depth_image.pixels = DepthMillimetres(frame.depth_m);
+    depth_image.pixels = metres ? DepthMetres(frame.depth_m) : DepthMillimetres(frame.depth_m);
     depth_image.layout = ColorLayout::kMono;
     depth_image.encoding = SampleEncoding::kSensorLinear;
-    depth_image.bits_per_sample = 16;
-    depth_image.white_level = 65535;
-    const bool png = options_.rgbd_format == RgbdFileFormat::kPng;
+    depth_image.bits_per_sample = metres ? 32 : 16;
+    depth_image.white_level = metres ? 0 : 65535;
     FrameRecord depth = RecordFromImage(frame.device_id, "depth", depth_image, frame.depth_timing);
-    depth.file_format = png ? "png" : "tiff";
+    depth.file_format = !png ? "tiff" : metres ? "exr" : "png";  // PNG has no float samples
+    if (depth.file_format == "exr") AllowOpenExr();
     FrameRecord color = RecordFromImage(frame.device_id, "color", frame.color, frame.color_timing);
     color.exposure = frame.color_exposure;
     color.file_format = png && frame.color.pixels.depth() == CV_8U ? "png" : "tiff";
@@ -386,9 +414,8 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
     for (int i = range.start; i < range.end; ++i) {
       const auto k = static_cast<std::size_t>(i);
       try {
-        encoded[k] = options_.rgbd_format == RgbdFileFormat::kTiffZstd
-                         ? EncodeTiff(images[k])
-                         : Encode(images[k], "." + records[k].file_format);
+        encoded[k] =
+            records[k].file_format == "tiff" ? EncodeTiff(images[k]) : Encode(images[k], "." + records[k].file_format);
       } catch (const Error& e) {
         failed[k] = e.what();
       }
@@ -581,10 +608,11 @@ cv::Mat DecodeVerified(const SessionReader& reader, const FrameRecord& frame, bo
   const fs::path path = reader.dir() / frame.file_path;
   const std::vector<std::uint8_t> bytes = reader.ReadFrameFile(frame, verify_checksum);
   if (frame.file_format != "png" && frame.file_format != "tiff" && frame.file_format != "jpeg" &&
-      frame.file_format != "jpg") {
+      frame.file_format != "jpg" && frame.file_format != "exr") {
     throw InvalidArgumentError(path.string() + ": '" + frame.file_format +
                                "' files are camera raw; decode them with the calibration layer's raw loader");
   }
+  if (frame.file_format == "exr") AllowOpenExr();
   cv::Mat pixels = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
   if (pixels.empty()) throw IoError(path.string(), "cannot decode the image file");
   if (pixels.channels() == 3) cv::cvtColor(pixels, pixels, cv::COLOR_BGR2RGB);
@@ -628,7 +656,11 @@ CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_check
 
 cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {
   const cv::Mat mm = DecodeVerified(*this, frame, verify_checksum);
-  if (mm.type() != CV_16UC1) throw IoError((dir_ / frame.file_path).string(), "depth file is not 16-bit mono");
+  if (mm.type() == CV_32FC1) return DepthMetres(mm);  // stored in metres (`rgbd_depth: metres`)
+  if (mm.type() != CV_16UC1) {
+    throw IoError((dir_ / frame.file_path).string(),
+                  "depth file is neither 16-bit millimetres nor 32-bit float metres (one channel)");
+  }
   cv::Mat depth_m(mm.size(), CV_32FC1);
   for (int y = 0; y < mm.rows; ++y) {
     const std::uint16_t* in = mm.ptr<std::uint16_t>(y);

@@ -106,11 +106,20 @@ enum class RgbdFileFormat {
   kTiffZstd,  // lossless (capture/tiff_codec.h), 8.8 ms to encode a 640x480 pair (the default)
   kPng,       // lossless, readable by older tools too; 25 ms to encode the same pair
 };
+// How the writer stores depth. Millimetres are what real sensors deliver (OpenNI2 gives 16-bit
+// millimetres); metres keep a simulated or filtered depth exactly (32-bit float, NaN = none).
+enum class DepthUnits {
+  kMillimetres,  // 16-bit unsigned, 0 = no depth: a .tiff or .png
+  kMetres,       // 32-bit float: a .tiff (zstd, floating-point predictor), or .exr beside PNG colour
+};
 struct SessionWriterOptions {
   RgbdFileFormat rgbd_format = RgbdFileFormat::kTiffZstd;
+  DepthUnits depth_units = DepthUnits::kMillimetres;
 };
 // "tiff" or "png" (the rig key `rgbd_format`); throws InvalidArgumentError otherwise.
 RgbdFileFormat ParseRgbdFileFormat(const std::string& text);
+// "millimetres" or "metres" (the rig key `rgbd_depth`); throws InvalidArgumentError otherwise.
+DepthUnits ParseDepthUnits(const std::string& text);
 
 // Writes one session. Not thread-safe: callers serialise (the recorder owns one writer thread).
 class SessionWriter {

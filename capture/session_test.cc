@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <string>
 #include <utility>
 
 #include "capture/durable_file.h"
@@ -208,27 +209,54 @@ TEST_F(SessionTest, RgbdFramesAreZstdTiffByDefaultAndPngOnRequest) {
   frame.device_id = "sim:kinect";
   frame.depth_m = cv::Mat(6, 7, CV_32FC1, cv::Scalar(2.5f));
   frame.depth_m.at<float>(3, 4) = NAN;
+  frame.depth_m.at<float>(1, 2) = 1.23456789f;  // not a whole millimetre
+  frame.depth_m.at<float>(2, 2) = -1.0f;        // not a distance: stored as "none"
   frame.color.pixels = cv::Mat(6, 7, CV_8UC3, cv::Scalar(40, 50, 60));
   frame.depth_timing.host_utc = frame.color_timing.host_utc = ParseIso8601("2026-06-21T09:00:00Z").utc;
-  for (const auto& [format, name] : {std::pair{RgbdFileFormat::kTiffZstd, "tiff"}, {RgbdFileFormat::kPng, "png"}}) {
+  struct Case {
+    RgbdFileFormat format;
+    DepthUnits units;
+    std::string depth_file, color_file;
+  };
+  for (const Case& c : {Case{RgbdFileFormat::kTiffZstd, DepthUnits::kMillimetres, "tiff", "tiff"},
+                        Case{RgbdFileFormat::kPng, DepthUnits::kMillimetres, "png", "png"},
+                        Case{RgbdFileFormat::kTiffZstd, DepthUnits::kMetres, "tiff", "tiff"},
+                        Case{RgbdFileFormat::kPng, DepthUnits::kMetres, "exr", "png"}}) {
+    const bool metres = c.units == DepthUnits::kMetres;
+    const std::string name = c.depth_file + (metres ? "-metres" : "-mm");
     const fs::path dir = dir_ / name;
     SessionWriterOptions options;
-    options.rgbd_format = format;
+    options.rgbd_format = c.format;
+    options.depth_units = c.units;
     auto writer = SessionWriter::Create(dir, Info(), options);
     const auto [depth, color] = writer->WriteRgbdFrame(frame);
     writer.reset();
-    EXPECT_EQ(depth.file_format, name);
-    EXPECT_EQ(color.file_format, name);
+    EXPECT_EQ(depth.file_format, c.depth_file) << name;
+    EXPECT_EQ(color.file_format, c.color_file) << name;
+    EXPECT_EQ(depth.bits_per_sample, metres ? 32 : 16) << name;
     const SessionReader reader(dir);
-    const cv::Mat depth_m = reader.LoadDepth(depth);
+    const FrameRecord stored = reader.Frames().front();
+    EXPECT_EQ(stored.file_format, c.depth_file);
+    EXPECT_EQ(stored.bits_per_sample, metres ? 32 : 16);
+    const cv::Mat depth_m = reader.LoadDepth(stored);
+    ASSERT_EQ(depth_m.type(), CV_32FC1) << name;
     EXPECT_FLOAT_EQ(depth_m.at<float>(0, 0), 2.5f) << name;
     EXPECT_TRUE(std::isnan(depth_m.at<float>(3, 4))) << name;
+    EXPECT_TRUE(std::isnan(depth_m.at<float>(2, 2))) << name;
+    if (metres) {
+      EXPECT_EQ(depth_m.at<float>(1, 2), 1.23456789f) << name << ": metres keep the float exactly";
+    } else {
+      EXPECT_FLOAT_EQ(depth_m.at<float>(1, 2), 1.235f) << name << ": millimetres round";
+    }
     EXPECT_EQ(reader.LoadImage(color).pixels.at<cv::Vec3b>(5, 6), cv::Vec3b(40, 50, 60)) << name;
     EXPECT_TRUE(VerifySession(dir).ok()) << VerifySession(dir).Summary();
   }
   EXPECT_EQ(ParseRgbdFileFormat("tiff"), RgbdFileFormat::kTiffZstd);
   EXPECT_EQ(ParseRgbdFileFormat("png"), RgbdFileFormat::kPng);
   EXPECT_THROW(ParseRgbdFileFormat("jpeg"), InvalidArgumentError);
+  EXPECT_EQ(ParseDepthUnits("metres"), DepthUnits::kMetres);
+  EXPECT_EQ(ParseDepthUnits("millimetres"), DepthUnits::kMillimetres);
+  EXPECT_THROW(ParseDepthUnits("inches"), InvalidArgumentError);
 }
 
 TEST_F(SessionTest, VerifyFindsTamperingAndMissingFiles) {

@@ -72,18 +72,23 @@ std::vector<std::uint8_t> EncodeTiff(const cv::Mat& pixels, const TiffOptions& o
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgumentError("TIFF options: " + why);
   const int depth = pixels.depth(), channels = pixels.channels();
-  if ((depth != CV_8U && depth != CV_16U) || (channels != 1 && channels != 3) || pixels.empty()) {
-    throw InvalidArgumentError("TIFF encoder: expected a non-empty 8- or 16-bit image with 1 or 3 channels");
+  if ((depth != CV_8U && depth != CV_16U && depth != CV_32F) || (channels != 1 && channels != 3) || pixels.empty()) {
+    throw InvalidArgumentError(
+        "TIFF encoder: expected a non-empty 8- or 16-bit unsigned or 32-bit float image with 1 or 3 channels");
   }
   MemoryFile file;
   TIFF* tiff = TIFFClientOpen("relume frame", "wl", &file, Read, Write, Seek, Close, Size, Map, Unmap);
   if (tiff == nullptr) throw IoError("TIFF encoder", "libtiff could not start a file");
-  const int bits = depth == CV_8U ? 8 : 16;
+  const int bits = depth == CV_8U ? 8 : depth == CV_16U ? 16 : 32;
+  const bool is_float = depth == CV_32F;
+  // Floats are differenced byte plane by byte plane (TIFF Technical Note 3), integers sample by sample.
+  const auto predictor = static_cast<std::uint16_t>(is_float ? PREDICTOR_FLOATINGPOINT : PREDICTOR_HORIZONTAL);
   TIFFSetField(tiff, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(pixels.cols));
   TIFFSetField(tiff, TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(pixels.rows));
   TIFFSetField(tiff, TIFFTAG_SAMPLESPERPIXEL, static_cast<std::uint16_t>(channels));
   TIFFSetField(tiff, TIFFTAG_BITSPERSAMPLE, static_cast<std::uint16_t>(bits));
-  TIFFSetField(tiff, TIFFTAG_SAMPLEFORMAT, static_cast<std::uint16_t>(SAMPLEFORMAT_UINT));
+  TIFFSetField(tiff, TIFFTAG_SAMPLEFORMAT,
+               static_cast<std::uint16_t>(is_float ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT));
   TIFFSetField(tiff, TIFFTAG_PHOTOMETRIC,
                static_cast<std::uint16_t>(channels == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK));
   TIFFSetField(tiff, TIFFTAG_PLANARCONFIG, static_cast<std::uint16_t>(PLANARCONFIG_CONTIG));
@@ -92,12 +97,12 @@ std::vector<std::uint8_t> EncodeTiff(const cv::Mat& pixels, const TiffOptions& o
     case TiffOptions::Compression::kZstd:
       TIFFSetField(tiff, TIFFTAG_COMPRESSION, static_cast<std::uint16_t>(COMPRESSION_ZSTD));
       TIFFSetField(tiff, TIFFTAG_ZSTD_LEVEL, options.level);
-      TIFFSetField(tiff, TIFFTAG_PREDICTOR, static_cast<std::uint16_t>(PREDICTOR_HORIZONTAL));
+      TIFFSetField(tiff, TIFFTAG_PREDICTOR, predictor);
       break;
     case TiffOptions::Compression::kDeflate:
       TIFFSetField(tiff, TIFFTAG_COMPRESSION, static_cast<std::uint16_t>(COMPRESSION_ADOBE_DEFLATE));
       TIFFSetField(tiff, TIFFTAG_ZIPQUALITY, options.level);
-      TIFFSetField(tiff, TIFFTAG_PREDICTOR, static_cast<std::uint16_t>(PREDICTOR_HORIZONTAL));
+      TIFFSetField(tiff, TIFFTAG_PREDICTOR, predictor);
       break;
     case TiffOptions::Compression::kNone:
       TIFFSetField(tiff, TIFFTAG_COMPRESSION, static_cast<std::uint16_t>(COMPRESSION_NONE));

@@ -5,8 +5,10 @@
 // keeps the RGB-D recorder at 30 fps on two busy cores. Files read with any libtiff >= 4.0.10
 // (OpenCV, GDAL, Pillow, tifffile with imagecodecs).
 //
-// Conventions: `pixels` is CV_8UC1, CV_8UC3, CV_16UC1 or CV_16UC3; three channels are in RGB
-// order and are written as RGB (PHOTOMETRIC_RGB), one as grey (MINISBLACK). Little-endian.
+// Conventions: `pixels` is CV_8UC1, CV_8UC3, CV_16UC1, CV_16UC3, CV_32FC1 or CV_32FC3; three
+// channels are in RGB order and are written as RGB (PHOTOMETRIC_RGB), one as grey (MINISBLACK).
+// Floats are IEEE samples with the floating-point predictor (depth in metres keeps NaN holes).
+// Little-endian.
 #pragma once
 
 #include <cstdint>

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -54,8 +56,35 @@ TEST(TiffCodecTest, SmoothDepthCompressesAndTheSourceIsUntouched) {
   EXPECT_EQ(cv::norm(Decode(bytes), depth_mm, cv::NORM_INF), 0.0);
 }
 
+TEST(TiffCodecTest, FloatDepthInMetresRoundTripsBitForBitWithItsHoles) {
+  cv::Mat depth_m(61, 83, CV_32FC1);
+  cv::RNG rng(7);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    for (int x = 0; x < depth_m.cols; ++x) {
+      depth_m.at<float>(y, x) = 1.3f + 0.002f * static_cast<float>(x) + 1e-5f * static_cast<float>(rng.gaussian(1.0));
+    }
+  }
+  depth_m.at<float>(5, 7) = NAN;
+  depth_m.at<float>(60, 82) = std::numeric_limits<float>::infinity();
+  depth_m.at<float>(0, 0) = 0.0f;
+  for (auto compression :
+       {TiffOptions::Compression::kZstd, TiffOptions::Compression::kDeflate, TiffOptions::Compression::kNone}) {
+    TiffOptions options;
+    options.compression = compression;
+    const cv::Mat copy = depth_m.clone();
+    const cv::Mat back = Decode(EncodeTiff(depth_m, options));
+    EXPECT_EQ(std::memcmp(depth_m.data, copy.data, depth_m.total() * sizeof(float)), 0) << "source untouched";
+    ASSERT_EQ(back.type(), CV_32FC1);
+    ASSERT_TRUE(back.isContinuous());
+    EXPECT_EQ(std::memcmp(back.data, depth_m.data, depth_m.total() * sizeof(float)), 0)
+        << "every float, NaN and infinity included, comes back bit for bit";
+  }
+  const cv::Mat rgb(9, 11, CV_32FC3, cv::Scalar(0.25f, 1.5f, 1e6f));
+  EXPECT_EQ(cv::norm(Decode(EncodeTiff(rgb)), rgb, cv::NORM_INF), 0.0);
+}
+
 TEST(TiffCodecTest, RejectsWhatItCannotStore) {
-  EXPECT_THROW(EncodeTiff(cv::Mat(4, 4, CV_32FC1, cv::Scalar(1.0f))), InvalidArgumentError);
+  EXPECT_THROW(EncodeTiff(cv::Mat(4, 4, CV_64FC1, cv::Scalar(1.0))), InvalidArgumentError);
   EXPECT_THROW(EncodeTiff(cv::Mat(4, 4, CV_8UC4)), InvalidArgumentError);
   EXPECT_THROW(EncodeTiff(cv::Mat()), InvalidArgumentError);
   TiffOptions bad;

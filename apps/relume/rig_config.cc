@@ -167,7 +167,7 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   const YamlFile file(path);
   const YAML::Node& root = file.root();
   file.RejectUnknownKeys(root, {"name", "scene", "site", "clock", "schedule", "duration_minutes", "bracket", "retry",
-                                "rgbd_burst_frames", "rgbd_format", "devices"});
+                                "rgbd_burst_frames", "rgbd_format", "rgbd_depth", "devices"});
   RigConfig rig;
   rig.path = path;
   rig.name = file.RequireString(root, "name");
@@ -318,6 +318,13 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
       rig.storage.rgbd_format = capture::ParseRgbdFileFormat(file.RequireString(root, "rgbd_format"));
     } catch (const InvalidArgumentError& e) {
       file.Fail(root["rgbd_format"], "rgbd_format", e.what());
+    }
+  }
+  if (root["rgbd_depth"]) {
+    try {
+      rig.storage.depth_units = capture::ParseDepthUnits(file.RequireString(root, "rgbd_depth"));
+    } catch (const InvalidArgumentError& e) {
+      file.Fail(root["rgbd_depth"], "rgbd_depth", e.what());
     }
   }
   YAML::Node expanded(YAML::NodeType::Sequence);

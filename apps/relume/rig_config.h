@@ -11,6 +11,7 @@
 //   retry: {max_attempts, initial_backoff_ms}
 //   rgbd_burst_frames: 30                    # RGB-D frames per trigger (0 = stream continuously)
 //   rgbd_format: tiff                        # RGB-D files: tiff (zstd, default) or png
+//   rgbd_depth: millimetres                  # depth: millimetres (16-bit, default) or metres (float)
 //   devices:                                 # sim device specs (sim/devices/sim_backend.h), where
 //     - id: dslr                             # `scene_camera: NAME` may replace `camera:` to take
 //       scene_camera: street                 # the pose, size and field of view of a scene camera
@@ -83,7 +84,7 @@ struct RigConfig {
   double clock_speedup = 0.0;  // 0: event-driven clock
   capture::RecorderOptions recorder;
   int rgbd_burst_frames = 30;
-  capture::SessionWriterOptions storage;    // `rgbd_format:`
+  capture::SessionWriterOptions storage;    // `rgbd_format:`, `rgbd_depth:`
   std::vector<sim::SimDeviceSpec> devices;  // simulated devices (need `scene:`)
   std::vector<RegistryDeviceSpec> registry_devices;
   // Which clock: simulated rigs and playback-only rigs run on a simulated clock; rigs with

@@ -337,6 +337,7 @@ TEST_F(CaptureRealDevicesTest, MalformedStreamsSettingsAndFormatsNameTheirLineAn
       {head + sensor + ", stream: {fps: 30, size: 2}}\n", "size"},
       {head + sensor + ", settings: {iso: \"100\"}}\n", "camera settings are for `backend: gphoto2` cameras only"},
       {head + "rgbd_format: jpeg\n" + sensor + "}\n", "unknown RGB-D file format 'jpeg'"},
+      {head + "rgbd_depth: inches\n" + sensor + "}\n", "unknown depth unit 'inches'"},
   };
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const fs::path rig = WriteRig("malformed" + std::to_string(i) + ".yaml", cases[i].first);
