@@ -233,9 +233,10 @@ CameraModelOptions ParseSensor(const YamlFile& file, const YAML::Node& node, Cam
 }
 
 void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgbd) {
-  file.RejectUnknownKeys(node, {"min_range_m", "max_range_m", "max_incidence_deg", "edge_jump_fraction", "noise",
-                                "disparity_step_px", "depth_step_m", "color_horizontal_fov_deg", "baseline_m",
-                                "frame_jitter_s", "queue_capacity", "queue_full", "pacing", "seed", "color_noise"});
+  file.RejectUnknownKeys(
+      node, {"min_range_m", "max_range_m", "max_incidence_deg", "edge_jump_fraction", "noise", "disparity_step_px",
+             "depth_step_m", "color_horizontal_fov_deg", "baseline_m", "frame_jitter_s", "queue_capacity", "queue_full",
+             "pacing", "seed", "color_noise", "registration"});
   rgbd.depth.min_range_m = Optional(file, node, "min_range_m", rgbd.depth.min_range_m);
   rgbd.depth.max_range_m = Optional(file, node, "max_range_m", rgbd.depth.max_range_m);
   rgbd.depth.max_incidence_rad =
@@ -250,6 +251,9 @@ void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgb
   if (node["baseline_m"]) {
     rgbd.color_from_depth = Eigen::Translation3d(-file.RequireDouble(node, "baseline_m"), 0.0, 0.0);
   }
+  rgbd.registration = Choose<Registration>(
+      file, node, "registration", {{"nearest", Registration::kNearest}, {"interpolated", Registration::kInterpolated}},
+      rgbd.registration);
   rgbd.frame_jitter_s = Optional(file, node, "frame_jitter_s", rgbd.frame_jitter_s);
   rgbd.queue_capacity = static_cast<int>(Optional(file, node, "queue_capacity", rgbd.queue_capacity));
   rgbd.queue_full = Choose<SimRgbdOptions::QueueFull>(

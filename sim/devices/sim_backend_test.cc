@@ -89,6 +89,7 @@ TEST(SimBackendTest, ExampleRigLoads) {
   EXPECT_EQ(specs[3].kind, DeviceKind::kRgbdSensor);
   EXPECT_EQ(specs[3].rgbd.depth.max_range_m, 4.0);
   EXPECT_NEAR(specs[3].rgbd.color_from_depth.translation().x(), -0.025, 1e-12);
+  EXPECT_EQ(specs[3].rgbd.registration, Registration::kNearest);  // the hardware's way by default
   EXPECT_EQ(specs[3].faults.disconnect_at_frame, 900u);
   TestRig rig;
   SimBackend backend(specs, rig.truth, rig.clock);
@@ -120,6 +121,8 @@ TEST(SimBackendTest, ConfigErrorsNameTheFileLineAndKey) {
       {"devices:\n  - id: a\n    camera: {width: 8, height: 6, horizontal_fov_deg: 40, position_m: [0, 0]}\n",
        "position_m", 3},
       {"devices:\n  - id: a\n" + camera + "    faults: {busy_frames: oops}\n", "busy_frames", 4},
+      {"devices:\n  - id: a\n    kind: rgbd_sensor\n" + camera + "    rgbd: {registration: bilinear}\n", "registration",
+       5},
       {"nothing: here\n", "devices", 1},
   };
   for (const Case& c : cases) {

@@ -235,7 +235,8 @@ RgbdFrame SimRgbdSensor::MakeFrame(std::uint64_t frame_number, MonotonicTime exp
   frame.color_exposure.gain_db = exposure.gain_db;
   if (config_.register_depth_to_color) {
     frame.depth_m =
-        RegisterDepthToColor(depth, depth_camera_.intrinsics, color_camera_.intrinsics, options_.color_from_depth);
+        RegisterDepthToColor(depth, depth_camera_.intrinsics, color_camera_.intrinsics, options_.color_from_depth,
+                             options_.registration, depth_options_.edge_jump_fraction);
     frame.depth_intrinsics = color_camera_.intrinsics;
     frame.registered_to_color = true;
     frame.color_from_depth = Eigen::Isometry3d::Identity();

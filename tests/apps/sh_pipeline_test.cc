@@ -70,7 +70,9 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   ASSERT_EQ(m["compared_frames"], 3) << m.dump(1);
   const double relit = m["relit_relative_rms_mean"];
   const double baseline = m["baseline_relative_rms_mean"];
-  EXPECT_LT(relit, 0.025);  // measured 2.1 %: SH-9 light model (1.5 % with true normals) + normals
+  // Measured 2.01 %: SH-9 light model (1.55 % with true normals) + normals (2.14 % before the
+  // ideal rig registered depth by interpolation and stored it in metres).
+  EXPECT_LT(relit, 0.0215);
   EXPECT_GT(baseline, 0.08);
   EXPECT_LT(relit, baseline / 4.0);
   EXPECT_LT(m["irradiance_relative_rms_mean"].get<double>(), 0.05);
@@ -97,7 +99,7 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
     EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   for (const nlohmann::json& f : order1["metrics"]["frames"]) EXPECT_EQ(f["fit"]["order_used"], 1);
-  // Order 1 follows this light less well (measured 2.28 % against 2.14 %).
+  // Order 1 follows this light less well (measured 2.08 % against 2.01 %).
   EXPECT_GT(order1["metrics"]["relit_relative_rms_mean"].get<double>(), relit);
   EXPECT_LT(order1["metrics"]["relit_relative_rms_mean"].get<double>(), baseline / 2.0);
 
@@ -120,6 +122,12 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
     EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   EXPECT_LT(unknown["metrics"]["relit_relative_rms_mean"].get<double>(), 0.03);
+
+  // Noise-free depth needs no bilateral filter (it only rounds creases and silhouettes here):
+  // the goal, relit <= 2 % on noise-free Lambertian input (measured 1.90 %).
+  const nlohmann::json unfiltered = Process(session, out, "--set filter_depth=false");
+  EXPECT_LT(unfiltered["metrics"]["relit_relative_rms_mean"].get<double>(), 0.02);
+  EXPECT_LT(unfiltered["metrics"]["relit_relative_rms_mean"].get<double>(), relit);
   fs::remove_all(root);
 }
 
