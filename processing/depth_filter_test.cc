@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
@@ -50,6 +51,42 @@ TEST(DepthFilterTest, ReducesKinectNoiseOnAPlane) {
   const double after = cv::norm(out, truth) / std::sqrt(truth.total());
   EXPECT_NEAR(before, sigma, 0.1 * sigma);
   EXPECT_LT(after, 0.45 * before);
+}
+
+TEST(DepthFilterTest, NoiseEstimateSeesNoiseButNotSurfaces) {
+  // A slanted plane, a sphere cap and a crease at 1.0-1.6 m, as an RGB-D sensor sees them.
+  cv::Mat exact(120, 160, CV_32FC1);
+  for (int y = 0; y < exact.rows; ++y) {
+    for (int x = 0; x < exact.cols; ++x) {
+      const double u = (x - 80) / 100.0, v = (y - 60) / 100.0;
+      double z = 1.3 + 0.4137 * u + 0.1173 * v + 0.2 * std::abs(u - 0.3);  // plane with a crease
+      const double r2 = (u + 0.4) * (u + 0.4) + v * v;
+      if (r2 < 0.09) z -= std::sqrt(0.09 - r2) * 0.8;  // a bump: a silhouette-free sphere cap
+      exact.at<float>(y, x) = static_cast<float>(z);
+    }
+  }
+  exact.at<float>(10, 10) = NAN;
+  const DepthNoiseEstimate clean = EstimateDepthNoise(exact);
+  EXPECT_GT(clean.samples, 30000);
+  EXPECT_LT(clean.sigma_at_1m_m, 2e-6);  // float rounding and the odd crease window only
+
+  cv::Mat millimetres = exact.clone();
+  for (auto it = millimetres.begin<float>(); it != millimetres.end<float>(); ++it) *it = std::round(*it * 1000) / 1000;
+  // Rounding to 1 mm: sigma 1 / sqrt(12) mm = 0.29 mm at ~1.3 m, 0.17 mm at 1 m.
+  const double mm = EstimateDepthNoise(millimetres).sigma_at_1m_m;
+  std::cout << "noise at 1 m: exact " << clean.sigma_at_1m_m << ", millimetres " << mm;
+  EXPECT_GT(mm, 0.08e-3);
+  EXPECT_LT(mm, 0.25e-3);
+
+  const cv::Mat noisy = testing::AddKinectDepthNoise(exact, 11);
+  // Kinect-like noise: sigma(z) / z^2 over these depths (1.2 mm at 0.4 m + quadratic growth).
+  const double kinect = EstimateDepthNoise(noisy).sigma_at_1m_m;
+  const double expected = testing::KinectDepthSigmaM(1.3) / (1.3 * 1.3);
+  std::cout << ", Kinect " << kinect << " (model at 1.3 m: " << expected << ")\n";
+  EXPECT_NEAR(kinect, expected, 0.25 * expected);
+
+  EXPECT_EQ(EstimateDepthNoise(cv::Mat(4, 4, CV_32FC1, cv::Scalar(NAN))).samples, 0);
+  EXPECT_THROW(EstimateDepthNoise(cv::Mat(4, 4, CV_16UC1)), InvalidArgumentError);
 }
 
 TEST(DepthFilterTest, TemporalBlendFollowsEquationTwoWhereClose) {

@@ -86,10 +86,12 @@ TEST(BenchCsvTest, EachPlannerSkipHasItsForcedRun) {
     if (method.rfind("skip: ", 0) == 0) skip[method.substr(6)] = &r;
     if (method.rfind("forced: ", 0) == 0) forced[method.substr(8)] = &r;
   }
-  const std::set<std::string> expected = {
-      "single exposure instead of a merge", "one IRM instead of four (no cast shadow)",
-      "SH order 1 instead of 2 (normals do not support 2)", "no radiosity (indirect share below tolerance)",
-      "reuse of an unchanged stage"};
+  const std::set<std::string> expected = {"single exposure instead of a merge",
+                                          "one IRM instead of four (no cast shadow)",
+                                          "SH order 1 instead of 2 (normals do not support 2)",
+                                          "no depth filters (depth noise below 0.05 mm)",
+                                          "no radiosity (indirect share below tolerance)",
+                                          "reuse of an unchanged stage"};
   for (const std::string& name : expected) {
     ASSERT_TRUE(skip.count(name) && forced.count(name)) << "planner skip missing: " << name;
   }

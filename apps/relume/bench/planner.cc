@@ -6,6 +6,8 @@
 //   irm        irm::BuildIrms (one IRM when no sample is in cast shadow; forced: four);
 //   sh-order   processing::FitShKnownAlbedo (order 1 when the normals cannot support 2;
 //              forced: the conditioning thresholds off);
+//   denoise    processing::EstimateDepthNoise below kDenoiseSkipBelowAt1mM (the SH pipeline's
+//              test; forced: the bilateral and temporal filters run);
 //   radiosity  radiosity::EstimateReflectance's indirect-share test (EstimateIndirectShare;
 //              forced: tolerance 0, radiosity iterated);
 //   reuse      StageCache::Run (an unchanged stage is read back, not recomputed; forced: --force).
@@ -26,6 +28,7 @@
 #include "calibration/testing/synthetic_bracket.h"
 #include "capture/bracket_planner.h"
 #include "core/error.h"
+#include "processing/depth_filter.h"
 
 namespace relume::app::bench {
 namespace {
@@ -159,6 +162,28 @@ void ShOrderSkip(bool quick, std::vector<Row>& rows) {
               ", on every object normal " + Format(IrradianceRelativeRms(s, b.estimate.light, s.src.object_mask)));
 }
 
+// No depth filters when the depth has no noise: the analytic scene's exact depth.
+void DenoiseSkip(bool quick, std::vector<Row>& rows) {
+  const ShScene s(quick ? 320 : 640, quick ? 240 : 480);
+  const processing::DepthNoiseEstimate noise = processing::EstimateDepthNoise(s.src.depth_m);
+  if (!(noise.sigma_at_1m_m < processing::kDenoiseSkipBelowAt1mM)) {
+    throw InvalidArgumentError("bench planner: the noise-free SH scene measured depth noise " +
+                               Format(noise.sigma_at_1m_m) + " m at 1 m");
+  }
+  processing::ShEstimatorOptions skip;
+  skip.filter_depth = false;
+  const processing::ShEstimatorOptions forced;  // filters on
+  const int repeats = quick ? 3 : 5;
+  const ShChainResult a = RunShChain(s, skip, s.src.depth_m, s.src.depth_m, s.src.object_mask, repeats);
+  const ShChainResult b = RunShChain(s, forced, s.src.depth_m, s.src.depth_m, s.src.object_mask, repeats);
+  AddPair(rows, "no depth filters (depth noise below " + Format(processing::kDenoiseSkipBelowAt1mM * 1e3) + " mm)",
+          "noise-free analytic RGB-D scene, whole chain per frame", a.seconds, b.seconds, a.relit_rms, b.relit_rms,
+          "relit relative RMS",
+          "measured depth noise " + Format(noise.sigma_at_1m_m * 1e3) + " mm at 1 m (" + std::to_string(noise.samples) +
+              " fourth differences)",
+          "bilateral + temporal filters run");
+}
+
 // Area-weighted mean of the patches' true albedo (the scale the albedo errors compare with).
 double MeanTrueAlbedo(const RadiosityRoom& room) {
   double sum = 0.0, area = 0.0;
@@ -251,6 +276,7 @@ void BenchPlanner(bool quick, std::vector<Row>& rows) {
   MergeSkip(quick, rows);
   IrmSkip(quick, rows);
   ShOrderSkip(quick, rows);
+  DenoiseSkip(quick, rows);
   RadiositySkip(quick, rows);
   ReuseSkip(quick, rows);
 }
