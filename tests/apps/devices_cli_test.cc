@@ -328,6 +328,43 @@ TEST_F(CaptureRealDevicesTest, ASettingOrStreamTheDeviceDoesNotOfferStopsBeforeT
   EXPECT_TRUE(Has(r, "for RGB-D sensors (`backend: openni2` or `playback`) only")) << r.output;
 }
 
+TEST_F(CaptureRealDevicesTest, AnOpenNi2SessionIsRelitFromItsOwnRecordedGeometry) {
+  // No simulated device spec and no world: the SH pipeline takes the colour intrinsics from
+  // the session's rgbd_geometry row, the light in the camera frame, colour as sRGB.
+  const std::string head = "name: kinect\nsite: " + fs::absolute("config/sites/athens-acropolis.yaml").string() +
+                           "\nschedule: {count: 1}\nrgbd_burst_frames: 3\ndevices:\n"
+                           "  - {backend: openni2, uri: \"relume-sim://rgbd/0\", stream: {depth: 320x240, color: "
+                           "320x240, fps: 30, registered: ";
+  const fs::path registered = WriteRig("registered.yaml", head + "true}}\n");
+  auto r =
+      RunRelume("capture --rig " + registered.string() + " --out " + (root_ / "kinect").string() + " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunRelume("process " + (root_ / "kinect").string() + " --pipeline sh");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "colour intrinsics from the session's rgbd_geometry row")) << r.output;
+  EXPECT_TRUE(Has(r, "assuming the sRGB transfer curve")) << r.output;
+  EXPECT_TRUE(Has(r, "unknown: k-means segments")) << "no world, so no known albedo: " << r.output;
+  const fs::path out = root_ / "kinect" / "processed" / "sh";
+  const nlohmann::json summary = testing::ReadJsonFile(out / "summary.json");
+  EXPECT_FALSE(summary["metrics"].contains("relit_relative_rms_mean")) << "no truth to compare with";
+  int relit = 0;
+  for (const nlohmann::json& o : summary["outputs"]) {
+    EXPECT_TRUE(fs::exists(out / o["path"].get<std::string>())) << o;
+    relit += o["path"].get<std::string>().ends_with("relit.exr");
+  }
+  EXPECT_EQ(relit, 2);  // frames 1 and 2 relit to frame 3's light
+  for (const nlohmann::json& f : summary["metrics"]["frames"]) EXPECT_TRUE(f["fit"]["usable"]) << f;
+
+  // Depth not registered to colour: refused, with what to change.
+  const fs::path unregistered = WriteRig("unregistered.yaml", head + "false}}\n");
+  r = RunRelume("capture --rig " + unregistered.string() + " --out " + (root_ / "unregistered").string() +
+                " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunRelume("process " + (root_ / "unregistered").string() + " --pipeline sh");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(Has(r, "record with `stream: {registered: true}`")) << r.output;
+}
+
 TEST_F(CaptureRealDevicesTest, MalformedStreamsSettingsAndFormatsNameTheirLineAndKey) {
   const std::string head = "name: bad\nsite: " + fs::absolute("config/sites/athens-acropolis.yaml").string() + "\n";
   const std::string sensor = "devices:\n  - {backend: openni2, uri: \"relume-sim://rgbd/0\"";

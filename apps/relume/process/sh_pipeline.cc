@@ -12,6 +12,8 @@
 
 #include "apps/relume/process/radiance.h"
 #include "calibration/image_file.h"
+#include "capture/rgbd_geometry.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "processing/depth_filter.h"
 #include "processing/normals.h"
@@ -170,6 +172,50 @@ PinholeCamera ColorCamera(const sim::SimDeviceSpec& spec, const capture::FrameRe
   return camera;
 }
 
+// A session recorded from a real RGB-D sensor: the colour camera's intrinsics from the
+// session's own rgbd_geometry row (capture/rgbd_geometry.h; the latest one at or before the
+// first colour frame), and no pose. The light is then estimated in the camera frame, and its
+// maps are drawn with "up" = image up (-y) and "north" = the viewing direction (+z).
+PinholeCamera ColorCameraFromSession(PipelineRun& run, const capture::FrameRecord& color, std::string* how) {
+  const capture::CalibrationRecord *before = nullptr, *earliest = nullptr;
+  const std::vector<capture::CalibrationRecord> rows = run.session().Calibrations();
+  for (const capture::CalibrationRecord& c : rows) {
+    if (c.kind != capture::kRgbdGeometryKind || c.device_id != color.device_id) continue;
+    if (earliest == nullptr || c.created_utc < earliest->created_utc) earliest = &c;
+    if (c.created_utc <= color.utc && (before == nullptr || c.created_utc >= before->created_utc)) before = &c;
+  }
+  const capture::CalibrationRecord* best = before != nullptr ? before : earliest;
+  if (best == nullptr) {
+    throw InvalidArgumentError("the session records no geometry (intrinsics, registration) of RGB-D device " +
+                               color.device_id +
+                               " and its rig does not describe it; the SH pipeline cannot place normals without it "
+                               "(relume's session writer stores it with each RGB-D device's first frame)");
+  }
+  drivers::RgbdFrame geometry;
+  capture::ApplyRgbdGeometryJson(best->json, &geometry);
+  if (!geometry.registered_to_color) {
+    throw InvalidArgumentError("RGB-D device " + color.device_id +
+                               " recorded depth that is not registered to colour; the SH pipeline needs registered "
+                               "depth: record with `stream: {registered: true}` in the rig");
+  }
+  if (geometry.color_intrinsics.width != color.width || geometry.color_intrinsics.height != color.height) {
+    throw InvalidArgumentError(
+        "the recorded geometry of " + color.device_id + " is for " + std::to_string(geometry.color_intrinsics.width) +
+        "x" + std::to_string(geometry.color_intrinsics.height) + " colour, but frame " + std::to_string(color.id) +
+        " is " + std::to_string(color.width) + "x" + std::to_string(color.height));
+  }
+  PinholeCamera camera;
+  camera.intrinsics = geometry.color_intrinsics;
+  Eigen::Matrix3d map_from_camera;  // rows: map x = camera x, map y = camera z, map z = -camera y
+  map_from_camera << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  camera.world_from_camera = Eigen::Isometry3d(map_from_camera);
+  *how = "colour intrinsics from the session's rgbd_geometry row " + std::to_string(best->id) + " (fx " +
+         std::to_string(camera.intrinsics.fx) +
+         " px); no pose recorded: the light is in the camera frame, its maps "
+         "drawn with image up as up";
+  return camera;
+}
+
 void WriteJson(const fs::path& path, const nlohmann::json& json) {
   std::ofstream out(path);
   out << json.dump(2) << "\n";
@@ -228,12 +274,48 @@ bool HasResponse(const capture::SessionReader& session, const std::string& devic
   return false;
 }
 
-FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::SimDeviceSpec& spec,
+// Colour without a recorded response or a simulated model: the sRGB transfer curve inverted,
+// divided by exposure time and ISO / 100 where the frame records them (relative units).
+FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f) {
+  FrameRadiance out;
+  const double t =
+      std::isfinite(f.exposure.exposure_time_s) && f.exposure.exposure_time_s > 0.0 ? f.exposure.exposure_time_s : 1.0;
+  const double iso = std::isfinite(f.exposure.iso) && f.exposure.iso > 0.0 ? f.exposure.iso : 100.0;
+  out.key.Add("stage", "sh-color-radiance-srgb-v1").Add("frame", f.sha256).Add("t", t).Add("iso", iso);
+  const StageCache::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
+    const CameraImage image = run.session().LoadImage(f);
+    if (image.pixels.channels() != 3 || (image.pixels.depth() != CV_8U && image.pixels.depth() != CV_16U)) {
+      throw InvalidArgumentError("colour frame " + std::to_string(f.id) + " is not 8- or 16-bit RGB");
+    }
+    const double white = image.pixels.depth() == CV_8U ? 255.0 : 65535.0;
+    std::vector<float> table(image.pixels.depth() == CV_8U ? 256 : 65536);
+    for (std::size_t v = 0; v < table.size(); ++v) {
+      table[v] = static_cast<float>(SrgbDecode(static_cast<double>(v) / white) / (t * iso / 100.0));
+    }
+    RadianceImage radiance = MakeRadianceImage(image.pixels.cols, image.pixels.rows, RadianceUnit::kRelative);
+    for (int y = 0; y < image.pixels.rows; ++y) {
+      auto* out_row = radiance.pixels.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < image.pixels.cols; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          const int v = image.pixels.depth() == CV_8U ? image.pixels.ptr<cv::Vec3b>(y)[x][c]
+                                                      : image.pixels.ptr<cv::Vec3w>(y)[x][c];
+          out_row[x][c] = table[static_cast<std::size_t>(v)];
+        }
+      }
+    }
+    calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
+  });
+  out.radiance = calibration::LoadRadianceExr((stage.dir / "radiance.exr").string());
+  return out;
+}
+
+FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::SimDeviceSpec* spec,
                             const PinholeCamera& camera) {
   if (HasResponse(run.session(), pair.color.device_id)) {
     const BracketRadiance b = LinearRadiance(run, {pair.color});
     return {b.radiance, b.key};
   }
+  if (spec == nullptr) return SrgbColorRadiance(run, pair.color);
   FrameRadiance out;
   const capture::FrameRecord& f = pair.color;
   sim::ExposureParams exposure;
@@ -251,7 +333,7 @@ FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::S
   out.key.Add("rig", run.rig()->yaml_text);
   const StageCache::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
     const RadianceImage radiance =
-        sim::RadianceFromCameraImage(run.session().LoadImage(f), camera.intrinsics, exposure, spec.rgbd.color_model);
+        sim::RadianceFromCameraImage(run.session().LoadImage(f), camera.intrinsics, exposure, spec->rgbd.color_model);
     calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
   });
   out.radiance = calibration::LoadRadianceExr((stage.dir / "radiance.exr").string());
@@ -714,12 +796,14 @@ void RunShPipeline(PipelineRun& run) {
   }
   const std::string device = pairs.front().color.device_id;
   const sim::SimDeviceSpec* spec = FindDeviceSpec(run.rig(), device);
-  if (spec == nullptr) {
-    throw InvalidArgumentError("the session does not record the geometry of RGB-D device " + device +
-                               " (its rig, with the colour camera's intrinsics, is stored only for simulated rigs "
-                               "so far); the SH pipeline cannot place normals without it");
+  PinholeCamera camera;
+  if (spec != nullptr) {
+    camera = ColorCamera(*spec, pairs.front().color);
+  } else {
+    std::string how;
+    camera = ColorCameraFromSession(run, pairs.front().color, &how);
+    run.Decide("geometry", "choose", how);
   }
-  const PinholeCamera camera = ColorCamera(*spec, pairs.front().color);
   // Frames relit: --source (default all); the fits run on every pair (temporal filter chain).
   std::vector<bool> is_source(pairs.size(), !run.request().source.has_value());
   if (run.request().source) {
@@ -729,7 +813,10 @@ void RunShPipeline(PipelineRun& run) {
       }
     }
   }
-  const bool has_world = run.rig()->world != nullptr;
+  const bool has_world = run.rig() != nullptr && run.rig()->world != nullptr;
+  if (k.true_normals && !has_world) {
+    throw InvalidArgumentError("--set true_normals=true needs a simulated session (a world to give the normals)");
+  }
   const bool known_albedo = k.albedo == "known" || (k.albedo == "auto" && has_world);
   if (k.albedo == "known" && !has_world)
     throw InvalidArgumentError("--set albedo=known: the session's rig has no world to give the albedo; use unknown");
@@ -738,8 +825,13 @@ void RunShPipeline(PipelineRun& run) {
                  ? "known: per-pixel albedo from the rig's world (Ogura et al., colour SH with known reflectance)"
                  : "unknown: k-means segments + alternating light/albedo fit (Ogura & Saito)");
   if (!HasResponse(run.session(), device)) {
-    run.Decide("radiance", "choose",
-               "no response recorded for " + device + ": inverting the simulated sensor's own colour model");
+    run.Decide(
+        "radiance", "choose",
+        "no response recorded for " + device +
+            (spec != nullptr ? std::string(": inverting the simulated sensor's own colour model")
+                             : std::string(": assuming the sRGB transfer curve, divided by the recorded exposure "
+                                           "where there is one (record a response with `relume calibrate "
+                                           "response` for an exact one)")));
   }
   run.Decide("sh", "plan", std::to_string(pairs.size()) + " RGB-D frame pair(s) of " + device);
   if (k.filter_depth && k.depth_noise_skip_below_m > 0.0) {
@@ -768,7 +860,7 @@ void RunShPipeline(PipelineRun& run) {
   std::vector<FrameFit> fits;
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const RgbdPair& pair = pairs[i];
-    radiance.push_back(ColorRadiance(run, pair, *spec, camera));
+    radiance.push_back(ColorRadiance(run, pair, spec, camera));
     geometry.push_back(Geometry(run, k, pair, camera, i == 0 ? nullptr : &geometry.back()));
     fits.push_back(Fit(run, k, known_albedo, pair, camera, radiance.back(), geometry.back()));
     run.AddOutput(fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));
