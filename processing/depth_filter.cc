@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -92,6 +93,28 @@ DepthNoiseEstimate EstimateDepthNoise(const cv::Mat& depth_m, double edge_jump_f
   }
   DepthNoiseEstimate estimate;
   estimate.samples = static_cast<int>(values.size());
+  // Stairs: rows of five valid samples within 10 % of the centre's depth (one surface, maybe
+  // across quantisation steps, not across a silhouette) that are not flat (first != last) yet
+  // hold two exactly equal neighbours. Smooth float depth has none; a fronto-parallel plane is
+  // flat and does not count.
+  int sloped = 0, stairs = 0;
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* row = depth_m.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (!IsDepthValid(row[x])) continue;
+      ++estimate.valid_pixels;
+      if (x < 2 || x + 2 >= depth_m.cols) continue;
+      bool usable = true, equal = false;
+      for (int k = -2; k <= 2 && usable; ++k) {
+        usable = IsDepthValid(row[x + k]) && std::abs(row[x + k] - row[x]) <= 0.1f * row[x];
+        if (usable && k < 2) equal = equal || row[x + k] == row[x + k + 1];
+      }
+      if (!usable || row[x - 2] == row[x + 2]) continue;
+      ++sloped;
+      stairs += equal;
+    }
+  }
+  estimate.stair_fraction = sloped > 0 ? static_cast<double>(stairs) / sloped : 0.0;
   if (values.empty()) {
     estimate.sigma_at_1m_m = std::numeric_limits<double>::quiet_NaN();
     return estimate;
@@ -106,6 +129,19 @@ DepthNoiseEstimate EstimateDepthNoise(const cv::Mat& depth_m, double edge_jump_f
   // Gaussian noise trimmed at its 98th |x| percentile keeps 0.9346 of its RMS.
   estimate.sigma_at_1m_m = std::sqrt(sum_squares / kept) / 0.9346;
   return estimate;
+}
+
+bool DepthNoiseEstimate::NoiseFree(double sigma_limit_at_1m_m) const {
+  return samples > 0 && sigma_at_1m_m < sigma_limit_at_1m_m && stair_fraction < 0.1 &&
+         samples >= valid_pixels;  // two windows per pixel: at least half of them usable
+}
+
+std::string DepthNoiseEstimate::Describe() const {
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "%.3g mm at 1 m (%d fourth differences over %d pixels, stairs in %.1f %% of sloped rows)",
+                sigma_at_1m_m * 1e3, samples, valid_pixels, 100.0 * stair_fraction);
+  return text;
 }
 
 cv::Mat BilateralFilterDepth(const cv::Mat& depth_m, const BilateralDepthOptions& options) {

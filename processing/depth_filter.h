@@ -42,9 +42,23 @@ struct TemporalDepthOptions {
 // structured-light z^2 law (the same unit as range_sigma_at_1m_m): the RMS of the lower 98 %
 // of the values, corrected to a Gaussian's sigma. Whole millimetres at 1-1.6 m measure
 // ~0.1-0.2 mm, Kinect-like noise ~1.5 mm, exact float depth ~0.
+//
+// Coarse quantisation fools fourth differences: depth in steps wider than the surface's change
+// per pixel (whole millimetres on a gentle slope, a structured-light sensor's disparity steps
+// at range) is flat between steps, so most differences are exactly 0 and the steps fail the
+// edge test. The estimate therefore also reports the share of sloped horizontal five-sample
+// rows (one surface within 10 %, first != last) that hold two exactly equal neighbours -- a
+// staircase; smooth float depth has none, a fronto-parallel plane is not sloped -- and how
+// many valid pixels had a usable window; NoiseFree() needs all three.
 struct DepthNoiseEstimate {
   double sigma_at_1m_m = 0.0;
-  int samples = 0;  // fourth differences used; 0: not measurable (sigma_at_1m_m NaN)
+  int samples = 0;              // fourth differences used; 0: not measurable (sigma_at_1m_m NaN)
+  int valid_pixels = 0;         // pixels with depth
+  double stair_fraction = 0.0;  // of sloped five-sample rows, those with a stair
+  // Below `sigma_at_1m_m`, with stairs in under 10 % of sloped rows and windows on at least
+  // half the valid pixels (each pixel has two windows, one per axis).
+  bool NoiseFree(double sigma_at_1m_m) const;
+  std::string Describe() const;  // noise, windows, pixels and stairs, for decisions
 };
 DepthNoiseEstimate EstimateDepthNoise(const cv::Mat& depth_m, double edge_jump_fraction = 0.02);
 // Below this noise (at 1 m) the SH pipeline skips both filters: there is nothing to denoise,

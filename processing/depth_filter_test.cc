@@ -69,6 +69,7 @@ TEST(DepthFilterTest, NoiseEstimateSeesNoiseButNotSurfaces) {
   const DepthNoiseEstimate clean = EstimateDepthNoise(exact);
   EXPECT_GT(clean.samples, 30000);
   EXPECT_LT(clean.sigma_at_1m_m, 2e-6);  // float rounding and the odd crease window only
+  EXPECT_TRUE(clean.NoiseFree(kDenoiseSkipBelowAt1mM)) << clean.Describe();
 
   cv::Mat millimetres = exact.clone();
   for (auto it = millimetres.begin<float>(); it != millimetres.end<float>(); ++it) *it = std::round(*it * 1000) / 1000;
@@ -77,10 +78,21 @@ TEST(DepthFilterTest, NoiseEstimateSeesNoiseButNotSurfaces) {
   std::cout << "noise at 1 m: exact " << clean.sigma_at_1m_m << ", millimetres " << mm;
   EXPECT_GT(mm, 0.08e-3);
   EXPECT_LT(mm, 0.25e-3);
+  EXPECT_FALSE(EstimateDepthNoise(millimetres).NoiseFree(kDenoiseSkipBelowAt1mM));
+
+  // Coarse steps (a structured-light sensor's disparity steps far away): flat between steps,
+  // so the fourth differences see almost nothing, but the steps are there.
+  cv::Mat steps = exact.clone();
+  for (auto it = steps.begin<float>(); it != steps.end<float>(); ++it) *it = std::round(*it * 20) / 20;  // 5 cm
+  const DepthNoiseEstimate coarse = EstimateDepthNoise(steps);
+  EXPECT_LT(coarse.sigma_at_1m_m, kDenoiseSkipBelowAt1mM) << "fooled, as expected: " << coarse.Describe();
+  EXPECT_GT(coarse.stair_fraction, 0.5);
+  EXPECT_FALSE(coarse.NoiseFree(kDenoiseSkipBelowAt1mM)) << coarse.Describe();
 
   const cv::Mat noisy = testing::AddKinectDepthNoise(exact, 11);
   // Kinect-like noise: sigma(z) / z^2 over these depths (1.2 mm at 0.4 m + quadratic growth).
   const double kinect = EstimateDepthNoise(noisy).sigma_at_1m_m;
+  EXPECT_FALSE(EstimateDepthNoise(noisy).NoiseFree(kDenoiseSkipBelowAt1mM));
   const double expected = testing::KinectDepthSigmaM(1.3) / (1.3 * 1.3);
   std::cout << ", Kinect " << kinect << " (model at 1.3 m: " << expected << ")\n";
   EXPECT_NEAR(kinect, expected, 0.25 * expected);

@@ -166,9 +166,8 @@ void ShOrderSkip(bool quick, std::vector<Row>& rows) {
 void DenoiseSkip(bool quick, std::vector<Row>& rows) {
   const ShScene s(quick ? 320 : 640, quick ? 240 : 480);
   const processing::DepthNoiseEstimate noise = processing::EstimateDepthNoise(s.src.depth_m);
-  if (!(noise.sigma_at_1m_m < processing::kDenoiseSkipBelowAt1mM)) {
-    throw InvalidArgumentError("bench planner: the noise-free SH scene measured depth noise " +
-                               Format(noise.sigma_at_1m_m) + " m at 1 m");
+  if (!noise.NoiseFree(processing::kDenoiseSkipBelowAt1mM)) {
+    throw InvalidArgumentError("bench planner: the noise-free SH scene's depth measured " + noise.Describe());
   }
   processing::ShEstimatorOptions skip;
   skip.filter_depth = false;
@@ -178,10 +177,7 @@ void DenoiseSkip(bool quick, std::vector<Row>& rows) {
   const ShChainResult b = RunShChain(s, forced, s.src.depth_m, s.src.depth_m, s.src.object_mask, repeats);
   AddPair(rows, "no depth filters (depth noise below " + Format(processing::kDenoiseSkipBelowAt1mM * 1e3) + " mm)",
           "noise-free analytic RGB-D scene, whole chain per frame", a.seconds, b.seconds, a.relit_rms, b.relit_rms,
-          "relit relative RMS",
-          "measured depth noise " + Format(noise.sigma_at_1m_m * 1e3) + " mm at 1 m (" + std::to_string(noise.samples) +
-              " fourth differences)",
-          "bilateral + temporal filters run");
+          "relit relative RMS", "measured depth noise " + noise.Describe(), "bilateral + temporal filters run");
 }
 
 // Area-weighted mean of the patches' true albedo (the scale the albedo errors compare with).

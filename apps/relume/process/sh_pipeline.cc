@@ -839,15 +839,14 @@ void RunShPipeline(PipelineRun& run) {
     // first depth frame's own noise.
     const processing::DepthNoiseEstimate noise =
         processing::EstimateDepthNoise(run.session().LoadDepth(pairs.front().depth));
-    const std::string measured = "depth noise of frame " + std::to_string(pairs.front().depth.id) + ": " +
-                                 Number(noise.sigma_at_1m_m * 1e3) + " mm at 1 m (" + std::to_string(noise.samples) +
-                                 " fourth differences)";
-    if (noise.samples > 0 && noise.sigma_at_1m_m < k.depth_noise_skip_below_m) {
+    const std::string measured =
+        "depth noise of frame " + std::to_string(pairs.front().depth.id) + ": " + noise.Describe();
+    if (noise.NoiseFree(k.depth_noise_skip_below_m)) {
       k.filter_depth = false;
       run.Decide("denoise", "skip",
-                 measured + " < " + Number(k.depth_noise_skip_below_m * 1e3) +
-                     " mm: nothing to denoise, the bilateral and temporal filters would only round creases and "
-                     "silhouettes");
+                 measured + ": below " + Number(k.depth_noise_skip_below_m * 1e3) +
+                     " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
+                     "round creases and silhouettes");
     } else {
       run.Decide("denoise", "run", measured);
     }
