@@ -371,8 +371,9 @@ cv::Mat DepthMetres(const cv::Mat& depth_m) {
   return out;
 }
 
-// OpenCV reads and writes OpenEXR only when asked to (CVE-era default); a user's explicit
-// setting wins. Must run before the process's first EXR call: OpenCV reads the variable once.
+// OpenCV reads and writes OpenEXR only when OPENCV_IO_ENABLE_OPENEXR is set (off by default
+// in current releases); a user's explicit setting wins. Must run before the process's first EXR call:
+// OpenCV reads the variable once.
 void AllowOpenExr() {
   setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 0);
 }

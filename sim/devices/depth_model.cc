@@ -99,8 +99,9 @@ namespace {
 // that surface carry less than a quarter of the weight.
 std::optional<double> InterpolateDepth(const cv::Mat& depth_m, double x, double y, double edge_jump_fraction) {
   const double fx = x - 0.5, fy = y - 0.5;
+  // Checked before the cast: a point far off the image (or NaN) has no int pixel.
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < depth_m.cols - 1 && fy < depth_m.rows - 1)) return std::nullopt;
   const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
-  if (x0 < 0 || y0 < 0 || x0 + 1 >= depth_m.cols || y0 + 1 >= depth_m.rows) return std::nullopt;
   const double a = fx - x0, b = fy - y0;
   const double z[4] = {depth_m.at<float>(y0, x0), depth_m.at<float>(y0, x0 + 1), depth_m.at<float>(y0 + 1, x0),
                        depth_m.at<float>(y0 + 1, x0 + 1)};
@@ -137,8 +138,10 @@ cv::Mat RegisterDepthToColor(const cv::Mat& depth_m, const PinholeIntrinsics& de
       const Eigen::Vector3d point_in_color = color_from_depth * (z * depth_intrinsics.Unproject({x + 0.5, y + 0.5}));
       if (point_in_color.z() <= 0.0) continue;
       const Eigen::Vector2d uv = color_intrinsics.Project(point_in_color);
-      const int u = static_cast<int>(std::floor(uv.x())), v = static_cast<int>(std::floor(uv.y()));
-      if (u < 0 || v < 0 || u >= color_intrinsics.width || v >= color_intrinsics.height) continue;
+      if (!(uv.x() >= 0.0 && uv.y() >= 0.0 && uv.x() < color_intrinsics.width && uv.y() < color_intrinsics.height)) {
+        continue;  // checked before the cast: far off the image there is no int pixel
+      }
+      const int u = static_cast<int>(uv.x()), v = static_cast<int>(uv.y());
       float& cell = registered.at<float>(v, u);
       cell = std::min(cell, static_cast<float>(point_in_color.z()));
     }
