@@ -359,10 +359,8 @@ class PlaybackRgbdSensor : public drivers::RgbdSensor {
       throw DeviceError(DeviceErrorKind::kCorruptFrame, info_.FullId(),
                         std::string("recorded frame unreadable: ") + e.what());
     }
-    for (const CalibrationRecord& g : geometry_) {
-      if (!g.source_frame_ids.empty() && g.source_frame_ids.front() > depth.id) break;
-      ApplyRgbdGeometryJson(g.json, &frame);
-    }
+    if (const CalibrationRecord* g = RgbdGeometryAt(geometry_, info_.id, depth.id))
+      ApplyRgbdGeometryJson(g->json, &frame);
     frame.depth_timing = TimingOf(depth);
     frame.color_timing = TimingOf(color);
     frame.color_exposure = color.exposure;  // the exposure the sensor reported, as recorded

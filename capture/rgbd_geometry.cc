@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "capture/session.h"
 #include "core/error.h"
 
 namespace relume::capture {
@@ -54,6 +55,17 @@ void ApplyRgbdGeometryJson(const std::string& json, drivers::RgbdFrame* frame) {
   } catch (const nlohmann::json::exception& e) {
     throw IoError(kRgbdGeometryKind, std::string("not a valid RGB-D geometry record: ") + e.what());
   }
+}
+
+const CalibrationRecord* RgbdGeometryAt(const std::vector<CalibrationRecord>& rows, const std::string& device_id,
+                                        std::int64_t frame_id) {
+  const CalibrationRecord* at = nullptr;
+  for (const CalibrationRecord& row : rows) {
+    if (row.kind != kRgbdGeometryKind || row.device_id != device_id) continue;
+    if (!row.source_frame_ids.empty() && row.source_frame_ids.front() > frame_id) break;
+    at = &row;
+  }
+  return at;
 }
 
 }  // namespace relume::capture

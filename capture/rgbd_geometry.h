@@ -5,7 +5,9 @@
 // depth frames. Transform as a row-major 4x4 matrix, metres.
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "drivers/frame.h"
 
@@ -17,5 +19,12 @@ std::string RgbdGeometryToJson(const drivers::RgbdFrame& frame);
 // Sets depth_intrinsics, color_intrinsics, registered_to_color and color_from_depth of
 // `frame`. Throws IoError when the JSON is not such a record.
 void ApplyRgbdGeometryJson(const std::string& json, drivers::RgbdFrame* frame);
+
+struct CalibrationRecord;  // capture/session.h
+// The geometry row that applies to frame `frame_id` of `device_id`: the latest of that device's
+// kRgbdGeometryKind rows (in row order) whose first source frame is at or before it. nullptr
+// when none is. Used by playback and by processing, so both read a session the same way.
+const CalibrationRecord* RgbdGeometryAt(const std::vector<CalibrationRecord>& rows, const std::string& device_id,
+                                        std::int64_t frame_id);
 
 }  // namespace relume::capture

@@ -84,19 +84,11 @@ DepthNoiseEstimate EstimateDepthNoise(const cv::Mat& depth_m, double edge_jump_f
     }
     values.push_back(std::abs(d4) / (norm * static_cast<double>(centre) * centre));
   };
-  for (int y = 0; y < depth_m.rows; ++y) {
-    const float* row = depth_m.ptr<float>(y);
-    for (int x = 2; x + 2 < depth_m.cols; ++x) window([&](int k) { return row[x + k]; });
-  }
-  for (int y = 2; y + 2 < depth_m.rows; ++y) {
-    for (int x = 0; x < depth_m.cols; ++x) window([&](int k) { return depth_m.at<float>(y + k, x); });
-  }
-  DepthNoiseEstimate estimate;
-  estimate.samples = static_cast<int>(values.size());
   // Stairs: rows of five valid samples within 10 % of the centre's depth (one surface, maybe
   // across quantisation steps, not across a silhouette) that are not flat (first != last) yet
   // hold two exactly equal neighbours. Smooth float depth has none; a fronto-parallel plane is
-  // flat and does not count.
+  // flat and does not count. Counted in the same pass over the rows as their differences.
+  DepthNoiseEstimate estimate;
   int sloped = 0, stairs = 0;
   for (int y = 0; y < depth_m.rows; ++y) {
     const float* row = depth_m.ptr<float>(y);
@@ -104,6 +96,7 @@ DepthNoiseEstimate EstimateDepthNoise(const cv::Mat& depth_m, double edge_jump_f
       if (!IsDepthValid(row[x])) continue;
       ++estimate.valid_pixels;
       if (x < 2 || x + 2 >= depth_m.cols) continue;
+      window([&](int k) { return row[x + k]; });
       bool usable = true, equal = false;
       for (int k = -2; k <= 2 && usable; ++k) {
         usable = IsDepthValid(row[x + k]) && std::abs(row[x + k] - row[x]) <= 0.1f * row[x];
@@ -114,6 +107,10 @@ DepthNoiseEstimate EstimateDepthNoise(const cv::Mat& depth_m, double edge_jump_f
       stairs += equal;
     }
   }
+  for (int y = 2; y + 2 < depth_m.rows; ++y) {
+    for (int x = 0; x < depth_m.cols; ++x) window([&](int k) { return depth_m.at<float>(y + k, x); });
+  }
+  estimate.samples = static_cast<int>(values.size());
   estimate.stair_fraction = sloped > 0 ? static_cast<double>(stairs) / sloped : 0.0;
   if (values.empty()) {
     estimate.sigma_at_1m_m = std::numeric_limits<double>::quiet_NaN();

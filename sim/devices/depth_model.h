@@ -65,7 +65,8 @@ enum class Registration {
   // moved by color_from_depth, and written at the colour pixel it projects into, keeping the
   // nearest surface (z-buffer). The stored point is up to half a pixel off the colour pixel's
   // ray, and where the two fields of view differ (58 vs 62.5 deg) two depth pixels share a
-  // colour pixel every ~11 columns: steps of ~0.3 mm at 1.3 m that tilt normals by 1-2 deg.
+  // colour pixel every ~11 columns (on a sphere 1.8 m away the error against the colour
+  // camera's own depth is median 1.5 mm: depth_model_test.cc).
   kNearest,
   // Then, per colour pixel, the depth surface is intersected with the pixel's own ray: the
   // point is moved into the depth image, the depth bilinearly interpolated there, and the

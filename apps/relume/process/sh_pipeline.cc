@@ -173,18 +173,13 @@ PinholeCamera ColorCamera(const sim::SimDeviceSpec& spec, const capture::FrameRe
 }
 
 // A session recorded from a real RGB-D sensor: the colour camera's intrinsics from the
-// session's own rgbd_geometry row (capture/rgbd_geometry.h; the latest one at or before the
-// first colour frame), and no pose. The light is then estimated in the camera frame, and its
-// maps are drawn with "up" = image up (-y) and "north" = the viewing direction (+z).
-PinholeCamera ColorCameraFromSession(PipelineRun& run, const capture::FrameRecord& color, std::string* how) {
-  const capture::CalibrationRecord *before = nullptr, *earliest = nullptr;
+// session's own rgbd_geometry row for the first pair (capture::RgbdGeometryAt, as playback
+// reads it), and no pose. The light is then estimated in the camera frame, and its maps are
+// drawn with "up" = image up (-y) and "north" = the viewing direction (+z).
+PinholeCamera ColorCameraFromSession(PipelineRun& run, const RgbdPair& pair, std::string* how) {
+  const capture::FrameRecord& color = pair.color;
   const std::vector<capture::CalibrationRecord> rows = run.session().Calibrations();
-  for (const capture::CalibrationRecord& c : rows) {
-    if (c.kind != capture::kRgbdGeometryKind || c.device_id != color.device_id) continue;
-    if (earliest == nullptr || c.created_utc < earliest->created_utc) earliest = &c;
-    if (c.created_utc <= color.utc && (before == nullptr || c.created_utc >= before->created_utc)) before = &c;
-  }
-  const capture::CalibrationRecord* best = before != nullptr ? before : earliest;
+  const capture::CalibrationRecord* best = capture::RgbdGeometryAt(rows, color.device_id, pair.depth.id);
   if (best == nullptr) {
     throw InvalidArgumentError("the session records no geometry (intrinsics, registration) of RGB-D device " +
                                color.device_id +
@@ -801,7 +796,7 @@ void RunShPipeline(PipelineRun& run) {
     camera = ColorCamera(*spec, pairs.front().color);
   } else {
     std::string how;
-    camera = ColorCameraFromSession(run, pairs.front().color, &how);
+    camera = ColorCameraFromSession(run, pairs.front(), &how);
     run.Decide("geometry", "choose", how);
   }
   // Frames relit: --source (default all); the fits run on every pair (temporal filter chain).
