@@ -107,6 +107,53 @@ DirectLight ComputeDirectLight(const PatchHierarchy& hierarchy, const RayCaster&
   return out;
 }
 
+Rgb DirectIrradianceAtPoint(const RayCaster& caster, const Lighting& lighting, const Eigen::Vector3d& x,
+                            const Eigen::Vector3d& n, const DirectLightOptions& options, int sample_index,
+                            int sample_count, Rgb* unshaded) {
+  RELUME_CHECK(sample_count >= 1 && sample_index >= 0);
+  Accumulated acc;
+  AddLights(x, n, sample_index, sample_count, caster, lighting, options, &acc);
+  if (unshaded != nullptr) *unshaded = acc.unshaded;
+  return acc.shaded;
+}
+
+DirectLightAtPoints ComputeDirectLightAtPoints(const PatchHierarchy& hierarchy, const RayCaster& caster,
+                                               const Lighting& lighting,
+                                               const std::vector<std::vector<Eigen::Vector3f>>& points_per_patch,
+                                               const DirectLightOptions& options) {
+  ThrowIfInvalid(options, "direct light options");
+  ThrowIfInvalid(lighting, "lighting");
+  const int n = hierarchy.LeafCount();
+  if (static_cast<int>(points_per_patch.size()) != n) {
+    throw InvalidArgumentError("direct light at points: " + std::to_string(points_per_patch.size()) +
+                               " point lists for " + std::to_string(n) + " patches");
+  }
+  const long long rays_before = caster.rays_cast();
+  DirectLightAtPoints out;
+  out.irradiance.assign(n, Rgb::Zero());
+  out.visible_fraction.assign(n, 1.0);
+  out.has_points.assign(n, false);
+  for (int p = 0; p < n; ++p) {
+    const std::vector<Eigen::Vector3f>& points = points_per_patch[p];
+    if (points.empty()) continue;
+    const Node& node = hierarchy.leaf(p);
+    Accumulated acc;
+    const int count = static_cast<int>(points.size());
+    for (int k = 0; k < count; ++k) {
+      const Eigen::Vector3d x = points[k].cast<double>();
+      if (!x.allFinite())
+        throw InvalidArgumentError("direct light at points: a point of patch " + std::to_string(p) + " is not finite");
+      AddLights(x, node.normal, k, count, caster, lighting, options, &acc);
+    }
+    out.irradiance[p] = acc.shaded / count;
+    const double unshaded = acc.unshaded.sum();
+    out.visible_fraction[p] = unshaded > 0.0 ? std::clamp(acc.shaded.sum() / unshaded, 0.0, 1.0) : 1.0;
+    out.has_points[p] = true;
+  }
+  out.rays = caster.rays_cast() - rays_before;
+  return out;
+}
+
 double LightVisibilityOverDisc(const PatchHierarchy& hierarchy, int patch, const RayCaster& caster,
                                const Lighting& lighting, double radius_m, int samples) {
   const Node& node = hierarchy.leaf(patch);

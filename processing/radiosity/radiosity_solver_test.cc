@@ -216,6 +216,49 @@ TEST(DirectLightTest, PointLightIrradianceAndShadow) {
   EXPECT_GT(checked, 100);
 }
 
+TEST(DirectLightTest, AtPointsAveragesExactlyThosePointsWithTheirShadows) {
+  Mesh mesh;
+  const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.5), Rgb::Zero()});
+  // The ground is one triangle (one patch: the edge limit is larger than it).
+  mesh.positions_m = {{-10, -10, 0}, {10, -10, 0}, {0, 10, 0}};
+  mesh.triangles = {{0, 1, 2}};
+  mesh.triangle_material = {m};
+  mesh.AddBox({-0.2, 2.8, 0.9}, {0.2, 3.2, 1.0}, m);  // its shadow is centred on (0, 6, 0)
+  const PatchHierarchy h(mesh, Edge(100.0));
+  const RayCaster caster(mesh);
+  int ground = -1;
+  for (int p = 0; p < h.LeafCount(); ++p) {
+    if (h.leaf(p).root == 0) ground = p;
+  }
+  ASSERT_GE(ground, 0);
+  Lighting lighting;
+  const Eigen::Vector3d lamp(0, 0, 2);
+  lighting.point_lights.push_back({lamp, Rgb::Constant(8.0)});
+  // Three points lit, at different distances from the lamp, and one in the occluder's shadow.
+  const std::vector<Eigen::Vector3d> xs = {{0.1, 0.3, 0}, {0.1, 1.5, 0}, {0.1, 4.0, 0}, {0.0, 6.0, 0}};
+  std::vector<double> e;
+  for (const Eigen::Vector3d& x : xs) e.push_back(8.0 * (lamp - x).z() / std::pow((lamp - x).norm(), 3));
+  std::vector<std::vector<Eigen::Vector3f>> points(h.LeafCount());
+  for (const Eigen::Vector3d& x : xs) points[ground].push_back(x.cast<float>());
+  const DirectLightAtPoints d = ComputeDirectLightAtPoints(h, caster, lighting, points, {});
+  EXPECT_TRUE(d.has_points[ground]);
+  const double lit = e[0] + e[1] + e[2];
+  EXPECT_NEAR(d.irradiance[ground].x(), lit / 4.0, 1e-9 * lit);
+  EXPECT_NEAR(d.visible_fraction[ground], lit / (lit + e[3]), 1e-9);
+  // The spread-sample estimate of the same patch is something else entirely (a 20 m triangle).
+  const DirectLight spread = ComputeDirectLight(h, caster, lighting, {});
+  EXPECT_GT(std::abs(spread.irradiance[ground].x() - lit / 4.0), 0.5 * lit / 4.0);
+  for (int p = 0; p < h.LeafCount(); ++p) {
+    if (p == ground) continue;
+    EXPECT_FALSE(d.has_points[p]);
+    EXPECT_EQ(d.irradiance[p], Rgb::Zero());
+  }
+  // A wrong list count and a non-finite point are errors, not NaN.
+  EXPECT_THROW(ComputeDirectLightAtPoints(h, caster, lighting, {}, {}), InvalidArgumentError);
+  points[ground].push_back(Eigen::Vector3f(NAN, 0, 0));
+  EXPECT_THROW(ComputeDirectLightAtPoints(h, caster, lighting, points, {}), InvalidArgumentError);
+}
+
 TEST(DirectLightTest, SpotLightFollowsItsConeAndSmoothstepEdge) {
   Mesh mesh;
   const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.5), Rgb::Zero()});

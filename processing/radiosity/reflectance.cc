@@ -33,7 +33,9 @@ double CameraVisibilityOverDisc(const Node& node, const RayCaster& caster, const
 }
 
 struct ImageData {
-  DirectLight direct;
+  DirectLight direct;          // area-averaged over each patch: what the radiosity solve takes
+  std::vector<Rgb> seen;       // the direct irradiance the observed radiance is divided by: averaged
+                               // over the observation's pixel points where given, else `direct`'s
   std::vector<double> weight;  // confidence per patch
   std::vector<double> lit;     // directly lit fraction per patch (0 when the light cannot reach)
   std::vector<Rgb> indirect;   // current indirect irradiance estimate per patch
@@ -45,7 +47,7 @@ struct ImageData {
 bool ImageAlbedo(const RadianceObservation& obs, const ImageData& d, int p, double max_irradiance, Rgb* albedo) {
   const Rgb& l = obs.radiance[p];
   if (!Usable(l) || !(d.weight[p] > 0.0)) return false;
-  const Rgb h = d.direct.irradiance[p] + d.indirect[p];
+  const Rgb h = d.seen[p] + d.indirect[p];
   const double floor = 1e-9 * max_irradiance;
   if (!(h.minCoeff() > floor)) return false;
   *albedo = (std::numbers::pi * d.scale * l).cwiseQuotient(h);
@@ -130,7 +132,7 @@ void FitScales(const PatchHierarchy& h, const std::vector<RadianceObservation>& 
     std::vector<bool> mask(n, false);
     for (int p = 0; p < n; ++p) {
       if (!rho_ref[p].allFinite() || d.lit[p] < 0.999 || !(d.weight[p] > 0.0)) continue;
-      expected[p] = rho_ref[p].cwiseProduct(d.direct.irradiance[p] + d.indirect[p]) / std::numbers::pi;
+      expected[p] = rho_ref[p].cwiseProduct(d.seen[p] + d.indirect[p]) / std::numbers::pi;
       mask[p] = true;
     }
     int used = 0;
@@ -192,6 +194,11 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
                                  std::to_string(observations[s].radiance.size()) + " patch radiances; expected " +
                                  std::to_string(n));
     }
+    if (!observations[s].pixel_points.empty() && static_cast<int>(observations[s].pixel_points.size()) != n) {
+      throw InvalidArgumentError("reflectance: image " + std::to_string(s) + " has pixel points for " +
+                                 std::to_string(observations[s].pixel_points.size()) + " patches; expected " +
+                                 std::to_string(n) + " (or none)");
+    }
     if (observations[s].camera_position_m && !observations[s].camera_position_m->allFinite()) {
       throw InvalidArgumentError("reflectance: image " + std::to_string(s) + " has a non-finite camera position");
     }
@@ -209,14 +216,27 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
     const RadianceObservation& obs = observations[s];
     ImageData& d = images[s];
     d.direct = ComputeDirectLight(hierarchy, caster, obs.lighting, options.direct);
+    d.seen = d.direct.irradiance;
+    std::vector<double> seen_visible = d.direct.visible_fraction;
+    if (!obs.pixel_points.empty()) {
+      const DirectLightAtPoints at =
+          ComputeDirectLightAtPoints(hierarchy, caster, obs.lighting, obs.pixel_points, options.direct);
+      for (int p = 0; p < n; ++p) {
+        if (!at.has_points[p]) continue;
+        d.seen[p] = at.irradiance[p];
+        seen_visible[p] = at.visible_fraction[p];
+      }
+    }
     d.weight.assign(n, 0.0);
     d.lit.assign(n, 0.0);
-    for (int p = 0; p < n; ++p) max_irradiance[s] = std::max(max_irradiance[s], d.direct.irradiance[p].maxCoeff());
+    for (int p = 0; p < n; ++p) {
+      max_irradiance[s] = std::max({max_irradiance[s], d.direct.irradiance[p].maxCoeff(), d.seen[p].maxCoeff()});
+    }
     for (int p = 0; p < n; ++p) {
       if (!Usable(obs.radiance[p])) continue;
       const Node& node = hierarchy.leaf(p);
-      const bool reached = d.direct.irradiance[p].maxCoeff() > 1e-9 * max_irradiance[s];
-      d.lit[p] = reached ? d.direct.visible_fraction[p] : 0.0;
+      const bool reached = d.seen[p].maxCoeff() > 1e-9 * max_irradiance[s];
+      d.lit[p] = reached ? seen_visible[p] : 0.0;
       double w = options.unlit_weight + (1.0 - options.unlit_weight) * d.lit[p];
       if (options.boundary_samples > 0 && options.boundary_radius_m > 0.0 && reached) {
         const double f = LightVisibilityOverDisc(hierarchy, p, caster, obs.lighting, options.boundary_radius_m,
@@ -343,6 +363,8 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
   for (const auto& d : images) {
     out.image_scale.push_back(d.scale);
     out.scale_samples.push_back(d.scale_samples);
+    out.image_indirect.push_back(d.indirect);
+    out.image_weight.push_back(d.weight);
   }
   out.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

@@ -40,6 +40,13 @@ struct RadianceObservation {
   Lighting lighting;                                 // the lights on when the image was taken
   std::vector<Rgb> radiance;                         // per patch, linear; NaN = patch not seen in this image
   std::optional<Eigen::Vector3d> camera_position_m;  // enables viewing-angle and occlusion weights
+  // Optional, per patch: the surface points whose radiance `radiance` averages (where the
+  // camera's pixel rays hit the patch, one per pixel used). When given, a patch's albedo in
+  // this image divides by the direct irradiance averaged over exactly these points
+  // (ComputeDirectLightAtPoints) instead of over samples spread on the patch: the two then
+  // describe the same surface, weighted alike. The radiosity solve keeps the patch's
+  // area-averaged direct light. Empty (the default) or an empty list for a patch: spread samples.
+  std::vector<std::vector<Eigen::Vector3f>> pixel_points;
 };
 
 struct ReflectanceOptions {
@@ -83,6 +90,11 @@ struct ReflectanceResult {
   IndirectShareEstimate indirect;
   bool radiosity_skipped = false;
   std::vector<RadiositySummary> last_solves;  // one per image, last iteration
+  // Per image and patch, as the last combination used them: the indirect irradiance (W m^-2;
+  // zero when radiosity was skipped) and the confidence weight. With them a caller can form
+  // per-pixel reflectance, pi a_s L(x) / (E_direct(x) + indirect), weighted across images.
+  std::vector<std::vector<Rgb>> image_indirect;
+  std::vector<std::vector<double>> image_weight;
   double time_s = 0.0;
 };
 

@@ -163,6 +163,48 @@ TEST(ReflectanceTest, OpenGroundSkipsRadiosityAndIsExact) {
   for (const Rgb& a : r.albedo) EXPECT_LT((a - Rgb(0.12, 0.11, 0.10)).norm(), 1e-9);
 }
 
+// A large patch under a lamp: the camera's pixels see only part of it, so their mean radiance
+// belongs to the irradiance at those pixels, not to the patch's average.
+TEST(ReflectanceTest, PixelPointsMakeTheEstimateExactWherePatchAveragesAreNot) {
+  Mesh mesh;
+  const Rgb albedo(0.6, 0.5, 0.3);
+  const int m = mesh.AddMaterial({"floor", albedo, Rgb::Zero()});
+  mesh.positions_m = {{-10, -10, 0}, {10, -10, 0}, {0, 10, 0}};
+  mesh.triangles = {{0, 1, 2}};
+  mesh.triangle_material = {m};
+  HierarchyOptions ho;
+  ho.max_patch_edge_m = 100.0;
+  const PatchHierarchy h(mesh, ho);
+  ASSERT_EQ(h.LeafCount(), 1);
+  const RayCaster caster(mesh);
+  RadianceObservation obs;
+  const Eigen::Vector3d lamp(0.5, -0.5, 1.5);
+  obs.lighting.point_lights.push_back({lamp, Rgb(20, 18, 15)});
+  obs.pixel_points.resize(1);
+  Rgb sum = Rgb::Zero();
+  for (int i = 0; i < 40; ++i) {  // "pixels" along a line through the lamp's hot spot
+    const Eigen::Vector3d x(-1.0 + 0.05 * i, -0.5 + 0.02 * i, 0.0);
+    obs.pixel_points[0].push_back(x.cast<float>());
+    const double r = (lamp - x).norm();
+    sum += albedo.cwiseProduct(obs.lighting.point_lights[0].intensity_w_per_sr) * (lamp.z() / (r * r * r)) /
+           std::numbers::pi;
+  }
+  obs.radiance = {sum / 40.0};
+  ReflectanceOptions options;
+  options.indirect_skip_tolerance = 0.01;  // open ground: no radiosity
+  options.boundary_samples = 0;
+  const ReflectanceResult at_pixels = EstimateReflectance(h, caster, {obs}, options);
+  ASSERT_TRUE(at_pixels.radiosity_skipped) << at_pixels.reason;
+  EXPECT_LT((at_pixels.albedo[0] - albedo).cwiseAbs().maxCoeff(), 1e-6);
+  // Without the points the same photograph reads as a different albedo (clamped at 1 here).
+  obs.pixel_points.clear();
+  const ReflectanceResult spread = EstimateReflectance(h, caster, {obs}, options);
+  EXPECT_GT((spread.albedo[0] - albedo).cwiseAbs().maxCoeff(), 0.1);
+  // Point lists must come one per patch.
+  obs.pixel_points.resize(2);
+  EXPECT_THROW(EstimateReflectance(h, caster, {obs}, options), InvalidArgumentError);
+}
+
 TEST(ReflectanceTest, ScaleFactorIsLeastSquares) {
   const std::vector<Rgb> radiance = {Rgb(1, 2, 3), Rgb(0.5, 0.1, 0.2), Rgb(4, 4, 4)};
   std::vector<Rgb> reference;
