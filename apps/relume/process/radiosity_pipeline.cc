@@ -34,7 +34,7 @@ using radiosity::Rgb;
 namespace {
 
 struct Knobs {
-  double patch_edge_m = 0.5;
+  double patch_edge_m = 1.0;
   int form_factor_rays = 4;
   double bf_epsilon = 2e-3;
   int iterations = 4;
@@ -42,6 +42,9 @@ struct Knobs {
   double residual_tolerance = 1e-3;
   int direct_samples = 4;
   int min_patch_pixels = 4;
+  // Divide each patch's mean pixel radiance by the direct light averaged over the same pixels'
+  // surface points (true), or over samples spread on the patch (false, the per-patch model).
+  bool direct_at_pixels = true;
   std::string scale = "truth";   // truth | none
   std::string material_groups;   // "a+b,c+d": objects known to share a material
   std::string input = "camera";  // camera | truth (the world's rendered radiance: no camera, noise-free)
@@ -60,6 +63,7 @@ Knobs ReadKnobs(PipelineRun& run) {
   k.residual_tolerance = run.Setting("residual_tolerance", k.residual_tolerance);
   k.direct_samples = run.Setting("direct_samples", k.direct_samples);
   k.min_patch_pixels = run.Setting("min_patch_pixels", k.min_patch_pixels);
+  k.direct_at_pixels = run.Setting("direct_at_pixels", k.direct_at_pixels);
   k.scale = run.Setting("scale", k.scale);
   k.input = run.Setting("input", k.input);
   k.material_groups = run.Setting("material_groups", k.material_groups);
@@ -130,22 +134,28 @@ std::vector<Rgb> ReadPatchRgb(const fs::path& path, int patches) {
   return values;
 }
 
-void WriteIds(const fs::path& path, const cv::Mat& ids) {
+// A per-pixel map as raw bytes: width, height (int32), then the rows. `type` is the OpenCV type
+// the reader expects (the patch id map is CV_32SC1, the pixel points CV_32FC3).
+void WritePixelMap(const fs::path& path, const cv::Mat& map) {
   std::ofstream out(path, std::ios::binary);
-  const std::int32_t size[2] = {ids.cols, ids.rows};
+  const std::int32_t size[2] = {map.cols, map.rows};
   out.write(reinterpret_cast<const char*>(size), sizeof(size));
-  for (int y = 0; y < ids.rows; ++y) out.write(reinterpret_cast<const char*>(ids.ptr<int>(y)), ids.cols * 4);
+  const auto row_bytes = static_cast<std::streamsize>(map.cols * map.elemSize());
+  for (int y = 0; y < map.rows; ++y) out.write(reinterpret_cast<const char*>(map.ptr(y)), row_bytes);
 }
 
-cv::Mat ReadIds(const fs::path& path) {
+cv::Mat ReadPixelMap(const fs::path& path, int type, const char* what) {
   std::ifstream in(path, std::ios::binary);
   std::int32_t size[2] = {0, 0};
   in.read(reinterpret_cast<char*>(size), sizeof(size));
-  if (!in || size[0] <= 0 || size[1] <= 0) throw IoError(path.string(), "not a patch id map (rerun with --force)");
-  cv::Mat ids(size[1], size[0], CV_32SC1);
-  for (int y = 0; y < ids.rows; ++y) in.read(reinterpret_cast<char*>(ids.ptr<int>(y)), ids.cols * 4);
-  if (!in) throw IoError(path.string(), "truncated patch id map (rerun with --force)");
-  return ids;
+  if (!in || size[0] <= 0 || size[1] <= 0) {
+    throw IoError(path.string(), std::string("not a ") + what + " (rerun with --force)");
+  }
+  cv::Mat map(size[1], size[0], type);
+  const auto row_bytes = static_cast<std::streamsize>(map.cols * map.elemSize());
+  for (int y = 0; y < map.rows; ++y) in.read(reinterpret_cast<char*>(map.ptr(y)), row_bytes);
+  if (!in) throw IoError(path.string(), std::string("truncated ") + what + " (rerun with --force)");
+  return map;
 }
 
 // Per-patch values painted into the camera's pixels (NaN where no patch).
@@ -341,7 +351,122 @@ struct Geometry {
   std::unique_ptr<radiosity::RayCaster> caster;
   StageKey key;
   cv::Mat ids;
+  cv::Mat points_m;  // CV_32FC3: where each pixel's ray meets its patch (NaN where ids is -1)
 };
+
+// Per patch, the surface points of the pixels whose radiance the observation averaged (the same
+// selection as the radiosity-observe stage: a patch, a good status, finite radiance), for patches
+// with an observation.
+std::vector<std::vector<Eigen::Vector3f>> PixelPointsPerPatch(const Geometry& geo, const BracketRadiance& r,
+                                                              const std::vector<Rgb>& observed) {
+  std::vector<std::vector<Eigen::Vector3f>> points(observed.size());
+  for (int y = 0; y < geo.ids.rows; ++y) {
+    const int* id = geo.ids.ptr<int>(y);
+    const auto* px = r.radiance.pixels.ptr<cv::Vec3f>(y);
+    const auto* xyz = geo.points_m.ptr<cv::Vec3f>(y);
+    const std::uint8_t* status = r.status.empty() ? nullptr : r.status.ptr<std::uint8_t>(y);
+    for (int x = 0; x < geo.ids.cols; ++x) {
+      if (id[x] < 0 || (status && status[x] != 0)) continue;
+      if (!std::isfinite(px[x][0]) || !std::isfinite(px[x][1]) || !std::isfinite(px[x][2])) continue;
+      if (!observed[id[x]].allFinite()) continue;
+      const Eigen::Vector3f p(xyz[x][0], xyz[x][1], xyz[x][2]);
+      if (p.allFinite()) points[id[x]].push_back(p);
+    }
+  }
+  return points;
+}
+
+// Per-pixel reflectance: in each bracket s, pi k a_s L_s(x) / (E_direct,s(x) + I_s,p) with the
+// direct light at the pixel's own surface point x and the indirect light of its patch p (the
+// last iteration's), combined over brackets with the patches' confidence weights and clamped to
+// [0, 1] like the patch albedo. NaN where no bracket gives an estimate. `k` is bracket 0's
+// absolute scale; the library's a_s makes the others consistent with it.
+RadianceImage PixelReflectance(const Geometry& geo, const std::vector<BracketRadiance>& radiance,
+                               const std::vector<radiosity::RadianceObservation>& observations,
+                               const radiosity::ReflectanceResult& result, double k,
+                               const radiosity::DirectLightOptions& direct_options) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  RadianceImage out = MakeRadianceImage(geo.ids.cols, geo.ids.rows);
+  out.pixels.setTo(cv::Scalar(nan, nan, nan));
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  for (int y = 0; y < geo.ids.rows; ++y) {
+    for (int x = 0; x < geo.ids.cols; ++x) {
+      const int p = geo.ids.at<int>(y, x);
+      const cv::Vec3f xyz = geo.points_m.at<cv::Vec3f>(y, x);
+      if (p < 0 || !std::isfinite(xyz[0])) continue;
+      const Eigen::Vector3d point(xyz[0], xyz[1], xyz[2]);
+      Rgb sum = Rgb::Zero();
+      double weight = 0.0;
+      for (size_t s = 0; s < radiance.size(); ++s) {
+        const double w = result.image_weight[s][p];
+        if (!(w > 0.0) || (!radiance[s].status.empty() && radiance[s].status.at<std::uint8_t>(y, x) != 0)) continue;
+        const cv::Vec3f l = radiance[s].radiance.pixels.at<cv::Vec3f>(y, x);
+        const Rgb observed(l[0], l[1], l[2]);
+        if (!observed.allFinite()) continue;
+        const Rgb e = radiosity::DirectIrradianceAtPoint(*geo.caster, observations[s].lighting, point, h.leaf(p).normal,
+                                                         direct_options) +
+                      result.image_indirect[s][p];
+        if (!(e.minCoeff() > 0.0)) continue;
+        const Rgb rho = (std::numbers::pi * k * result.image_scale[s] * observed).cwiseQuotient(e);
+        if (!rho.allFinite()) continue;
+        sum += w * rho;
+        weight += w;
+      }
+      if (!(weight > 0.0)) continue;
+      const Rgb rho = (sum / weight).cwiseMax(0.0).cwiseMin(1.0);
+      out.pixels.at<cv::Vec3f>(y, x) =
+          cv::Vec3f(static_cast<float>(rho.x()), static_cast<float>(rho.y()), static_cast<float>(rho.z()));
+    }
+  }
+  return out;
+}
+
+// Per-pixel error of a reflectance map against the true albedo of each pixel's material: mean
+// |estimate - truth| over pixels and channels, overall and per material, with the spread (sd
+// over the material's pixels, mean of the channels).
+nlohmann::json PixelAlbedoErrors(const MaterialGroups& g, const cv::Mat& ids, const RadianceImage& map) {
+  const size_t m = g.truth.size();
+  std::vector<double> err(m, 0.0);
+  std::vector<Rgb> sum(m, Rgb::Zero()), sum2(m, Rgb::Zero());
+  std::vector<long long> count(m, 0);
+  double total = 0.0;
+  long long total_count = 0;
+  for (int y = 0; y < ids.rows; ++y) {
+    for (int x = 0; x < ids.cols; ++x) {
+      const int p = ids.at<int>(y, x);
+      if (p < 0) continue;
+      const int k = g.group_of_patch[p];
+      const cv::Vec3f v = map.pixels.at<cv::Vec3f>(y, x);
+      const Rgb a(v[0], v[1], v[2]);
+      if (k < 0 || !a.allFinite()) continue;
+      const double e = (a - g.truth[k]).cwiseAbs().mean();
+      err[k] += e;
+      sum[k] += a;
+      sum2[k] += a.cwiseProduct(a);
+      ++count[k];
+      total += e;
+      ++total_count;
+    }
+  }
+  nlohmann::json out;
+  double max_spread = 0.0;
+  for (size_t k = 0; k < m; ++k) {
+    if (count[k] == 0) continue;
+    const Rgb mean = sum[k] / static_cast<double>(count[k]);
+    const Rgb var = (sum2[k] / static_cast<double>(count[k]) - mean.cwiseProduct(mean)).cwiseMax(0.0);
+    const double spread = var.cwiseSqrt().mean();
+    if (count[k] >= 20) max_spread = std::max(max_spread, spread);
+    out["materials"].push_back({{"material", g.names[k]},
+                                {"pixels", count[k]},
+                                {"mean_abs_error", err[k] / static_cast<double>(count[k])},
+                                {"error_of_mean", (mean - g.truth[k]).cwiseAbs().mean()},
+                                {"spread_sd", spread}});
+  }
+  out["mean_abs_error"] = total_count > 0 ? total / static_cast<double>(total_count) : 0.0;
+  out["max_spread_sd"] = max_spread;  // over materials with >= 20 pixels
+  out["pixels"] = total_count;
+  return out;
+}
 
 radiosity::ReflectanceOptions ReflectanceOptionsFrom(const Knobs& k, bool skip_radiosity) {
   radiosity::ReflectanceOptions o;
@@ -420,14 +545,16 @@ void RunRadiosityPipeline(PipelineRun& run) {
   geo.caster = std::make_unique<radiosity::RayCaster>(geo.scene.mesh);
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   const int n = h.LeafCount();
-  geo.key.Add("stage", "radiosity-geometry-v1")
+  geo.key.Add("stage", "radiosity-geometry-v2")
       .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
       .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
       .Add("device", device)
       .Add("patch_edge_m", knobs.patch_edge_m)
       .Add("material_groups", knobs.material_groups);
   const StageCache::Result geometry_stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
-    WriteIds(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, spec->camera));
+    cv::Mat points_m;
+    WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, spec->camera, &points_m));
+    WritePixelMap(dir / "pixel_points_m.bin", points_m);
     std::ofstream out(dir / "patches.csv");
     out << "patch,object,centroid_x_m,centroid_y_m,centroid_z_m,normal_x,normal_y,normal_z,area_m2\n";
     for (int p = 0; p < n; ++p) {
@@ -439,7 +566,12 @@ void RunRadiosityPipeline(PipelineRun& run) {
       out << line;
     }
   });
-  geo.ids = ReadIds(geometry_stage.dir / "patch_ids.bin");
+  geo.ids = ReadPixelMap(geometry_stage.dir / "patch_ids.bin", CV_32SC1, "patch id map");
+  geo.points_m = ReadPixelMap(geometry_stage.dir / "pixel_points_m.bin", CV_32FC3, "pixel point map");
+  if (geo.points_m.size() != geo.ids.size()) {
+    throw IoError((geometry_stage.dir / "pixel_points_m.bin").string(),
+                  "size differs from the patch ids (rerun with --force)");
+  }
   run.metrics()["patches"] = n;
   run.metrics()["mesh_triangles"] = h.mesh().TriangleCount();
 
@@ -485,6 +617,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
     });
     radiosity::RadianceObservation obs;
     obs.radiance = ReadPatchRgb(stage.dir / "observation.csv", n);
+    if (knobs.direct_at_pixels) obs.pixel_points = PixelPointsPerPatch(geo, r, obs.radiance);
     obs.lighting = LightingAt(world, r.utc);
     obs.camera_position_m = spec->camera.world_from_camera.translation();
     for (int p = 0; p < n; ++p) seen[p] = seen[p] || obs.radiance[p].allFinite();
@@ -597,7 +730,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
   // Reflectance iterations.
   const MaterialGroups groups = GroupPatches(h, geo.scene, world.scene());
   StageKey reflectance_key;
-  reflectance_key.Add("stage", "radiosity-reflectance-v2").AddKey("geometry", geo.key).AddKey("scale", scale_key);
+  reflectance_key.Add("stage", "radiosity-reflectance-v3").AddKey("geometry", geo.key).AddKey("scale", scale_key);
   for (size_t s = 0; s < observation_keys.size(); ++s) {
     reflectance_key.AddKey("observation", observation_keys[s]).Add("utc", FormatIso8601(radiance[s].utc));
   }
@@ -607,6 +740,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
       .Add("bf_epsilon", knobs.bf_epsilon)
       .Add("residual_tolerance", knobs.residual_tolerance)
       .Add("direct_samples", knobs.direct_samples)
+      .Add("direct_at_pixels", knobs.direct_at_pixels)
       .Add("skip_radiosity", skip)
       .Add("compare_truth", knobs.compare_truth);
   const StageCache::Result refl_stage =
@@ -637,9 +771,12 @@ void RunRadiosityPipeline(PipelineRun& run) {
             out << line;
           }
         }
-        const RadianceImage albedo_image = PaintPatches(geo.ids, result.albedo);
+        // The reflectance map per pixel (each pixel's own direct light, its patch's indirect).
+        const RadianceImage albedo_image = PixelReflectance(geo, radiance, observations, result, k_abs, options.direct);
         calibration::SaveRadianceExr(albedo_image, (dir / "reflectance.exr").string());
         calibration::SaveImage(AlbedoPreview(albedo_image), (dir / "reflectance.png").string());
+        calibration::SaveImage(AlbedoPreview(PaintPatches(geo.ids, result.albedo)),
+                               (dir / "reflectance_patches.png").string());
 
         // The converged radiosity solution under bracket 0's lamps (absolute units).
         radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
@@ -690,6 +827,32 @@ void RunRadiosityPipeline(PipelineRun& run) {
               {"mean_relative_difference", mean},
               {"sd_relative_difference", count > 0 ? std::sqrt(std::max(0.0, sum2 / count - mean * mean)) : 0.0},
               {"samples", count}};
+          // The same with the direct light averaged over the pixels' own points (what the
+          // estimate divides by when direct_at_pixels is on): what is left is the indirect
+          // light's error (patch-constant, Monte Carlo noise of the photographs).
+          if (!observations.front().pixel_points.empty()) {
+            const radiosity::DirectLightAtPoints at = radiosity::ComputeDirectLightAtPoints(
+                h, *geo.caster, observations.front().lighting, observations.front().pixel_points, options.direct);
+            double psum = 0.0, psum2 = 0.0;
+            int pcount = 0;
+            for (int p = 0; p < n; ++p) {
+              const Rgb& l = observations.front().radiance[p];
+              if (!at.has_points[p] || !l.allFinite() || !(l.minCoeff() > 0.0)) continue;
+              const Rgb model = truth_albedo[p].cwiseProduct(at.irradiance[p] + truth_solution.indirect_irradiance[p]) /
+                                std::numbers::pi;
+              const Rgb ratio = model.cwiseQuotient(l);
+              for (int c = 0; c < 3; ++c) {
+                psum += ratio[c] - 1.0;
+                psum2 += (ratio[c] - 1.0) * (ratio[c] - 1.0);
+              }
+              pcount += 3;
+            }
+            const double pmean = pcount > 0 ? psum / pcount : 0.0;
+            model_gap["at_pixels"] = {
+                {"mean_relative_difference", pmean},
+                {"sd_relative_difference", pcount > 0 ? std::sqrt(std::max(0.0, psum2 / pcount - pmean * pmean)) : 0.0},
+                {"samples", pcount}};
+          }
         }
 
         // Convergence: CSV and chart.
@@ -732,6 +895,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
         if (knobs.compare_truth && !per_iteration.empty()) {
           m["truth_before"] = per_iteration.front()["truth"];
           m["truth_after"] = per_iteration.back()["truth"];
+          m["truth_pixels"] = PixelAlbedoErrors(groups, geo.ids, albedo_image);
         }
         m["solution"] = {{"summary", summary.BriefReport()},
                          {"converged", summary.converged},
@@ -746,7 +910,9 @@ void RunRadiosityPipeline(PipelineRun& run) {
              std::string(refl["converged"].get<bool>() ? "converged" : "not converged") + " after " +
                  std::to_string(refl["iterations"].get<int>()) + " iteration(s): " + refl["reason"].get<std::string>());
   run.AddOutput(refl_stage.dir / "albedo.csv", "albedo per patch (and iteration 0's)");
-  run.AddOutput(refl_stage.dir / "reflectance.png", "reflectance map (albedo as seen by the camera)");
+  run.AddOutput(refl_stage.dir / "reflectance.png",
+                "reflectance map per pixel (each pixel's own direct light, its patch's indirect light)");
+  run.AddOutput(refl_stage.dir / "reflectance_patches.png", "albedo per patch, as the radiosity solution uses it");
   run.AddOutput(refl_stage.dir / "radiosity.csv", "converged radiosity per patch, bracket 0's lamps, W/m^2");
   run.AddOutput(refl_stage.dir / "radiosity.png", "radiosity solution rendered from the camera");
   run.AddOutput(refl_stage.dir / "convergence.png", "convergence of the reflectance iterations");
@@ -754,7 +920,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
 
   // Relight: every recorded lamp off, one point lamp where the command line puts it.
   StageKey relight_key;
-  relight_key.Add("stage", "radiosity-relight-v2")
+  relight_key.Add("stage", "radiosity-relight-v3")
       .AddKey("reflectance", reflectance_key)
       .Add("light_x", knobs.light_m.x())
       .Add("light_y", knobs.light_m.y())
@@ -785,10 +951,29 @@ void RunRadiosityPipeline(PipelineRun& run) {
     radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
     radiosity::RadiositySolution solution;
     const radiosity::RadiositySummary summary = solver.Solve(albedo, direct.irradiance, h.LeafEmission(), &solution);
-    std::vector<Rgb> l(n);
-    for (int p = 0; p < n; ++p) l[p] = solution.radiosity[p] / std::numbers::pi;
-    RadianceImage relit = PaintPatches(geo.ids, l);
+    // Per pixel: the patch's albedo times the new lamp's direct light at the pixel's own point
+    // plus the patch's indirect light from the solution (what the patches average, the pixels
+    // resolve: the lamp's falloff and its shadow edges).
+    RadianceImage relit = MakeRadianceImage(geo.ids.cols, geo.ids.rows);
     relit.unit = RadianceUnit::kWattsPerSqmPerSr;
+    {
+      const float nan = std::numeric_limits<float>::quiet_NaN();
+      const radiosity::DirectLightOptions direct_options = ReflectanceOptionsFrom(knobs, skip).direct;
+      for (int y = 0; y < geo.ids.rows; ++y) {
+        for (int x = 0; x < geo.ids.cols; ++x) {
+          const int p = geo.ids.at<int>(y, x);
+          const cv::Vec3f xyz = geo.points_m.at<cv::Vec3f>(y, x);
+          Rgb v = Rgb::Constant(nan);
+          if (p >= 0 && std::isfinite(xyz[0])) {
+            const Rgb e = radiosity::DirectIrradianceAtPoint(
+                *geo.caster, lighting, Eigen::Vector3d(xyz[0], xyz[1], xyz[2]), h.leaf(p).normal, direct_options);
+            v = albedo[p].cwiseProduct(e + solution.indirect_irradiance[p]) / std::numbers::pi;
+          }
+          relit.pixels.at<cv::Vec3f>(y, x) =
+              cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
+        }
+      }
+    }
     calibration::SaveRadianceExr(relit, (dir / "relit.exr").string());
     calibration::SaveImage(RadiancePreview(relit), (dir / "relit.png").string());
     WritePatchRgb(dir / "relit_radiosity.csv", "radiosity_w_m2", solution.radiosity);
@@ -805,32 +990,38 @@ void RunRadiosityPipeline(PipelineRun& run) {
       scene.lamps = {lamp};
       const sim::World truth_world(scene, world.options());
       const sim::GroundTruth truth = truth_world.Render(spec->camera, radiance.front().utc);
-      // Per patch (the mean of the truth's pixels on it): pixels carry the renderer's Monte Carlo
-      // noise, patches average it.
-      std::vector<Rgb> sum(n, Rgb::Zero());
+      // Per patch (the means of the relit and the truth's pixels on it): pixels carry the
+      // renderer's Monte Carlo noise, patches average it. Per pixel as well.
+      std::vector<Rgb> sum(n, Rgb::Zero()), relit_sum(n, Rgb::Zero());
       std::vector<int> count(n, 0);
+      double pixel_num = 0.0, pixel_den = 0.0;
       for (int y = 0; y < geo.ids.rows; ++y) {
         for (int x = 0; x < geo.ids.cols; ++x) {
           const int id = geo.ids.at<int>(y, x);
           const cv::Vec3f t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
-          if (id < 0 || !std::isfinite(t[0])) continue;
+          const cv::Vec3f r = relit.pixels.at<cv::Vec3f>(y, x);
+          if (id < 0 || !std::isfinite(t[0]) || !std::isfinite(r[0])) continue;
           sum[id] += Rgb(t[0], t[1], t[2]);
+          relit_sum[id] += Rgb(r[0], r[1], r[2]);
           ++count[id];
+          pixel_num += (Rgb(r[0], r[1], r[2]) - Rgb(t[0], t[1], t[2])).squaredNorm();
+          pixel_den += Rgb(t[0], t[1], t[2]).squaredNorm();
         }
       }
-      double num = 0.0, den = 0.0, model = 0.0;
+      double num = 0.0, den = 0.0, model = 0.0, truth_total = 0.0;
       int patches = 0;
       for (int p = 0; p < n; ++p) {
         if (count[p] < knobs.min_patch_pixels) continue;
         const Rgb t = sum[p] / count[p];
-        num += (l[p] - t).squaredNorm();
+        const Rgb l = relit_sum[p] / count[p];
+        num += (l - t).squaredNorm();
         den += t.squaredNorm();
-        model += l[p].sum();
+        model += l.sum();
+        truth_total += t.sum();
         ++patches;
       }
-      double truth_total = 0.0;
-      for (int p = 0; p < n; ++p) truth_total += count[p] >= knobs.min_patch_pixels ? (sum[p] / count[p]).sum() : 0.0;
       m["truth_relative_rms_per_patch"] = den > 0.0 ? std::sqrt(num / den) : 0.0;
+      m["truth_relative_rms_per_pixel"] = pixel_den > 0.0 ? std::sqrt(pixel_num / pixel_den) : 0.0;
       m["truth_mean_ratio"] = truth_total > 0.0 ? model / truth_total : 0.0;
       m["truth_patches"] = patches;
       calibration::SaveImage(RadiancePreview(truth.radiance), (dir / "relit_truth.png").string());

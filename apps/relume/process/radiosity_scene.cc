@@ -148,9 +148,11 @@ int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eige
 }
 
 cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity::RayCaster& caster,
-                     const PinholeCamera& camera) {
+                     const PinholeCamera& camera, cv::Mat* points_m) {
   const int width = camera.intrinsics.width, height = camera.intrinsics.height;
   cv::Mat ids(height, width, CV_32SC1, cv::Scalar(-1));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  if (points_m != nullptr) *points_m = cv::Mat(height, width, CV_32FC3, cv::Scalar(nan, nan, nan));
   const Eigen::Matrix3d rotation = camera.world_from_camera.linear();
   const Eigen::Vector3d eye = camera.world_from_camera.translation();
   for (int v = 0; v < height; ++v) {
@@ -163,6 +165,11 @@ cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity
       const int patch = PatchAt(hierarchy, triangle, eye + t * dir);
       if (hierarchy.leaf(patch).normal.dot(dir) >= 0.0) continue;  // the back of a one-sided patch
       row[u] = patch;
+      if (points_m != nullptr) {
+        const Eigen::Vector3d x = eye + t * dir;
+        points_m->at<cv::Vec3f>(v, u) =
+            cv::Vec3f(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z()));
+      }
     }
   }
   return ids;

@@ -44,8 +44,9 @@ radiosity::Lighting LightingAt(const sim::World& world, UtcTime utc);
 // The leaf patch containing point `p` of mesh triangle `triangle`.
 int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eigen::Vector3d& p);
 
-// CV_32SC1: the patch each pixel's centre ray hits first (-1 where it hits nothing).
+// CV_32SC1: the patch each pixel's centre ray hits first (-1 where it hits nothing). With
+// `points_m`, also where it hits it (CV_32FC3, scene metres; NaN where the id is -1).
 cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity::RayCaster& caster,
-                     const PinholeCamera& camera);
+                     const PinholeCamera& camera, cv::Mat* points_m = nullptr);
 
 }  // namespace relume::app::process
