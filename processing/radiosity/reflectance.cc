@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/scale_fit.h"
 
 namespace relume::radiosity {
 namespace {
@@ -166,20 +167,17 @@ bool ReflectanceOptions::IsValid(std::string* why) const {
 double RadianceScaleFactor(const std::vector<Rgb>& radiance, const std::vector<Rgb>& reference,
                            const std::vector<bool>& mask, int* used) {
   RELUME_CHECK(radiance.size() == reference.size() && radiance.size() == mask.size());
-  double ll = 0.0, lr = 0.0;
+  ScaleFitter fitter;
   int count = 0;
   for (size_t i = 0; i < radiance.size(); ++i) {
     if (!mask[i] || !radiance[i].allFinite() || !reference[i].allFinite()) continue;
-    ll += radiance[i].squaredNorm();
-    lr += radiance[i].dot(reference[i]);
-    ++count;
+    const long long before = fitter.samples();
+    for (int c = 0; c < 3; ++c) fitter.Add(radiance[i][c], reference[i][c]);
+    if (fitter.samples() > before) ++count;
   }
-  if (!(ll > 0.0) || count == 0) {
-    if (used != nullptr) *used = 0;
-    return 1.0;
-  }
-  if (used != nullptr) *used = count;
-  return lr / ll;
+  const ScaleFit fit = fitter.Fit();
+  if (used != nullptr) *used = fit.usable ? count : 0;
+  return fit.scale;
 }
 
 ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const RayCaster& caster,

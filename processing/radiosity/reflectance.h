@@ -105,9 +105,10 @@ ReflectanceResult EstimateReflectance(const PatchHierarchy& hierarchy, const Ray
                                       const ReflectanceOptions& options);
 
 // Loscos et al. eq. 3: the scale a minimising sum_i |a L_i - L_ref_i|^2 over the patches (or
-// pixels) where mask is true and both values are finite: a = sum L.L_ref / sum L.L. Returns 1
-// with *used = 0 when no usable sample or all L are 0. (calibration/ keeps its own copy for
-// exposure brackets.)
+// pixels) where mask is true, per channel, through core's ScaleFitter (the one least-squares
+// scale of the project, shared with calibration/): a = sum L.L_ref / sum L.L over the channels
+// where both values are finite and > 0. Returns 1 with *used = 0 when there is no such pair;
+// *used counts the patches that contributed.
 double RadianceScaleFactor(const std::vector<Rgb>& radiance, const std::vector<Rgb>& reference,
                            const std::vector<bool>& mask, int* used = nullptr);
 
