@@ -215,50 +215,73 @@ MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityS
   return g;
 }
 
-// Mean |estimate - truth| over observed patches and channels, per material and overall, and the
-// within-material spread (standard deviation over patches, mean of the channels).
-nlohmann::json AlbedoErrors(const MaterialGroups& g, const std::vector<Rgb>& albedo, const std::vector<bool>& seen) {
-  const size_t m = g.truth.size();
-  std::vector<double> err(m, 0.0);
-  std::vector<Rgb> sum(m, Rgb::Zero()), sum2(m, Rgb::Zero());
-  std::vector<int> count(m, 0);
-  double total = 0.0;
-  int total_count = 0;
-  for (size_t p = 0; p < albedo.size(); ++p) {
-    const int k = g.group_of_patch[p];
-    if (!seen[p] || k < 0) continue;
-    const double e = (albedo[p] - g.truth[k]).cwiseAbs().mean();
-    err[k] += e;
-    sum[k] += albedo[p];
-    sum2[k] += albedo[p].cwiseProduct(albedo[p]);
-    ++count[k];
-    total += e;
-    ++total_count;
+// Albedo estimates against their materials' true albedo, accumulated per material: mean
+// |estimate - truth| (mean of the channels), the material mean and its spread (standard
+// deviation over the estimates, mean of the channels). `unit` names what one estimate is
+// (patches or pixels); materials with fewer than `min_count` estimates do not enter the maxima.
+class MaterialErrors {
+ public:
+  explicit MaterialErrors(const MaterialGroups& g)
+      : g_(g),
+        err_(g.truth.size(), 0.0),
+        sum_(g.truth.size(), Rgb::Zero()),
+        sum2_(g.truth.size(), Rgb::Zero()),
+        count_(g.truth.size(), 0) {}
+  void Add(int material, const Rgb& albedo) {
+    if (material < 0 || !albedo.allFinite()) return;
+    const double e = (albedo - g_.truth[material]).cwiseAbs().mean();
+    err_[material] += e;
+    sum_[material] += albedo;
+    sum2_[material] += albedo.cwiseProduct(albedo);
+    ++count_[material];
+    total_ += e;
+    ++total_count_;
   }
-  nlohmann::json out;
-  double max_spread = 0.0, max_mean_error = 0.0;
-  for (size_t k = 0; k < m; ++k) {
-    if (count[k] == 0) continue;
-    const Rgb mean = sum[k] / count[k];
-    const Rgb var = (sum2[k] / count[k] - mean.cwiseProduct(mean)).cwiseMax(0.0);
-    const double spread = var.cwiseSqrt().mean();
-    if (count[k] >= 5) {
-      max_spread = std::max(max_spread, spread);
-      max_mean_error = std::max(max_mean_error, (mean - g.truth[k]).cwiseAbs().mean());
+  nlohmann::json ToJson(const std::string& unit, long long min_count) const {
+    nlohmann::json out;
+    double max_spread = 0.0, max_mean_error = 0.0;
+    for (size_t k = 0; k < g_.truth.size(); ++k) {
+      if (count_[k] == 0) continue;
+      const auto n = static_cast<double>(count_[k]);
+      const Rgb mean = sum_[k] / n;
+      const Rgb var = (sum2_[k] / n - mean.cwiseProduct(mean)).cwiseMax(0.0);
+      const double spread = var.cwiseSqrt().mean();
+      const double bias = (mean - g_.truth[k]).cwiseAbs().mean();
+      if (count_[k] >= min_count) {
+        max_spread = std::max(max_spread, spread);
+        max_mean_error = std::max(max_mean_error, bias);
+      }
+      out["materials"].push_back({{"material", g_.names[k]},
+                                  {"truth", {g_.truth[k].x(), g_.truth[k].y(), g_.truth[k].z()}},
+                                  {"mean", {mean.x(), mean.y(), mean.z()}},
+                                  {"error_of_mean", bias},
+                                  {unit, count_[k]},
+                                  {"mean_abs_error", err_[k] / n},
+                                  {"spread_sd", spread}});
     }
-    out["materials"].push_back({{"material", g.names[k]},
-                                {"truth", {g.truth[k].x(), g.truth[k].y(), g.truth[k].z()}},
-                                {"mean", {mean.x(), mean.y(), mean.z()}},
-                                {"error_of_mean", (mean - g.truth[k]).cwiseAbs().mean()},
-                                {"patches", count[k]},
-                                {"mean_abs_error", err[k] / count[k]},
-                                {"spread_sd", spread}});
+    out["mean_abs_error"] = total_count_ > 0 ? total_ / static_cast<double>(total_count_) : 0.0;
+    out["max_error_of_material_mean"] = max_mean_error;  // bias, materials with >= min_count estimates
+    out["max_spread_sd"] = max_spread;                   // likewise
+    out[unit] = total_count_;
+    return out;
   }
-  out["mean_abs_error"] = total_count > 0 ? total / total_count : 0.0;  // per patch
-  out["max_error_of_material_mean"] = max_mean_error;                   // bias, materials >= 5 patches
-  out["max_spread_sd"] = max_spread;                                    // over materials with >= 5 observed patches
-  out["patches"] = total_count;
-  return out;
+
+ private:
+  const MaterialGroups& g_;
+  std::vector<double> err_;
+  std::vector<Rgb> sum_, sum2_;
+  std::vector<long long> count_;
+  double total_ = 0.0;
+  long long total_count_ = 0;
+};
+
+// Per observed patch, over materials with >= 5 observed patches.
+nlohmann::json AlbedoErrors(const MaterialGroups& g, const std::vector<Rgb>& albedo, const std::vector<bool>& seen) {
+  MaterialErrors errors(g);
+  for (size_t p = 0; p < albedo.size(); ++p) {
+    if (seen[p]) errors.Add(g.group_of_patch[p], albedo[p]);
+  }
+  return errors.ToJson("patches", 5);
 }
 
 // ---- convergence chart -----------------------------------------------------------------------
@@ -421,51 +444,19 @@ RadianceImage PixelReflectance(const Geometry& geo, const std::vector<BracketRad
   return out;
 }
 
-// Per-pixel error of a reflectance map against the true albedo of each pixel's material: mean
-// |estimate - truth| over pixels and channels, overall and per material, with the spread (sd
-// over the material's pixels, mean of the channels).
+// A per-pixel reflectance map against the true albedo of each pixel's material, over materials
+// with >= 20 pixels.
 nlohmann::json PixelAlbedoErrors(const MaterialGroups& g, const cv::Mat& ids, const RadianceImage& map) {
-  const size_t m = g.truth.size();
-  std::vector<double> err(m, 0.0);
-  std::vector<Rgb> sum(m, Rgb::Zero()), sum2(m, Rgb::Zero());
-  std::vector<long long> count(m, 0);
-  double total = 0.0;
-  long long total_count = 0;
+  MaterialErrors errors(g);
   for (int y = 0; y < ids.rows; ++y) {
     for (int x = 0; x < ids.cols; ++x) {
       const int p = ids.at<int>(y, x);
       if (p < 0) continue;
-      const int k = g.group_of_patch[p];
       const cv::Vec3f v = map.pixels.at<cv::Vec3f>(y, x);
-      const Rgb a(v[0], v[1], v[2]);
-      if (k < 0 || !a.allFinite()) continue;
-      const double e = (a - g.truth[k]).cwiseAbs().mean();
-      err[k] += e;
-      sum[k] += a;
-      sum2[k] += a.cwiseProduct(a);
-      ++count[k];
-      total += e;
-      ++total_count;
+      errors.Add(g.group_of_patch[p], Rgb(v[0], v[1], v[2]));
     }
   }
-  nlohmann::json out;
-  double max_spread = 0.0;
-  for (size_t k = 0; k < m; ++k) {
-    if (count[k] == 0) continue;
-    const Rgb mean = sum[k] / static_cast<double>(count[k]);
-    const Rgb var = (sum2[k] / static_cast<double>(count[k]) - mean.cwiseProduct(mean)).cwiseMax(0.0);
-    const double spread = var.cwiseSqrt().mean();
-    if (count[k] >= 20) max_spread = std::max(max_spread, spread);
-    out["materials"].push_back({{"material", g.names[k]},
-                                {"pixels", count[k]},
-                                {"mean_abs_error", err[k] / static_cast<double>(count[k])},
-                                {"error_of_mean", (mean - g.truth[k]).cwiseAbs().mean()},
-                                {"spread_sd", spread}});
-  }
-  out["mean_abs_error"] = total_count > 0 ? total / static_cast<double>(total_count) : 0.0;
-  out["max_spread_sd"] = max_spread;  // over materials with >= 20 pixels
-  out["pixels"] = total_count;
-  return out;
+  return errors.ToJson("pixels", 20);
 }
 
 radiosity::ReflectanceOptions ReflectanceOptionsFrom(const Knobs& k, bool skip_radiosity) {
