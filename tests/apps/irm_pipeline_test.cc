@@ -121,10 +121,14 @@ TEST(IrmSetJsonTest, RoundTripKeepsEveryRatio) {
 }
 
 // Noise-free input: the world's own renders at 09:00 and 15:00 from the DSLR's pose, 320x240.
-// The source relit to 15:00 against the 15:00 render, per region.
+// The source relit to 15:00 against the 15:00 render, per region. The renders use 256 sky and
+// 64 sun-disk rays per pixel instead of the scene's 32 and 8: with 32 fixed sky directions the
+// world's own sky irradiance near an occluder is off by a few per cent (the building's shaded
+// face by 1.6 %), which is the truth's quadrature error, not the relighting's.
 struct NoiseFreeCase {
   RegionErrors relit, baseline;
   irm::RelightSummary summary;
+  int shadow_geometry_mismatch = 0;
 };
 
 NoiseFreeCase RunNoiseFree(bool penumbra, int width = 320, int height = 240) {
@@ -134,8 +138,12 @@ NoiseFreeCase RunNoiseFree(bool penumbra, int width = 320, int height = 240) {
   camera.intrinsics = PinholeIntrinsics::FromHorizontalFov(width, height, DegToRad(70.0));
   const UtcTime morning = ParseIso8601("2026-06-21T09:00:00+03:00").utc;
   const UtcTime afternoon = ParseIso8601("2026-06-21T15:00:00+03:00").utc;
-  const sim::GroundTruth source = rig.world->Render(camera, morning);
-  const sim::GroundTruth target = rig.world->Render(camera, afternoon);
+  sim::RenderOptions quality = rig.world->options();
+  quality.sky_samples = 256;
+  quality.sun_samples = 64;
+  const sim::World world(rig.world->scene(), quality);
+  const sim::GroundTruth source = world.Render(camera, morning);
+  const sim::GroundTruth target = world.Render(camera, afternoon);
   const TriangleMesh mesh = ProcessingMeshFromScene(rig.world->scene(), IrmMeshOptions{});
   const RayCaster caster(mesh);
   irm::RelightOptions options;
@@ -145,8 +153,14 @@ NoiseFreeCase RunNoiseFree(bool penumbra, int width = 320, int height = 240) {
                         {&target.radiance, camera, rig.world->SunDirection(afternoon).cast<float>(), {}}, options);
   cv::Mat use;
   cv::compare(result.status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
-  use &= GeometryAgreement(caster, camera, source.depth_m);
+  const cv::Mat agree = GeometryAgreement(caster, camera, source.depth_m);
+  const cv::Mat shadows_agree =
+      ShadowAgreement(caster, camera, agree,
+                      {{world.SunDirection(morning).cast<float>(), &source.sun_visibility},
+                       {world.SunDirection(afternoon).cast<float>(), &target.sun_visibility}});
   NoiseFreeCase c;
+  c.shadow_geometry_mismatch = cv::countNonZero(agree) - cv::countNonZero(shadows_agree);
+  use &= shadows_agree;
   cv::Mat error_image;
   c.relit =
       CompareRegions(result.relit, target.radiance, source.sun_visibility, target.sun_visibility, use, &error_image);
@@ -160,10 +174,10 @@ NoiseFreeCase RunNoiseFree(bool penumbra, int width = 320, int height = 240) {
   c.summary = result.summary;
   std::printf(
       "penumbra %d: relit lit %.4f shadow %.4f penumbra %.4f all %.4f (pixels %lld/%lld/%lld, scale %.4f); "
-      "no relighting %.4f %.4f %.4f %.4f\n",
+      "no relighting %.4f %.4f %.4f %.4f; shadow geometry mismatch %d pixels\n",
       penumbra, c.relit.lit, c.relit.shadow, c.relit.penumbra, c.relit.all, static_cast<long long>(c.relit.lit_pixels),
       static_cast<long long>(c.relit.shadow_pixels), static_cast<long long>(c.relit.penumbra_pixels), c.relit.scale,
-      c.baseline.lit, c.baseline.shadow, c.baseline.penumbra, c.baseline.all);
+      c.baseline.lit, c.baseline.shadow, c.baseline.penumbra, c.baseline.all, c.shadow_geometry_mismatch);
   std::printf("  %s\n", result.summary.irm_summary.c_str());
   return c;
 }
@@ -172,11 +186,13 @@ TEST(IrmAccuracyTest, NoiseFreeRelightingBeatsTheBaselineInEveryRegion) {
   const NoiseFreeCase with = RunNoiseFree(true);
   EXPECT_GT(with.relit.lit_pixels, 20000);
   EXPECT_GT(with.relit.shadow_pixels, 5000);
-  // docs/irm.md: lit 0.3%, shadow 4.6% (10% without the per-vertex sky view; what is left is
-  // the gradient sky, which the uniform-sky view does not weigh), against 91% and 101% without
-  // relighting.
+  // docs/irm.md: lit 0.2%, shadow 2.5% (10% without the per-vertex sky view; most of what is
+  // left is the gradient sky, which the uniform-sky view does not weigh), against 91% and 101%
+  // without relighting. Pixels where the mesh's shadows differ from the world's (the
+  // tessellated dome's polygonal shadow) are left out: a handful.
+  EXPECT_LT(with.shadow_geometry_mismatch, 50);
   EXPECT_LT(with.relit.lit, 0.01);
-  EXPECT_LT(with.relit.shadow, 0.07);
+  EXPECT_LT(with.relit.shadow, 0.035);
   EXPECT_LT(with.relit.penumbra, with.baseline.penumbra);
   EXPECT_LT(with.relit.all, 0.1 * with.baseline.all);
   // The scale is a true one: noise-free renders share the world's units.

@@ -541,6 +541,44 @@ cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, 
   return agree;
 }
 
+cv::Mat ShadowAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& agree,
+                        const std::vector<SunCheck>& suns, int sun_samples, float tolerance) {
+  const int w = camera.intrinsics.width, h = camera.intrinsics.height;
+  RELUME_CHECK(agree.type() == CV_8UC1 && agree.cols == w && agree.rows == h);
+  for (const SunCheck& s : suns) {
+    RELUME_CHECK(s.truth_sun_visibility != nullptr && s.truth_sun_visibility->type() == CV_32FC1 &&
+                 s.truth_sun_visibility->size() == agree.size());
+  }
+  const float radius = 0.5f * 0.533f * std::numbers::pi_v<float> / 180.0f;  // the world's sun disk
+  cv::Mat out = agree.clone();
+  const TriangleMesh& mesh = caster.mesh();
+  std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(w));
+  const Eigen::Vector3f eye = camera.world_from_camera.translation().cast<float>();
+  for (int y = 0; y < h; ++y) {
+    caster.IntersectCameraRow(camera, y, 0, w, hits);
+    for (int x = 0; x < w; ++x) {
+      const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
+      if (out.at<std::uint8_t>(y, x) == 0 || !hit.valid) continue;
+      const Eigen::Vector3f d = (camera.world_from_camera.linear() * camera.intrinsics.Unproject({x + 0.5, y + 0.5}))
+                                    .cast<float>()
+                                    .normalized();
+      const Eigen::Vector3f point = eye + d * hit.t;
+      const Eigen::Vector3f normal = caster.Interpolate(mesh.normals, hit).normalized();
+      for (const SunCheck& s : suns) {
+        // Attached shadow (sun behind the surface): the truth reports 0 and the IRM's maps 1,
+        // and neither is a cast shadow to compare.
+        if (normal.dot(s.sun_dir) <= 0.0f) continue;
+        const float mesh_fraction = SunVisibleFraction(caster, point, normal, s.sun_dir, radius, sun_samples);
+        if (std::abs(mesh_fraction - s.truth_sun_visibility->at<float>(y, x)) > tolerance) {
+          out.at<std::uint8_t>(y, x) = 0;
+          break;
+        }
+      }
+    }
+  }
+  return out;
+}
+
 // Without --source and --target: the earliest and the latest complete still bracket of the
 // first camera that has two, so the sun has moved the most between them.
 std::pair<std::optional<std::string>, std::optional<std::string>> SourceAndTarget(PipelineRun& run) {
@@ -706,9 +744,15 @@ void RunIrmPipeline(PipelineRun& run) {
     cv::Mat use;
     cv::compare(status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
     const cv::Mat agree = GeometryAgreement(caster, source.camera, truth.depth_m);
+    const cv::Mat shadows_agree = ShadowAgreement(caster, source.camera, agree,
+                                                  {{source.sun_dir.normalized(), &source_truth.sun_visibility},
+                                                   {target.sun_dir.normalized(), &truth.sun_visibility}});
     const int relit_pixels = cv::countNonZero(use);
     use &= agree;
-    m["truth"]["geometry_mismatch_pixels"] = relit_pixels - cv::countNonZero(use);
+    const int geometry_agrees = cv::countNonZero(use);
+    use &= shadows_agree;
+    m["truth"]["geometry_mismatch_pixels"] = relit_pixels - geometry_agrees;
+    m["truth"]["shadow_geometry_mismatch_pixels"] = geometry_agrees - cv::countNonZero(use);
     cv::Mat error_image;
     const RegionErrors after =
         CompareRegions(relit, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use, &error_image);

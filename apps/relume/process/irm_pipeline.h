@@ -54,4 +54,17 @@ RegionErrors CompareRegions(const RadianceImage& estimate, const RadianceImage& 
 // error and would dominate a relative RMS; they are left out and counted. CV_8UC1, 255 = agree.
 cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& truth_depth_m);
 
+// Of those pixels, the ones where the mesh also casts the shadows the world casts: for each
+// photograph, the mesh's own sun fraction at the pixel's surface point (SunVisibleFraction,
+// `sun_samples` rays over the disk) within `tolerance` of the truth's sun visibility. A
+// tessellated sphere's polygonal shadow, or an occluder the mesh lacks, moves shadow edges by
+// a few pixels; relit there with the mesh's (correct for the mesh) fraction, one such pixel at
+// 0.2 instead of 0 costs a 4x ratio and would dominate the shadow figure. Left out and counted.
+struct SunCheck {
+  Eigen::Vector3f sun_dir;              // unit, toward the sun, mesh frame
+  const cv::Mat* truth_sun_visibility;  // CV_32FC1, the truth's visible fraction per pixel
+};
+cv::Mat ShadowAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& agree,
+                        const std::vector<SunCheck>& suns, int sun_samples = 64, float tolerance = 0.1f);
+
 }  // namespace relume::app::process
