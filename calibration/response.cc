@@ -508,47 +508,18 @@ ScaleFit FitScaleFactor(const cv::Mat& values, const cv::Mat& reference, const c
   RELUME_CHECK(values.size() == reference.size() && values.type() == reference.type());
   RELUME_CHECK(values.depth() == CV_32F);
   RELUME_CHECK(mask.empty() || (mask.type() == CV_8UC1 && mask.size() == values.size()));
-  ScaleFit fit;
   const int channels = values.channels();
-  double vr = 0.0, vv = 0.0;
+  ScaleFitter fitter;
   for (int y = 0; y < values.rows; ++y) {
     const float* v = values.ptr<float>(y);
     const float* r = reference.ptr<float>(y);
     const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y);
     for (int x = 0; x < values.cols; ++x) {
       if (m && !m[x]) continue;
-      for (int c = 0; c < channels; ++c) {
-        const double a = v[x * channels + c], b = r[x * channels + c];
-        if (!std::isfinite(a) || !std::isfinite(b) || a <= 0.0 || b <= 0.0) continue;
-        vr += a * b;
-        vv += a * a;
-        ++fit.pixels;
-      }
+      for (int c = 0; c < channels; ++c) fitter.Add(v[x * channels + c], r[x * channels + c]);
     }
   }
-  if (fit.pixels < 10 || !(vv > 0.0)) {
-    fit.reason = "fewer than 10 positive samples in common";
-    return fit;
-  }
-  fit.scale = vr / vv;
-  double sum = 0.0;
-  for (int y = 0; y < values.rows; ++y) {
-    const float* v = values.ptr<float>(y);
-    const float* r = reference.ptr<float>(y);
-    const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(y);
-    for (int x = 0; x < values.cols; ++x) {
-      if (m && !m[x]) continue;
-      for (int c = 0; c < channels; ++c) {
-        const double a = v[x * channels + c], b = r[x * channels + c];
-        if (!std::isfinite(a) || !std::isfinite(b) || a <= 0.0 || b <= 0.0) continue;
-        const double e = (fit.scale * a - b) / b;
-        sum += e * e;
-      }
-    }
-  }
-  fit.relative_rms = std::sqrt(sum / fit.pixels);
-  fit.usable = true;
-  return fit;
+  return fitter.Fit(10);
 }
 
 namespace {

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/image.h"
+#include "core/scale_fit.h"
 
 namespace relume::calibration {
 
@@ -99,15 +100,11 @@ ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std
 std::vector<double> ExposureTimesFromEv(const std::vector<double>& ev, double reference_time_s = 1.0);
 
 // Least-squares scale a minimising sum over mask of |a * values - reference|^2 (Loscos et al.,
-// eq. 3). values/reference: CV_32F with equal channels; mask: CV_8UC1 (non-zero = use), or
-// empty for all finite pixels.
-struct ScaleFit {
-  double scale = 1.0;
-  int pixels = 0;
-  double relative_rms = 0.0;  // RMS of (a*v - r) / r over used pixels
-  bool usable = false;
-  std::string reason;
-};
+// eq. 3), through core's ScaleFitter (core/scale_fit.h, the one implementation the radiosity
+// layer shares): values/reference CV_32F with equal channels; mask CV_8UC1 (non-zero = use), or
+// empty for all pixels; only channels where both are finite and > 0 count; not usable with
+// fewer than 10 such samples.
+using relume::ScaleFit;
 ScaleFit FitScaleFactor(const cv::Mat& values, const cv::Mat& reference, const cv::Mat& mask = cv::Mat());
 
 // Refines exposure times (EV-only cameras, or untrusted metadata): each frame's exposure is

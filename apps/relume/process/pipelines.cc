@@ -39,7 +39,7 @@ TruthComparison CompareWithTruth(const RadianceImage& estimate, const cv::Mat& s
     }
   }
   const calibration::ScaleFit fit = calibration::FitScaleFactor(estimate.pixels, truth.pixels, mask);
-  return {fit.scale, fit.relative_rms, fit.pixels};
+  return {fit.scale, fit.relative_rms, static_cast<int>(fit.samples)};
 }
 
 void RunRadiancePipeline(PipelineRun& run) {
