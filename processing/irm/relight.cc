@@ -15,16 +15,22 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// fn(i, worker) for i in [0, count), interleaved over `threads` workers (numbered from 0).
 template <typename Fn>
-void ParallelFor(int count, int threads, Fn&& fn) {
+void ParallelForWorkers(int count, int threads, Fn&& fn) {
   threads = std::max(1, std::min(threads, count));
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&, t] {
-      for (int i = t; i < count; i += threads) fn(i);
+      for (int i = t; i < count; i += threads) fn(i, t);
     });
   }
   for (std::thread& w : workers) w.join();
+}
+
+template <typename Fn>
+void ParallelFor(int count, int threads, Fn&& fn) {
+  ParallelForWorkers(count, threads, [&](int i, int) { fn(i); });
 }
 
 float SunFractionAt(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
@@ -285,101 +291,199 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
   return irms;
 }
 
+namespace {
+
+// What every pixel of one relighting reads, prepared once: the per-vertex fractions and sky
+// views, the sun disks' directions for the pixels that cast their own sun rays, and the IRMs
+// baked into a RatioTable.
+struct PixelContext {
+  const RayCaster& caster;
+  const View& source;
+  const std::vector<float>& sun_source;
+  const std::vector<float>& sun_target;
+  const std::vector<float>& sky_view;  // the source's; empty without sky views
+  const RelightOptions& options;
+  Eigen::Vector3f source_sun_dir, target_sun_dir;  // normalised
+  std::vector<Eigen::Vector3f> source_disk, target_disk;
+  RatioTable ratios;
+};
+
+struct PixelCounts {
+  std::int64_t relit = 0, without_ratio = 0, masked = 0, own_sun_rays = 0, own_sky_rays = 0;
+};
+
+// What every pixel on one triangle shares: whether it casts its own sun rays (a vertex
+// without a fraction, or with exact_shadow_edges a shadow edge across the triangle) or sky rays
+// (a vertex without a sky view), and for a flat triangle (three equal vertex normals, as on
+// every box, wall and split mesh) its normal and the ratio table's terms for it.
+struct TriangleTerms {
+  int triangle = -1;
+  bool own_source = false, own_target = false, own_sky = false;
+  bool flat = false;
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+  RatioTable::NormalTerms ratio_terms;
+};
+
+// SunFractionAt with the disk's directions computed once per relighting.
+float OwnSunFraction(const PixelContext& c, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                     const Eigen::Vector3f& sun_dir, const std::vector<Eigen::Vector3f>& disk) {
+  if (normal.dot(sun_dir) <= 0.0f) return 1.0f;  // attached shadow, as VertexSunFractions
+  return SunVisibleFraction(c.caster, point, normal, disk);
+}
+
+// The vertices disagree about the sun: a shadow edge crosses the triangle.
+bool MixedAt(const std::vector<float>& f, const Eigen::Vector3i& tri) {
+  const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],
+              c = f[static_cast<std::size_t>(tri[2])];
+  return std::max({a, b, c}) - std::min({a, b, c}) > 1e-3f;
+}
+
+bool AnyNaN(const std::vector<float>& f, const Eigen::Vector3i& tri) {
+  return std::isnan(f[static_cast<std::size_t>(tri[0])]) || std::isnan(f[static_cast<std::size_t>(tri[1])]) ||
+         std::isnan(f[static_cast<std::size_t>(tri[2])]);
+}
+
+void PrepareTriangle(const PixelContext& c, int triangle, TriangleTerms& t) {
+  const TriangleMesh& mesh = c.caster.mesh();
+  const Eigen::Vector3i& tri = mesh.triangles[static_cast<std::size_t>(triangle)];
+  t.triangle = triangle;
+  // An interpolated value is NaN exactly when a vertex's is.
+  if (AnyNaN(c.sun_source, tri) || AnyNaN(c.sun_target, tri)) {
+    t.own_source = t.own_target = true;  // both fractions from the pixel's own rays
+  } else {
+    t.own_source = c.options.exact_shadow_edges && MixedAt(c.sun_source, tri);
+    t.own_target = c.options.exact_shadow_edges && MixedAt(c.sun_target, tri);
+  }
+  t.own_sky = !c.sky_view.empty() && AnyNaN(c.sky_view, tri);
+  const Eigen::Vector3f& n0 = mesh.normals[static_cast<std::size_t>(tri[0])];
+  t.flat = n0 == mesh.normals[static_cast<std::size_t>(tri[1])] && n0 == mesh.normals[static_cast<std::size_t>(tri[2])];
+  if (t.flat) {
+    // The interpolated normal differs from this one by float rounding only.
+    t.normal = n0.normalized();
+    t.ratio_terms = c.ratios.Prepare(t.normal);
+  }
+}
+
+// The ratio at one camera ray's hit on the triangle of `t`; its sun fractions in *fs, *ft.
+Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const RayCaster::Hit& hit, float* fs, float* ft,
+                        PixelCounts& counts) {
+  const RayCaster& caster = c.caster;
+  const TriangleMesh& mesh = caster.mesh();
+  const Eigen::Vector3f normal = t.flat ? t.normal : caster.Interpolate(mesh.normals, hit).normalized();
+  *fs = caster.Interpolate(c.sun_source, hit);
+  *ft = caster.Interpolate(c.sun_target, hit);
+  if (t.own_source || t.own_target) {
+    const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
+    if (t.own_source) *fs = OwnSunFraction(c, point, normal, c.source_sun_dir, c.source_disk);
+    if (t.own_target) *ft = OwnSunFraction(c, point, normal, c.target_sun_dir, c.target_disk);
+    // The paper's bits: an interpolated fraction beside an own one is rounded too.
+    if (!c.options.use_penumbra_fractions) {
+      *fs = *fs >= 0.5f ? 1.0f : 0.0f;
+      *ft = *ft >= 0.5f ? 1.0f : 0.0f;
+    }
+    ++counts.own_sun_rays;
+  }
+  float sky = std::numeric_limits<float>::quiet_NaN();
+  if (t.own_sky) {  // a vertex outside the view's neighbourhood: the pixel's own rays
+    sky = SkyViewFraction(caster, caster.Interpolate(mesh.positions, hit), normal, c.options.sky_samples);
+    ++counts.own_sky_rays;
+  } else if (!c.sky_view.empty()) {
+    sky = caster.Interpolate(c.sky_view, hit);
+  }
+  return t.flat ? c.ratios.Ratio(t.ratio_terms, *fs, *ft, sky) : c.ratios.Ratio(normal, *fs, *ft, sky);
+}
+
+// One row of the source: every output pixel is written here (no image is filled beforehand).
+void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits, RelightResult& result,
+                PixelCounts& counts) {
+  const int width = c.source.image->width();
+  c.caster.IntersectCameraRow(c.source.camera, y, 0, width, hits);
+  const std::uint8_t* mask = c.source.mask.empty() ? nullptr : c.source.mask.ptr<std::uint8_t>(y);
+  const cv::Vec3f* in = c.source.image->pixels.ptr<cv::Vec3f>(y);
+  cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
+  std::uint8_t* status = result.status.ptr<std::uint8_t>(y);
+  float* fs_row = result.source_sun.ptr<float>(y);
+  float* ft_row = result.target_sun.ptr<float>(y);
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  TriangleTerms triangle;  // neighbouring pixels mostly see the same triangle
+  for (int x = 0; x < width; ++x) {
+    const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
+    out[x] = in[x];
+    fs_row[x] = kNaN;
+    ft_row[x] = kNaN;
+    status[x] = kNoGeometry;
+    if (!hit.valid) continue;
+    if (mask != nullptr && mask[x] != 0) {
+      status[x] = kMasked;
+      ++counts.masked;
+      continue;
+    }
+    if (hit.triangle != triangle.triangle) PrepareTriangle(c, hit.triangle, triangle);
+    const Eigen::Vector3f ratio = RatioAt(c, triangle, hit, &fs_row[x], &ft_row[x], counts);
+    if (!ratio.allFinite()) {
+      status[x] = kNoRatio;
+      ++counts.without_ratio;
+      continue;
+    }
+    for (int ch = 0; ch < 3; ++ch) out[x][ch] *= ratio[ch];
+    status[x] = kRelit;
+    ++counts.relit;
+  }
+}
+
+}  // namespace
+
 RelightResult RelightPixels(const RayCaster& caster, const View& source, const View& target,
                             const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
                             const IrmSet& irms, const RelightOptions& options, RelightSummary summary) {
   const auto start = std::chrono::steady_clock::now();
   const TriangleMesh& mesh = caster.mesh();
-  const std::vector<float>& sun_source = source_geometry.sun_fraction;
-  const std::vector<float>& sun_target = target_geometry.sun_fraction;
-  RELUME_CHECK(sun_source.size() == mesh.vertex_count() && sun_target.size() == mesh.vertex_count());
-  const std::vector<float>& sky_view = source_geometry.sky_view;  // the source's pixels are relit
-  RELUME_CHECK(sky_view.empty() || sky_view.size() == mesh.vertex_count());
+  RELUME_CHECK(source_geometry.sun_fraction.size() == mesh.vertex_count() &&
+               target_geometry.sun_fraction.size() == mesh.vertex_count());
+  RELUME_CHECK(source_geometry.sky_view.empty() || source_geometry.sky_view.size() == mesh.vertex_count());
+  const Eigen::Vector3f source_sun_dir = source.sun_dir.normalized(), target_sun_dir = target.sun_dir.normalized();
+  const PixelContext context{caster,
+                             source,
+                             source_geometry.sun_fraction,
+                             target_geometry.sun_fraction,
+                             source_geometry.sky_view,  // the source's pixels are relit
+                             options,
+                             source_sun_dir,
+                             target_sun_dir,
+                             SunDiskDirections(source_sun_dir, options.sun_angular_radius_rad, options.sun_samples),
+                             SunDiskDirections(target_sun_dir, options.sun_angular_radius_rad, options.sun_samples),
+                             RatioTable(irms)};
   RelightResult result;
   result.irms = irms;
   const int width = source.image->width(), height = source.image->height();
-  result.relit.pixels = source.image->pixels.clone();
+  // Allocated, not filled: RelightRow writes every pixel once (a clone and NaN fills first
+  // would be three more passes over about 0.5 GB at 24 MP).
+  result.relit.pixels.create(height, width, CV_32FC3);
   result.relit.unit = source.image->unit;
-  result.status = cv::Mat(height, width, CV_8UC1, cv::Scalar(kNoGeometry));
-  result.source_sun = cv::Mat(height, width, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  result.target_sun = result.source_sun.clone();
-  std::vector<std::int64_t> relit_rows(static_cast<std::size_t>(height), 0),
-      missing_rows(static_cast<std::size_t>(height), 0), masked_rows(static_cast<std::size_t>(height), 0);
-  ParallelFor(height, options.threads, [&](int y) {
-    const std::uint8_t* mask = source.mask.empty() ? nullptr : source.mask.ptr<std::uint8_t>(y);
-    std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(width));
-    caster.IntersectCameraRow(source.camera, y, 0, width, hits);
-    cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
-    std::uint8_t* status = result.status.ptr<std::uint8_t>(y);
-    float* fs_row = result.source_sun.ptr<float>(y);
-    float* ft_row = result.target_sun.ptr<float>(y);
-    for (int x = 0; x < width; ++x) {
-      const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
-      if (!hit.valid) continue;
-      if (mask != nullptr && mask[x] != 0) {
-        status[x] = kMasked;
-        ++masked_rows[static_cast<std::size_t>(y)];
-        continue;
-      }
-      const Eigen::Vector3f normal = caster.Interpolate(mesh.normals, hit).normalized();
-      float fs = caster.Interpolate(sun_source, hit);
-      float ft = caster.Interpolate(sun_target, hit);
-      if (std::isnan(fs) || std::isnan(ft)) {
-        // A vertex of this triangle is far outside a photograph's view (no per-vertex fraction):
-        // both fractions from the pixel's own rays.
-        const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
-        fs = SunFractionAt(caster, point, normal, source.sun_dir.normalized(), options);
-        ft = SunFractionAt(caster, point, normal, target.sun_dir.normalized(), options);
-        if (!options.use_penumbra_fractions) {
-          fs = fs >= 0.5f ? 1.0f : 0.0f;
-          ft = ft >= 0.5f ? 1.0f : 0.0f;
-        }
-      } else if (options.exact_shadow_edges) {
-        const Eigen::Vector3i& tri = mesh.triangles[static_cast<std::size_t>(hit.triangle)];
-        auto mixed = [&](const std::vector<float>& f) {
-          const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],
-                      c = f[static_cast<std::size_t>(tri[2])];
-          return std::max({a, b, c}) - std::min({a, b, c}) > 1e-3f;
-        };
-        const bool mixed_source = mixed(sun_source), mixed_target = mixed(sun_target);
-        if (mixed_source || mixed_target) {
-          const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
-          if (mixed_source) fs = SunFractionAt(caster, point, normal, source.sun_dir.normalized(), options);
-          if (mixed_target) ft = SunFractionAt(caster, point, normal, target.sun_dir.normalized(), options);
-          if (!options.use_penumbra_fractions) {
-            fs = fs >= 0.5f ? 1.0f : 0.0f;
-            ft = ft >= 0.5f ? 1.0f : 0.0f;
-          }
-        }
-      }
-      fs_row[x] = fs;
-      ft_row[x] = ft;
-      float sky = std::numeric_limits<float>::quiet_NaN();
-      if (!sky_view.empty()) {
-        sky = caster.Interpolate(sky_view, hit);
-        if (std::isnan(sky)) {  // a vertex outside the view's neighbourhood: the pixel's own rays
-          sky = SkyViewFraction(caster, caster.Interpolate(mesh.positions, hit), normal, options.sky_samples);
-        }
-      }
-      const Eigen::Vector3f ratio = irms.Ratio(normal, fs, ft, sky);
-      if (!ratio.allFinite()) {
-        status[x] = kNoRatio;
-        ++missing_rows[static_cast<std::size_t>(y)];
-        continue;
-      }
-      for (int c = 0; c < 3; ++c) out[x][c] *= ratio[c];
-      status[x] = kRelit;
-      ++relit_rows[static_cast<std::size_t>(y)];
-    }
+  result.status.create(height, width, CV_8UC1);
+  result.source_sun.create(height, width, CV_32FC1);
+  result.target_sun.create(height, width, CV_32FC1);
+  const int workers = std::max(1, std::min(options.threads, height));
+  std::vector<PixelCounts> counts(static_cast<std::size_t>(workers));
+  std::vector<std::vector<RayCaster::Hit>> hits(static_cast<std::size_t>(workers),
+                                                std::vector<RayCaster::Hit>(static_cast<std::size_t>(width)));
+  ParallelForWorkers(height, workers, [&](int y, int worker) {
+    const auto w = static_cast<std::size_t>(worker);
+    RelightRow(context, y, hits[w], result, counts[w]);
   });
-  summary.pixels_relit = 0;
-  summary.pixels_without_ratio = 0;
-  summary.pixels_masked = 0;
-  for (int y = 0; y < height; ++y) {
-    summary.pixels_relit += relit_rows[static_cast<std::size_t>(y)];
-    summary.pixels_without_ratio += missing_rows[static_cast<std::size_t>(y)];
-    summary.pixels_masked += masked_rows[static_cast<std::size_t>(y)];
+  PixelCounts total;
+  for (const PixelCounts& c : counts) {
+    total.relit += c.relit;
+    total.without_ratio += c.without_ratio;
+    total.masked += c.masked;
+    total.own_sun_rays += c.own_sun_rays;
+    total.own_sky_rays += c.own_sky_rays;
   }
+  summary.pixels_relit = total.relit;
+  summary.pixels_without_ratio = total.without_ratio;
+  summary.pixels_masked = total.masked;
+  summary.pixels_with_own_sun_rays = total.own_sun_rays;
+  summary.pixels_with_own_sky_rays = total.own_sky_rays;
   summary.pixels_without_geometry = static_cast<std::int64_t>(width) * height - summary.pixels_relit -
                                     summary.pixels_without_ratio - summary.pixels_masked;
   summary.relight_s = SecondsSince(start);
