@@ -33,10 +33,12 @@ void ParallelFor(int count, int threads, Fn&& fn) {
   ParallelForWorkers(count, threads, [&](int i, int) { fn(i); });
 }
 
+// The sun's visible fraction at a surface point, over the disk's directions (SunDiskDirections,
+// computed once per photograph).
 float SunFractionAt(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
-                    const Eigen::Vector3f& sun_dir, const RelightOptions& options) {
+                    const Eigen::Vector3f& sun_dir, const std::vector<Eigen::Vector3f>& disk) {
   if (normal.dot(sun_dir) <= 0.0f) return 1.0f;  // attached shadow, as VertexSunFractions
-  return SunVisibleFraction(caster, point, normal, sun_dir, options.sun_angular_radius_rad, options.sun_samples);
+  return SunVisibleFraction(caster, point, normal, disk);
 }
 
 int StateOf(float fraction, const IrmOptions& o) {
@@ -47,7 +49,8 @@ int StateOf(float fraction, const IrmOptions& o) {
 // interpolation mixes all see the vertex's own surface (same normal, nearby point) in the same
 // sun state: never across a crease, an occlusion edge or a shadow edge.
 bool ConsistentSample(const RayCaster& caster, const View& view, const Eigen::Isometry3d& camera_from_world,
-                      std::size_t vertex, float vertex_fraction, const RelightOptions& options, Eigen::Vector3f* rgb) {
+                      const std::vector<Eigen::Vector3f>& disk, std::size_t vertex, float vertex_fraction,
+                      const RelightOptions& options, Eigen::Vector3f* rgb) {
   const TriangleMesh& mesh = caster.mesh();
   const Eigen::Vector3f& p = mesh.positions[vertex];
   const Eigen::Vector3f& n = mesh.normals[vertex];
@@ -79,7 +82,7 @@ bool ConsistentSample(const RayCaster& caster, const View& view, const Eigen::Is
       const Eigen::Vector3f hit_normal = caster.Interpolate(mesh.normals, hit).normalized();
       const Eigen::Vector3f hit_point = eye + d * hit.t;
       if (hit_normal.dot(n) < 0.999f || (hit_point - p).norm() > 3.0f * footprint) return false;
-      if (StateOf(SunFractionAt(caster, hit_point, hit_normal, view.sun_dir, options), options.irm) != state) {
+      if (StateOf(SunFractionAt(caster, hit_point, hit_normal, view.sun_dir, disk), options.irm) != state) {
         return false;
       }
     }
@@ -166,6 +169,7 @@ std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vect
   const TriangleMesh& mesh = caster.mesh();
   std::vector<float> fractions(mesh.vertex_count(), 1.0f);
   const Eigen::Vector3f sun = sun_dir.normalized();
+  const std::vector<Eigen::Vector3f> disk = SunDiskDirections(sun, angular_radius_rad, samples);
   ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
     if (needed != nullptr && (*needed)[static_cast<std::size_t>(i)] == 0) {
       fractions[static_cast<std::size_t>(i)] = std::numeric_limits<float>::quiet_NaN();
@@ -174,7 +178,7 @@ std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vect
     const Eigen::Vector3f& n = mesh.normals[static_cast<std::size_t>(i)];
     if (n.dot(sun) <= 0.0f) return;  // attached shadow: reported as 1 (the sun term is zero)
     fractions[static_cast<std::size_t>(i)] =
-        SunVisibleFraction(caster, mesh.positions[static_cast<std::size_t>(i)], n, sun, angular_radius_rad, samples);
+        SunVisibleFraction(caster, mesh.positions[static_cast<std::size_t>(i)], n, disk);
   });
   return fractions;
 }
@@ -248,6 +252,10 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
   summary->vertices = static_cast<int>(mesh.vertex_count());
   const Eigen::Isometry3d source_from_world = source.camera.world_from_camera.inverse();
   const Eigen::Isometry3d target_from_world = target.camera.world_from_camera.inverse();
+  const std::vector<Eigen::Vector3f> source_disk =
+      SunDiskDirections(source.sun_dir, options.sun_angular_radius_rad, options.sun_samples);
+  const std::vector<Eigen::Vector3f> target_disk =
+      SunDiskDirections(target.sun_dir, options.sun_angular_radius_rad, options.sun_samples);
   std::vector<std::size_t> both;
   for (std::size_t i = 0; i < mesh.vertex_count(); ++i) {
     if (source_geometry.visible[i] && target_geometry.visible[i]) both.push_back(i);
@@ -263,8 +271,8 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     s.target_sun = target_geometry.sun_fraction[i];
     if (!source_geometry.sky_view.empty()) s.sky_view = source_geometry.sky_view[i];
     keep[static_cast<std::size_t>(k)] =
-        ConsistentSample(caster, source, source_from_world, i, s.source_sun, options, &s.source_rgb) &&
-        ConsistentSample(caster, target, target_from_world, i, s.target_sun, options, &s.target_rgb);
+        ConsistentSample(caster, source, source_from_world, source_disk, i, s.source_sun, options, &s.source_rgb) &&
+        ConsistentSample(caster, target, target_from_world, target_disk, i, s.target_sun, options, &s.target_rgb);
   });
   std::vector<Sample> samples;
   for (std::size_t k = 0; k < both.size(); ++k) {
@@ -324,13 +332,6 @@ struct TriangleTerms {
   RatioTable::NormalTerms ratio_terms;
 };
 
-// SunFractionAt with the disk's directions computed once per relighting.
-float OwnSunFraction(const PixelContext& c, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
-                     const Eigen::Vector3f& sun_dir, const std::vector<Eigen::Vector3f>& disk) {
-  if (normal.dot(sun_dir) <= 0.0f) return 1.0f;  // attached shadow, as VertexSunFractions
-  return SunVisibleFraction(c.caster, point, normal, disk);
-}
-
 // The vertices disagree about the sun: a shadow edge crosses the triangle.
 bool MixedAt(const std::vector<float>& f, const Eigen::Vector3i& tri) {
   const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],
@@ -374,8 +375,8 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
   *ft = caster.Interpolate(c.sun_target, hit);
   if (t.own_source || t.own_target) {
     const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
-    if (t.own_source) *fs = OwnSunFraction(c, point, normal, c.source_sun_dir, c.source_disk);
-    if (t.own_target) *ft = OwnSunFraction(c, point, normal, c.target_sun_dir, c.target_disk);
+    if (t.own_source) *fs = SunFractionAt(c.caster, point, normal, c.source_sun_dir, c.source_disk);
+    if (t.own_target) *ft = SunFractionAt(c.caster, point, normal, c.target_sun_dir, c.target_disk);
     // The paper's bits: an interpolated fraction beside an own one is rounded too.
     if (!c.options.use_penumbra_fractions) {
       *fs = *fs >= 0.5f ? 1.0f : 0.0f;
