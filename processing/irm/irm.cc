@@ -486,7 +486,7 @@ RatioTable::RatioTable(const IrmSet& set)
     bins.resize(bin_count);
     for (std::size_t b = 0; b < bin_count; ++b) {
       Bin& bin = bins[b];
-      bin.ratio = map.ratio[b];
+      bin.ratio.head<3>() = map.ratio[b].array();
       if (!Finite(map.ratio[b])) continue;
       bin.flags = kFinite | (map.source[b] == 1 ? kMeasured : 0);
       // As RatioMap::Interpolate's correction: only bins with a mean normal, and only where the
@@ -495,7 +495,7 @@ RatioTable::RatioTable(const IrmSet& set)
       const float sky = b < map.mean_sky_view.size() ? map.mean_sky_view[b] : kNaN;
       const Eigen::Vector3f at_bin = set.model.Ratio(map.mean_normal[b], MapSourceSun(kind), MapTargetSun(kind), sky);
       if (!Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) continue;
-      bin.ratio_over_model = map.ratio[b].cwiseQuotient(at_bin);
+      bin.ratio_over_model.head<3>() = map.ratio[b].cwiseQuotient(at_bin).array();
       bin.flags |= kCorrected;
     }
   }
@@ -528,8 +528,7 @@ RatioTable::NormalTerms RatioTable::Prepare(const Eigen::Vector3f& normal) const
     MapTerms& m = terms.maps[k];
     // Measured bins first: filled values (smoothing, model) only where no measured neighbour is.
     for (const std::uint8_t needed : {std::uint8_t{kFinite | kMeasured}, std::uint8_t{kFinite}}) {
-      Eigen::Vector3f plain = Eigen::Vector3f::Zero(), fixed = Eigen::Vector3f::Zero(),
-                      corrected = Eigen::Vector3f::Zero();
+      Eigen::Array4f plain = Eigen::Array4f::Zero(), fixed = Eigen::Array4f::Zero(), corrected = Eigen::Array4f::Zero();
       float total = 0.0f;
       for (std::size_t q = 0; q < 4; ++q) {
         const Bin& bin = bins[corner[q]];
@@ -553,28 +552,36 @@ RatioTable::NormalTerms RatioTable::Prepare(const Eigen::Vector3f& normal) const
   return terms;
 }
 
-Eigen::Vector3f RatioTable::ModelRatio(const NormalTerms& terms, float source_sun, float target_sun,
-                                       float sky_view) const {
-  if (!set_->model.valid) return Eigen::Vector3f::Constant(kNaN);
+Eigen::Array4f RatioTable::ModelRatio(const NormalTerms& terms, float source_sun, float target_sun,
+                                      float sky_view) const {
+  if (!set_->model.valid) return Eigen::Array4f::Constant(kNaN);
   const float h = std::isfinite(sky_view) ? sky_view : terms.open_sky;
   const float a_s = source_sun * terms.cos_source;
   const float a_t = target_sun * terms.cos_target;
   // Lane by lane the operations of SunSkyModel::Ratio, so the same values.
   const Eigen::Array4f source = sun_source_ * a_s + h;
   const Eigen::Array4f target = sun_target_ * a_t + sky_target_ * h;
-  const Eigen::Array4f ratio = (source > 1e-6f).select(target / source, kNaN);
-  return ratio.head<3>().matrix();
+  return (source > 1e-6f).select(target / source, kNaN);
 }
+
+namespace {
+bool Finite3(const Eigen::Array4f& v) {
+  return v.head<3>().allFinite();
+}
+Eigen::Vector3f Rgb(const Eigen::Array4f& v) {
+  return v.head<3>().matrix();
+}
+}  // namespace
 
 Eigen::Vector3f RatioTable::Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const {
   auto at = [&](MapKind kind) -> Eigen::Vector3f {
     const MapTerms& m = terms.maps[static_cast<std::size_t>(kind)];
     if (!m.any) return Eigen::Vector3f::Constant(kNaN);
-    if (!correct_) return m.plain;
-    const Eigen::Vector3f at_normal = ModelRatio(terms, MapSourceSun(kind), MapTargetSun(kind), sky_view);
-    return Finite(at_normal) ? (m.fixed + at_normal.cwiseProduct(m.corrected)).eval() : m.plain;
+    if (!correct_) return Rgb(m.plain);
+    const Eigen::Array4f at_normal = ModelRatio(terms, MapSourceSun(kind), MapTargetSun(kind), sky_view);
+    return Finite3(at_normal) ? Rgb(m.fixed + at_normal * m.corrected) : Rgb(m.plain);
   };
-  auto model_at = [&] { return ModelRatio(terms, source_sun, target_sun, sky_view); };
+  auto model_at = [&] { return Rgb(ModelRatio(terms, source_sun, target_sun, sky_view)); };
   return CombineMaps(*set_, at, model_at, source_sun, target_sun);
 }
 

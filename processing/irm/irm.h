@@ -147,11 +147,12 @@ class RatioTable {
 
   // One map's interpolated value for a normal, before the model correction: with `correct`
   // (the model at the normal is finite), fixed + model(n) x corrected, else plain.
+  // (RGB and a fourth lane of zeros, for 4-wide vector arithmetic.)
   struct MapTerms {
-    Eigen::Vector3f plain = Eigen::Vector3f::Zero();      // every bin used, uncorrected, over the weight
-    Eigen::Vector3f fixed = Eigen::Vector3f::Zero();      // the bins without a correction, over the weight
-    Eigen::Vector3f corrected = Eigen::Vector3f::Zero();  // sum of w_b ratio_b / model(b), over the weight
-    bool any = false;                                     // some bin around the normal holds a value
+    Eigen::Array4f plain = Eigen::Array4f::Zero();      // every bin used, uncorrected, over the weight
+    Eigen::Array4f fixed = Eigen::Array4f::Zero();      // the bins without a correction, over the weight
+    Eigen::Array4f corrected = Eigen::Array4f::Zero();  // sum of w_b ratio_b / model(b), over the weight
+    bool any = false;                                   // some bin around the normal holds a value
   };
   struct NormalTerms {
     float cos_source = 0.0f, cos_target = 0.0f;  // max(0, n . sun) for each photograph's sun
@@ -167,14 +168,15 @@ class RatioTable {
 
  private:
   enum BinFlags : std::uint8_t { kFinite = 1, kMeasured = 2, kCorrected = 4 };
-  struct Bin {
-    Eigen::Vector3f ratio = Eigen::Vector3f::Zero();
-    Eigen::Vector3f ratio_over_model = Eigen::Vector3f::Zero();  // kCorrected: ratio / model(bin)
+  struct Bin {  // RGB and a fourth lane of zeros
+    Eigen::Array4f ratio = Eigen::Array4f::Zero();
+    Eigen::Array4f ratio_over_model = Eigen::Array4f::Zero();  // kCorrected: ratio / model(bin)
     std::uint8_t flags = 0;
   };
 
-  // SunSkyModel::Ratio from the normal's terms, the three channels in one vector division.
-  Eigen::Vector3f ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const;
+  // SunSkyModel::Ratio from the normal's terms, the three channels in one vector division
+  // (the fourth lane is meaningless).
+  Eigen::Array4f ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const;
 
   const IrmSet* set_;
   int bins_ = 0;

@@ -1,6 +1,7 @@
 #include "processing/irm/relight.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -326,10 +327,36 @@ struct PixelCounts {
 // every box, wall and split mesh) its normal and the ratio table's terms for it.
 struct TriangleTerms {
   int triangle = -1;
+  // The vertices' fractions and sky views (NaN without sky views), read once per triangle.
+  std::array<float, 3> source_sun{}, target_sun{}, sky_view{};
   bool own_source = false, own_target = false, own_sky = false;
   bool flat = false;
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
-  RatioTable::NormalTerms ratio_terms;
+  const RatioTable::NormalTerms* ratio_terms = nullptr;  // flat: in the worker's NormalTermsCache
+};
+
+// The ratio table's terms for the flat triangles' normals a worker met last: a scene has few
+// distinct flat normals (ground, walls, roofs), each shared by many triangles, while the
+// triangles along a row change every few pixels.
+class NormalTermsCache {
+ public:
+  const RatioTable::NormalTerms& Get(const RatioTable& table, const Eigen::Vector3f& normal) {
+    for (const Entry& e : entries_) {
+      if (e.used && e.normal == normal) return e.terms;
+    }
+    Entry& e = entries_[next_++ % entries_.size()];
+    e = {true, normal, table.Prepare(normal)};
+    return e.terms;
+  }
+
+ private:
+  struct Entry {
+    bool used = false;
+    Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+    RatioTable::NormalTerms terms;
+  };
+  std::array<Entry, 8> entries_;
+  std::size_t next_ = 0;
 };
 
 // The vertices disagree about the sun: a shadow edge crosses the triangle.
@@ -344,10 +371,21 @@ bool AnyNaN(const std::vector<float>& f, const Eigen::Vector3i& tri) {
          std::isnan(f[static_cast<std::size_t>(tri[2])]);
 }
 
-void PrepareTriangle(const PixelContext& c, int triangle, TriangleTerms& t) {
+// RayCaster::Interpolate of one triangle's three values, with the same arithmetic.
+float InterpolateAt(const std::array<float, 3>& v, const RayCaster::Hit& hit) {
+  return v[0] * (1.0f - hit.u - hit.v) + v[1] * hit.u + v[2] * hit.v;
+}
+
+void PrepareTriangle(const PixelContext& c, int triangle, NormalTermsCache& normals, TriangleTerms& t) {
   const TriangleMesh& mesh = c.caster.mesh();
   const Eigen::Vector3i& tri = mesh.triangles[static_cast<std::size_t>(triangle)];
   t.triangle = triangle;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const auto vertex = static_cast<std::size_t>(tri[static_cast<Eigen::Index>(k)]);
+    t.source_sun[k] = c.sun_source[vertex];
+    t.target_sun[k] = c.sun_target[vertex];
+    t.sky_view[k] = c.sky_view.empty() ? std::numeric_limits<float>::quiet_NaN() : c.sky_view[vertex];
+  }
   // An interpolated value is NaN exactly when a vertex's is.
   if (AnyNaN(c.sun_source, tri) || AnyNaN(c.sun_target, tri)) {
     t.own_source = t.own_target = true;  // both fractions from the pixel's own rays
@@ -361,7 +399,7 @@ void PrepareTriangle(const PixelContext& c, int triangle, TriangleTerms& t) {
   if (t.flat) {
     // The interpolated normal differs from this one by float rounding only.
     t.normal = n0.normalized();
-    t.ratio_terms = c.ratios.Prepare(t.normal);
+    t.ratio_terms = &normals.Get(c.ratios, t.normal);
   }
 }
 
@@ -371,8 +409,8 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
   const RayCaster& caster = c.caster;
   const TriangleMesh& mesh = caster.mesh();
   const Eigen::Vector3f normal = t.flat ? t.normal : caster.Interpolate(mesh.normals, hit).normalized();
-  *fs = caster.Interpolate(c.sun_source, hit);
-  *ft = caster.Interpolate(c.sun_target, hit);
+  *fs = InterpolateAt(t.source_sun, hit);
+  *ft = InterpolateAt(t.target_sun, hit);
   if (t.own_source || t.own_target) {
     const Eigen::Vector3f point = caster.Interpolate(mesh.positions, hit);
     if (t.own_source) *fs = SunFractionAt(c.caster, point, normal, c.source_sun_dir, c.source_disk);
@@ -389,14 +427,14 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
     sky = SkyViewFraction(caster, caster.Interpolate(mesh.positions, hit), normal, c.options.sky_samples);
     ++counts.own_sky_rays;
   } else if (!c.sky_view.empty()) {
-    sky = caster.Interpolate(c.sky_view, hit);
+    sky = InterpolateAt(t.sky_view, hit);
   }
-  return t.flat ? c.ratios.Ratio(t.ratio_terms, *fs, *ft, sky) : c.ratios.Ratio(normal, *fs, *ft, sky);
+  return t.flat ? c.ratios.Ratio(*t.ratio_terms, *fs, *ft, sky) : c.ratios.Ratio(normal, *fs, *ft, sky);
 }
 
 // One row of the source: every output pixel is written here (no image is filled beforehand).
-void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits, RelightResult& result,
-                PixelCounts& counts) {
+void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits, NormalTermsCache& normals,
+                RelightResult& result, PixelCounts& counts) {
   const int width = c.source.image->width();
   c.caster.IntersectCameraRow(c.source.camera, y, 0, width, hits);
   const std::uint8_t* mask = c.source.mask.empty() ? nullptr : c.source.mask.ptr<std::uint8_t>(y);
@@ -419,7 +457,7 @@ void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits,
       ++counts.masked;
       continue;
     }
-    if (hit.triangle != triangle.triangle) PrepareTriangle(c, hit.triangle, triangle);
+    if (hit.triangle != triangle.triangle) PrepareTriangle(c, hit.triangle, normals, triangle);
     const Eigen::Vector3f ratio = RatioAt(c, triangle, hit, &fs_row[x], &ft_row[x], counts);
     if (!ratio.allFinite()) {
       status[x] = kNoRatio;
@@ -468,9 +506,10 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
   std::vector<PixelCounts> counts(static_cast<std::size_t>(workers));
   std::vector<std::vector<RayCaster::Hit>> hits(static_cast<std::size_t>(workers),
                                                 std::vector<RayCaster::Hit>(static_cast<std::size_t>(width)));
+  std::vector<NormalTermsCache> normals(static_cast<std::size_t>(workers));
   ParallelForWorkers(height, workers, [&](int y, int worker) {
     const auto w = static_cast<std::size_t>(worker);
-    RelightRow(context, y, hits[w], result, counts[w]);
+    RelightRow(context, y, hits[w], normals[w], result, counts[w]);
   });
   PixelCounts total;
   for (const PixelCounts& c : counts) {
