@@ -36,6 +36,26 @@ void BM_ShadowRays(benchmark::State& state) {
 }
 BENCHMARK(BM_ShadowRays);
 
+// The sun-disk rays of one surface point (16 directions, SunVisibleFraction) in packets, as
+// the exact shadow-edge pixels and the per-vertex fractions cast them.
+void BM_SunDiskRays(benchmark::State& state) {
+  Fixture& f = GetFixture();
+  const TriangleMesh& mesh = f.scene.mesh;
+  const std::vector<Eigen::Vector3f> disk = SunDiskDirections(f.source_light.sun_dir, 0.00465f, 16);
+  std::vector<std::size_t> facing;  // every ray of these vertices is cast (none behind the surface)
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    if (mesh.normals[v].dot(f.source_light.sun_dir) > 0.05f) facing.push_back(v);
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t v = facing[i++ % facing.size()];
+    benchmark::DoNotOptimize(SunVisibleFraction(f.caster, mesh.positions[v], mesh.normals[v], disk));
+  }
+  state.SetItemsProcessed(state.iterations() * 16);
+  state.SetLabel("rays/s per core");
+}
+BENCHMARK(BM_SunDiskRays);
+
 void BM_CameraRays(benchmark::State& state) {
   Fixture& f = GetFixture();
   const PinholeCamera camera = f.Camera(4000, 3000);
