@@ -319,6 +319,14 @@ struct PixelContext {
 
 struct PixelCounts {
   std::int64_t relit = 0, without_ratio = 0, masked = 0, own_sun_rays = 0, own_sky_rays = 0;
+  PixelCounts& operator+=(const PixelCounts& o) {
+    relit += o.relit;
+    without_ratio += o.without_ratio;
+    masked += o.masked;
+    own_sun_rays += o.own_sun_rays;
+    own_sky_rays += o.own_sky_rays;
+    return *this;
+  }
 };
 
 // What every pixel on one triangle shares: whether it casts its own sun rays (a vertex
@@ -434,7 +442,7 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
 
 // One row of the source: every output pixel is written here (no image is filled beforehand).
 void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits, NormalTermsCache& normals,
-                RelightResult& result, PixelCounts& counts) {
+                RelightResult& result, PixelCounts& worker_counts) {
   const int width = c.source.image->width();
   c.caster.IntersectCameraRow(c.source.camera, y, 0, width, hits);
   const std::uint8_t* mask = c.source.mask.empty() ? nullptr : c.source.mask.ptr<std::uint8_t>(y);
@@ -445,6 +453,9 @@ void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits,
   float* ft_row = result.target_sun.ptr<float>(y);
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   TriangleTerms triangle;  // neighbouring pixels mostly see the same triangle
+  // Counted here and added to the worker's once per row: the workers' counts share a cache
+  // line, and incrementing them per pixel from two cores would bounce it between them.
+  PixelCounts counts;
   for (int x = 0; x < width; ++x) {
     const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
     out[x] = in[x];
@@ -468,6 +479,7 @@ void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits,
     status[x] = kRelit;
     ++counts.relit;
   }
+  worker_counts += counts;
 }
 
 }  // namespace
@@ -512,13 +524,7 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
     RelightRow(context, y, hits[w], normals[w], result, counts[w]);
   });
   PixelCounts total;
-  for (const PixelCounts& c : counts) {
-    total.relit += c.relit;
-    total.without_ratio += c.without_ratio;
-    total.masked += c.masked;
-    total.own_sun_rays += c.own_sun_rays;
-    total.own_sky_rays += c.own_sky_rays;
-  }
+  for (const PixelCounts& c : counts) total += c;
   summary.pixels_relit = total.relit;
   summary.pixels_without_ratio = total.without_ratio;
   summary.pixels_masked = total.masked;
