@@ -136,8 +136,9 @@ struct IrmSet {
 // baked once per map (which bins hold a value, which are measured, and with model_correction
 // the bin's ratio divided by the model at the bin's mean normal and sky view); what depends on
 // the normal only (its four bins and their weights in every map, its cosines to the suns) is
-// prepared once per normal (NormalTerms: once per flat triangle, for all its pixels); what is
-// left per lookup is one model evaluation per map read. IrmSet::Ratio evaluates the model five
+// prepared once per normal (NormalTerms: RelightPixels keeps them per flat normal, for every
+// pixel of the triangles that share it); what is left per lookup is one model evaluation per
+// map read. IrmSet::Ratio evaluates the model five
 // times per map and redoes the bins each time. Equal to IrmSet::Ratio up to float rounding (the
 // correction's product is regrouped: sum_b w_b ratio_b model(n) / model(b) becomes
 // model(n) sum_b (w_b / w) (ratio_b / model(b))). Keeps a pointer to `set`, which must outlive it.
@@ -145,9 +146,9 @@ class RatioTable {
  public:
   explicit RatioTable(const IrmSet& set);
 
-  // One map's interpolated value for a normal, before the model correction: with `correct`
-  // (the model at the normal is finite), fixed + model(n) x corrected, else plain.
-  // (RGB and a fourth lane of zeros, for 4-wide vector arithmetic.)
+  // One map's interpolated value for a normal: fixed + model(n) x corrected where the model
+  // correction applies and the model at the normal is finite, else plain. (RGB and a fourth
+  // lane of zeros, for 4-wide vector arithmetic.)
   struct MapTerms {
     Eigen::Array4f plain = Eigen::Array4f::Zero();      // every bin used, uncorrected, over the weight
     Eigen::Array4f fixed = Eigen::Array4f::Zero();      // the bins without a correction, over the weight
