@@ -186,6 +186,14 @@ TEST_F(RelightTest, RelightPixelsMatchesItsDefinitionPerPixel) {
       EXPECT_GT(fast.summary.pixels_with_own_sun_rays, 100) << name;
     }
     EXPECT_EQ(fast.summary.pixels_with_own_sky_rays > 0, k.vertices_without_values && k.sky_samples > 0) << name;
+    // Per-worker caches must not make a pixel depend on which worker relit it.
+    RelightOptions other_threads = options;
+    other_threads.threads = options.threads == 1 ? 3 : 1;
+    const testing::RelightDifference threads =
+        testing::CompareRelightings(RelightPixels(caster_, s, t, gs, gt, irms, other_threads, summary), fast);
+    EXPECT_EQ(threads.status_differs, 0) << name;
+    EXPECT_EQ(threads.fraction_differs, 0) << name;
+    EXPECT_EQ(threads.max_relative, 0.0) << name;
   }
 }
 
