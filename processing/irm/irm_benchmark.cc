@@ -109,7 +109,8 @@ BENCHMARK(BM_Relight)
 // per-vertex view geometry and the IRM build are separate cached stages of the pipeline and
 // are prepared outside the timed loop. IRMs from a 200 x 150 pair of renders under the two suns
 // (so the maps, the model and its correction are real); the relit photograph is args width x
-// height from the source's pose and field of view. Args: width, height, bins, sun samples.
+// height from the source's pose and field of view. Args: width, height, bins, sun samples,
+// threads.
 // CPU time is the whole process's (both threads), real time the wall clock.
 void BM_RelightPixels(benchmark::State& state) {
   Fixture& f = GetFixture();
@@ -117,6 +118,7 @@ void BM_RelightPixels(benchmark::State& state) {
   RelightOptions options;
   options.irm.bins = static_cast<int>(state.range(2));
   options.sun_samples = static_cast<int>(state.range(3));
+  options.threads = static_cast<int>(state.range(4));
   const PinholeCamera small_source = f.Camera(200, 150);
   const PinholeCamera small_target =
       PinholeCamera::LookAt(PinholeIntrinsics::FromHorizontalFov(200, 150, 1.1), {10, -32, 12}, {0, 0, 4});
@@ -152,19 +154,20 @@ void BM_RelightPixels(benchmark::State& state) {
 }
 // 24 MP (the goal), and 3 MP for scale.
 BENCHMARK(BM_RelightPixels)
-    ->Args({2000, 1500, 32, 16})
-    ->Args({6000, 4000, 32, 16})
+    ->Args({2000, 1500, 32, 16, 2})
+    ->Args({6000, 4000, 32, 16, 2})
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime()
     ->UseRealTime()
     ->Iterations(3);
 // The knobs (at 3 MP, to keep the smoke run short): bins change only the tables, sun samples
-// the exact shadow-edge rays.
+// the exact shadow-edge rays; one thread against two (load balance, sharing between workers).
 BENCHMARK(BM_RelightPixels)
-    ->Args({2000, 1500, 16, 16})
-    ->Args({2000, 1500, 64, 16})
-    ->Args({2000, 1500, 32, 4})
-    ->Args({2000, 1500, 32, 64})
+    ->Args({2000, 1500, 32, 16, 1})
+    ->Args({2000, 1500, 16, 16, 2})
+    ->Args({2000, 1500, 64, 16, 2})
+    ->Args({2000, 1500, 32, 4, 2})
+    ->Args({2000, 1500, 32, 64, 2})
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime()
     ->UseRealTime()
