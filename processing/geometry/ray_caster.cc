@@ -116,13 +116,26 @@ void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, i
   // roots are taken lane by lane: Eigen's packet sqrt is an approximation under its fast math.
   const float dir_y = static_cast<float>(((y + 0.5) - k.cy) / k.fy);
   const float dir_y_sq_plus_one = dir_y * dir_y + 1.0f * 1.0f;
+  // Embree writes only tfar and the hit: what every ray of the row shares is set once.
+  alignas(64) RTCRayHit16 packet;
+  for (int i = 0; i < 16; ++i) {
+    packet.ray.org_x[i] = eye.x();
+    packet.ray.org_y[i] = eye.y();
+    packet.ray.org_z[i] = eye.z();
+    packet.ray.tnear[i] = 0.0f;
+    packet.ray.time[i] = 0.0f;
+    packet.ray.mask[i] = 0xFFFFFFFFu;
+    packet.ray.id[i] = static_cast<unsigned>(i);
+    packet.ray.flags[i] = 0;
+  }
   for (int start = 0; start < count; start += 16) {
-    alignas(64) RTCRayHit16 packet;
     alignas(64) int valid[16];
     Eigen::Array<double, 16, 1> column;
     for (int i = 0; i < 16; ++i) {
       column[i] = (x0 + start + i) + 0.5;
       valid[i] = start + i < count ? -1 : 0;
+      packet.ray.tfar[i] = std::numeric_limits<float>::infinity();
+      packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     }
     const Lanes dir_x = ((column - k.cx) / k.fx).cast<float>();
     Lanes norm = dir_x * dir_x + dir_y_sq_plus_one;
@@ -131,18 +144,6 @@ void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, i
     Eigen::Map<Lanes>(packet.ray.dir_x) = rotation(0, 0) * nx + (rotation(0, 1) * ny + rotation(0, 2) * nz);
     Eigen::Map<Lanes>(packet.ray.dir_y) = rotation(1, 0) * nx + (rotation(1, 1) * ny + rotation(1, 2) * nz);
     Eigen::Map<Lanes>(packet.ray.dir_z) = rotation(2, 0) * nx + (rotation(2, 1) * ny + rotation(2, 2) * nz);
-    for (int i = 0; i < 16; ++i) {
-      packet.ray.org_x[i] = eye.x();
-      packet.ray.org_y[i] = eye.y();
-      packet.ray.org_z[i] = eye.z();
-      packet.ray.tnear[i] = 0.0f;
-      packet.ray.tfar[i] = std::numeric_limits<float>::infinity();
-      packet.ray.time[i] = 0.0f;
-      packet.ray.mask[i] = 0xFFFFFFFFu;
-      packet.ray.id[i] = static_cast<unsigned>(i);
-      packet.ray.flags[i] = 0;
-      packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-    }
     rtcIntersect16(valid, impl_->scene, &context, &packet);
     for (int i = 0; i < 16 && start + i < count; ++i) {
       Hit& hit = hits[static_cast<std::size_t>(start + i)];
