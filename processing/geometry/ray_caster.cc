@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -104,30 +105,45 @@ void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, i
   RELUME_CHECK(static_cast<int>(hits.size()) >= count);
   const Eigen::Matrix3f rotation = camera.world_from_camera.linear().cast<float>();
   const Eigen::Vector3f eye = camera.world_from_camera.translation().cast<float>();
+  const PinholeIntrinsics& k = camera.intrinsics;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  using Lanes = Eigen::Array<float, 16, 1>;
+  // The directions of rotation * Unproject(x + 0.5, y + 0.5).cast<float>().normalized(), 16 at
+  // a time with the same float operations in the same order (Eigen sums three terms as
+  // a0 + (a1 + a2)), so the rays are bit for bit those of a pixel-by-pixel loop. The square
+  // roots are taken lane by lane: Eigen's packet sqrt is an approximation under its fast math.
+  const float dir_y = static_cast<float>(((y + 0.5) - k.cy) / k.fy);
+  const float dir_y_sq_plus_one = dir_y * dir_y + 1.0f * 1.0f;
+  // Embree writes only tfar and the hit: what every ray of the row shares is set once.
+  alignas(64) RTCRayHit16 packet;
+  for (int i = 0; i < 16; ++i) {
+    packet.ray.org_x[i] = eye.x();
+    packet.ray.org_y[i] = eye.y();
+    packet.ray.org_z[i] = eye.z();
+    packet.ray.tnear[i] = 0.0f;
+    packet.ray.time[i] = 0.0f;
+    packet.ray.mask[i] = 0xFFFFFFFFu;
+    packet.ray.id[i] = static_cast<unsigned>(i);
+    packet.ray.flags[i] = 0;
+  }
   for (int start = 0; start < count; start += 16) {
-    alignas(64) RTCRayHit16 packet;
     alignas(64) int valid[16];
+    Eigen::Array<double, 16, 1> column;
     for (int i = 0; i < 16; ++i) {
-      const int x = x0 + start + i;
+      column[i] = (x0 + start + i) + 0.5;
       valid[i] = start + i < count ? -1 : 0;
-      const Eigen::Vector3f d = rotation * camera.intrinsics.Unproject({x + 0.5, y + 0.5}).cast<float>().normalized();
-      packet.ray.org_x[i] = eye.x();
-      packet.ray.org_y[i] = eye.y();
-      packet.ray.org_z[i] = eye.z();
-      packet.ray.dir_x[i] = d.x();
-      packet.ray.dir_y[i] = d.y();
-      packet.ray.dir_z[i] = d.z();
-      packet.ray.tnear[i] = 0.0f;
       packet.ray.tfar[i] = std::numeric_limits<float>::infinity();
-      packet.ray.time[i] = 0.0f;
-      packet.ray.mask[i] = 0xFFFFFFFFu;
-      packet.ray.id[i] = static_cast<unsigned>(i);
-      packet.ray.flags[i] = 0;
       packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     }
+    const Lanes dir_x = ((column - k.cx) / k.fx).cast<float>();
+    Lanes norm = dir_x * dir_x + dir_y_sq_plus_one;
+    for (int i = 0; i < 16; ++i) norm[i] = std::sqrt(norm[i]);
+    const Lanes nx = dir_x / norm, ny = dir_y / norm, nz = 1.0f / norm;
+    Eigen::Map<Lanes>(packet.ray.dir_x) = rotation(0, 0) * nx + (rotation(0, 1) * ny + rotation(0, 2) * nz);
+    Eigen::Map<Lanes>(packet.ray.dir_y) = rotation(1, 0) * nx + (rotation(1, 1) * ny + rotation(1, 2) * nz);
+    Eigen::Map<Lanes>(packet.ray.dir_z) = rotation(2, 0) * nx + (rotation(2, 1) * ny + rotation(2, 2) * nz);
     rtcIntersect16(valid, impl_->scene, &context, &packet);
     for (int i = 0; i < 16 && start + i < count; ++i) {
       Hit& hit = hits[static_cast<std::size_t>(start + i)];
@@ -143,38 +159,119 @@ void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, i
   }
 }
 
-float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
-                         const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples) {
+int RayCaster::CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Eigen::Vector3f> directions,
+                               std::span<const std::uint8_t> use, float t_near, float t_far, bool coherent) const {
+  RELUME_CHECK(use.size() >= directions.size());
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  const std::size_t count = directions.size();
+  int unoccluded = 0;
+  for (std::size_t start = 0; start < count; start += 16) {
+    alignas(64) RTCRay16 packet;
+    alignas(64) int valid[16];
+    bool any = false;
+    for (std::size_t i = 0; i < 16; ++i) {
+      const std::size_t k = start + i;
+      const bool active = k < count && use[k] != 0;
+      any = any || active;
+      valid[i] = active ? -1 : 0;
+      const Eigen::Vector3f& d = k < count ? directions[k] : directions[start];
+      packet.org_x[i] = origin.x();
+      packet.org_y[i] = origin.y();
+      packet.org_z[i] = origin.z();
+      packet.dir_x[i] = d.x();
+      packet.dir_y[i] = d.y();
+      packet.dir_z[i] = d.z();
+      packet.tnear[i] = t_near;
+      packet.tfar[i] = t_far;
+      packet.time[i] = 0.0f;
+      packet.mask[i] = 0xFFFFFFFFu;
+      packet.id[i] = static_cast<unsigned>(i);
+      packet.flags[i] = 0;
+    }
+    if (!any) continue;
+    rtcOccluded16(valid, impl_->scene, &context, &packet);
+    for (std::size_t i = 0; i < 16; ++i) unoccluded += valid[i] != 0 && !(packet.tfar[i] < 0.0f);  // -inf: blocked
+  }
+  return unoccluded;
+}
+
+namespace {
+// Directions from one origin, sent to CountUnoccluded a few packets at a time (no allocation
+// per point).
+class RayBatch {
+ public:
+  RayBatch(const RayCaster& caster, const Eigen::Vector3f& origin, float t_near, bool coherent)
+      : caster_(caster), origin_(origin), t_near_(t_near), coherent_(coherent) {}
+  void Add(const Eigen::Vector3f& direction, bool use) {
+    directions_[size_] = direction;
+    use_[size_] = use ? 1 : 0;
+    if (++size_ == kCapacity) Flush();
+  }
+  int Unoccluded() {
+    Flush();
+    return unoccluded_;
+  }
+
+ private:
+  static constexpr std::size_t kCapacity = 64;
+  void Flush() {
+    if (size_ == 0) return;
+    unoccluded_ += caster_.CountUnoccluded(origin_, std::span(directions_.data(), size_), std::span(use_.data(), size_),
+                                           t_near_, std::numeric_limits<float>::infinity(), coherent_);
+    size_ = 0;
+  }
+  const RayCaster& caster_;
+  Eigen::Vector3f origin_;
+  float t_near_;
+  bool coherent_;
+  std::array<Eigen::Vector3f, kCapacity> directions_;
+  std::array<std::uint8_t, kCapacity> use_{};
+  std::size_t size_ = 0;
+  int unoccluded_ = 0;
+};
+}  // namespace
+
+std::vector<Eigen::Vector3f> SunDiskDirections(const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples) {
   RELUME_CHECK(samples >= 1);
-  const Eigen::Vector3f origin = point + normal * (2.0f * caster.epsilon());
   // Orthonormal frame around the sun direction.
   const Eigen::Vector3f w = sun_dir.normalized();
+  if (samples == 1) return {w};
   const Eigen::Vector3f helper = std::abs(w.z()) < 0.9f ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
   const Eigen::Vector3f u = w.cross(helper).normalized();
   const Eigen::Vector3f v = w.cross(u);
   const float tan_radius = std::tan(angular_radius_rad);
   // Stratified samples on the disk: rings of equal area, evenly spread angles (deterministic).
   const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(samples)))));
-  // Rays start a little off the surface and skip their first few epsilons, so that a point
-  // where two surfaces meet (a wall's foot on the ground) does not shadow itself.
-  const float t_near = 4.0f * caster.epsilon();
-  if (samples == 1) {
-    if (w.dot(normal) <= 0.0f) return 0.0f;
-    return caster.Occluded(origin, w, t_near, std::numeric_limits<float>::infinity()) ? 0.0f : 1.0f;
-  }
-  int visible = 0, total = 0;
+  std::vector<Eigen::Vector3f> directions;
+  directions.reserve(static_cast<std::size_t>(samples));
   for (int s = 0; s < samples; ++s) {
     const int ring = s % rings;
     const int k = s / rings;
     const int per_ring = (samples + rings - 1) / rings;
     const float r = tan_radius * std::sqrt((ring + 0.5f) / rings);
     const float phi = 2.0f * std::numbers::pi_v<float> * (k + 0.5f * (ring % 2)) / per_ring;
-    const Eigen::Vector3f d = (w + u * (r * std::cos(phi)) + v * (r * std::sin(phi))).normalized();
-    ++total;
-    if (d.dot(normal) <= 0.0f) continue;  // this part of the disk is behind the surface
-    if (!caster.Occluded(origin, d, t_near, std::numeric_limits<float>::infinity())) ++visible;
+    directions.push_back((w + u * (r * std::cos(phi)) + v * (r * std::sin(phi))).normalized());
   }
-  return static_cast<float>(visible) / static_cast<float>(total);
+  return directions;
+}
+
+float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                         const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples) {
+  return SunVisibleFraction(caster, point, normal, SunDiskDirections(sun_dir, angular_radius_rad, samples));
+}
+
+float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                         std::span<const Eigen::Vector3f> disk_directions) {
+  RELUME_CHECK(!disk_directions.empty());
+  const Eigen::Vector3f origin = point + normal * (2.0f * caster.epsilon());
+  // Rays start a little off the surface and skip their first few epsilons, so that a point
+  // where two surfaces meet (a wall's foot on the ground) does not shadow itself.
+  RayBatch batch(caster, origin, 4.0f * caster.epsilon(), /*coherent=*/true);
+  // A part of the disk behind the surface counts as blocked.
+  for (const Eigen::Vector3f& d : disk_directions) batch.Add(d, d.dot(normal) > 0.0f);
+  return static_cast<float>(batch.Unoccluded()) / static_cast<float>(disk_directions.size());
 }
 
 float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
@@ -185,12 +282,14 @@ float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, con
   const Eigen::Vector3f helper = std::abs(n.z()) < 0.9f ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
   const Eigen::Vector3f u = n.cross(helper).normalized();
   const Eigen::Vector3f v = n.cross(u);
-  const float t_near = 4.0f * caster.epsilon();  // as SunVisibleFraction: no self-shadowing at creases
+  // As SunVisibleFraction: no self-shadowing at creases. Directions over the hemisphere are
+  // not coherent.
+  RayBatch batch(caster, origin, 4.0f * caster.epsilon(), /*coherent=*/false);
   // Cosine-weighted directions (Malley: uniform on the unit disk, lifted to the hemisphere), one
   // per cell of a rings x sectors grid over the disk's area, so the unblocked share estimates v.
   const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(samples)))));
   const int sectors = std::max(1, (samples + rings - 1) / rings);
-  int unblocked = 0, total = 0;
+  int total = 0;
   for (int ring = 0; ring < rings; ++ring) {
     const float r2 = (ring + 0.5f) / static_cast<float>(rings);  // squared disk radius: equal areas
     const float r = std::sqrt(r2), lift = std::sqrt(std::max(0.0f, 1.0f - r2));
@@ -198,11 +297,10 @@ float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, con
       const float phi = 2.0f * std::numbers::pi_v<float> * (k + 0.5f * (ring % 2)) / static_cast<float>(sectors);
       const Eigen::Vector3f d = u * (r * std::cos(phi)) + v * (r * std::sin(phi)) + n * lift;
       ++total;
-      if (d.z() <= 0.0f) continue;  // below the horizon: ground, not sky
-      if (!caster.Occluded(origin, d, t_near, std::numeric_limits<float>::infinity())) ++unblocked;
+      batch.Add(d, d.z() > 0.0f);  // below the horizon: ground, not sky
     }
   }
-  return static_cast<float>(unblocked) / static_cast<float>(total);
+  return static_cast<float>(batch.Unoccluded()) / static_cast<float>(total);
 }
 
 }  // namespace relume

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <vector>
@@ -32,6 +33,11 @@ class RayCaster {
   };
   Hit Intersect(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float t_near, float t_far) const;
   bool Occluded(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float t_near, float t_far) const;
+  // Rays from one origin along each of `directions` whose `use` entry is non-zero, in packets of
+  // 16 (`coherent`: the directions are close, as over the sun's disk): how many reach t_far
+  // unblocked. The same answers as Occluded per ray, at a fraction of the cost per ray.
+  int CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Eigen::Vector3f> directions,
+                      std::span<const std::uint8_t> use, float t_near, float t_far, bool coherent) const;
 
   // First hits of the camera rays through the centres of pixels [x0, x0+count) of row y, in
   // packets of 16 (coherent rays are several times faster than single rays).
@@ -60,6 +66,13 @@ class RayCaster {
 // 0 when the sun is behind the surface.
 float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
                          const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples);
+// The unit directions SunVisibleFraction samples (stratified over the disk: rings of equal
+// area, evenly spread angles; the sun's centre for one sample). They depend on the sun only: a
+// caller asking about many points computes them once.
+std::vector<Eigen::Vector3f> SunDiskDirections(const Eigen::Vector3f& sun_dir, float angular_radius_rad, int samples);
+// SunVisibleFraction with the disk's directions given (SunDiskDirections).
+float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                         std::span<const Eigen::Vector3f> disk_directions);
 
 // Sky view of a surface point: (1/pi) times the integral of max(0, n . w) over the directions
 // w above the horizon (w_z > 0, the mesh's z is up) that no geometry blocks, i.e. the

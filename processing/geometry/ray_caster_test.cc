@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 namespace relume {
 namespace {
@@ -58,6 +60,56 @@ TEST(RayCasterTest, SunFractionAcrossAShadowEdge) {
   const float middle = SunVisibleFraction(caster, {0, -10.0f, 0}, {0, 0, 1}, sun, radius, 64);
   EXPECT_GT(middle, 0.3f);
   EXPECT_LT(middle, 0.7f);
+}
+
+TEST(RayCasterTest, PacketRaysAnswerAsSingleRays) {
+  // The wall and ground of the shadow-edge test: rays from points on both sides of the shadow
+  // edge, toward directions over the sun's disk and the whole sky, some lanes switched off.
+  TriangleMesh scene = MakeQuad({-50, -50, 0}, {100, 0, 0}, {0, 100, 0}, 8);
+  scene.Append(MakeQuad({-50, 0, 0}, {0, 0, 10}, {100, 0, 0}, 4));
+  const RayCaster caster(scene);
+  const float elevation = 45.0f * 3.14159265f / 180.0f;
+  const Eigen::Vector3f sun(0, std::cos(elevation), std::sin(elevation));
+  const std::vector<Eigen::Vector3f> disk = SunDiskDirections(sun, 0.02f, 37);  // not a multiple of 16
+  ASSERT_EQ(disk.size(), 37u);
+  std::vector<Eigen::Vector3f> sky;
+  for (int i = 0; i < 50; ++i) {
+    const float a = 0.7f * static_cast<float>(i), z = 0.02f * static_cast<float>(i) - 0.1f;
+    sky.push_back(Eigen::Vector3f(std::cos(a), std::sin(a), z).normalized());
+  }
+  int blocked = 0, open = 0;
+  for (float y = -10.3f; y <= -9.7f; y += 0.05f) {
+    const Eigen::Vector3f origin(0.3f, y, 0.01f);
+    for (const std::vector<Eigen::Vector3f>* directions :
+         {&disk, static_cast<const std::vector<Eigen::Vector3f>*>(&sky)}) {
+      std::vector<std::uint8_t> use(directions->size());
+      int expected = 0;
+      for (std::size_t i = 0; i < directions->size(); ++i) {
+        use[i] = i % 5 != 3;
+        if (!use[i]) continue;
+        const bool occluded = caster.Occluded(origin, (*directions)[i], 0.0f, INFINITY);
+        expected += occluded ? 0 : 1;
+        (occluded ? blocked : open) += 1;
+      }
+      EXPECT_EQ(caster.CountUnoccluded(origin, *directions, use, 0.0f, INFINITY, directions == &disk), expected) << y;
+    }
+  }
+  EXPECT_GT(blocked, 100);
+  EXPECT_GT(open, 100);
+  // SunVisibleFraction through the disk's directions: one ray per direction, those behind the
+  // surface counted as blocked.
+  for (float y = -10.3f; y <= -9.7f; y += 0.05f) {
+    const Eigen::Vector3f point(0.3f, y, 0.0f), normal(0, 0, 1);
+    int visible = 0;
+    for (const Eigen::Vector3f& d : disk) {
+      const Eigen::Vector3f origin = point + normal * (2.0f * caster.epsilon());
+      visible += d.dot(normal) > 0.0f && !caster.Occluded(origin, d, 4.0f * caster.epsilon(), INFINITY);
+    }
+    EXPECT_EQ(SunVisibleFraction(caster, point, normal, disk), static_cast<float>(visible) / 37.0f) << y;
+    EXPECT_EQ(SunVisibleFraction(caster, point, normal, sun, 0.02f, 37), static_cast<float>(visible) / 37.0f) << y;
+  }
+  // One sample: the sun's centre.
+  EXPECT_EQ(SunDiskDirections(sun, 0.02f, 1).front(), sun.normalized());
 }
 
 TEST(RayCasterTest, SkyViewMatchesAnalyticViewFactors) {

@@ -408,28 +408,28 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
   return set;
 }
 
-Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun, float sky_view) const {
-  auto at = [&](MapKind kind) {
-    const RatioMap& map = maps[static_cast<std::size_t>(kind)];
-    if (!model_correction || !model.valid) return map.Interpolate(normal);
-    // The map's own pure states: the correction compares normals, not sun fractions.
-    const float fs = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
-    const float ft = (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
-    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft, sky_view);
-    return map.Interpolate(normal, [&](const Eigen::Vector3f& bin_normal, float bin_sky_view) -> Eigen::Vector3f {
-      const Eigen::Vector3f at_bin = model.Ratio(bin_normal, fs, ft, bin_sky_view);
-      if (!Finite(at_normal) || !Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) return Eigen::Vector3f::Constant(kNaN);
-      return at_normal.cwiseQuotient(at_bin);
-    });
-  };
-  if (single_map) {
+namespace {
+// A map's own pure sun states: what the model correction evaluates the model at.
+float MapSourceSun(MapKind kind) {
+  return (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
+}
+float MapTargetSun(MapKind kind) {
+  return (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
+}
+
+// IrmSet::Ratio's choice between the maps, given `at(kind)`, one map's (corrected) value for
+// the normal: shared by IrmSet::Ratio and RatioTable so that both decide alike.
+template <typename MapAt, typename ModelAt>
+Eigen::Vector3f CombineMaps(const IrmSet& set, const MapAt& at, const ModelAt& model_at, float source_sun,
+                            float target_sun) {
+  if (set.single_map) {
     const Eigen::Vector3f r = at(MapKind::kLitToLit);
-    return Finite(r) ? r : model.Ratio(normal, source_sun, target_sun, sky_view);
+    return Finite(r) ? r : model_at();
   }
   // Pure states read their own map; penumbrae blend exactly through the shadow maps (see the
   // top of irm.h).
-  const bool source_lit = source_sun >= lit_threshold, source_shadow = source_sun <= shadow_threshold;
-  const bool target_lit = target_sun >= lit_threshold, target_shadow = target_sun <= shadow_threshold;
+  const bool source_lit = source_sun >= set.lit_threshold, source_shadow = source_sun <= set.shadow_threshold;
+  const bool target_lit = target_sun >= set.lit_threshold, target_shadow = target_sun <= set.shadow_threshold;
   if ((source_lit || source_shadow) && (target_lit || target_shadow)) {
     const MapKind kind = source_lit ? (target_lit ? MapKind::kLitToLit : MapKind::kLitToShadow)
                                     : (target_lit ? MapKind::kShadowToLit : MapKind::kShadowToShadow);
@@ -450,7 +450,139 @@ Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, f
     }
     if (Finite(r)) return r;
   }
-  return model.Ratio(normal, source_sun, target_sun, sky_view);
+  return model_at();
+}
+}  // namespace
+
+Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun, float sky_view) const {
+  auto at = [&](MapKind kind) {
+    const RatioMap& map = maps[static_cast<std::size_t>(kind)];
+    if (!model_correction || !model.valid) return map.Interpolate(normal);
+    // The map's own pure states: the correction compares normals, not sun fractions.
+    const float fs = MapSourceSun(kind), ft = MapTargetSun(kind);
+    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft, sky_view);
+    return map.Interpolate(normal, [&](const Eigen::Vector3f& bin_normal, float bin_sky_view) -> Eigen::Vector3f {
+      const Eigen::Vector3f at_bin = model.Ratio(bin_normal, fs, ft, bin_sky_view);
+      if (!Finite(at_normal) || !Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) return Eigen::Vector3f::Constant(kNaN);
+      return at_normal.cwiseQuotient(at_bin);
+    });
+  };
+  auto model_at = [&] { return model.Ratio(normal, source_sun, target_sun, sky_view); };
+  return CombineMaps(*this, at, model_at, source_sun, target_sun);
+}
+
+RatioTable::RatioTable(const IrmSet& set)
+    : set_(&set), bins_(set.maps[0].bins), correct_(set.model_correction && set.model.valid) {
+  sun_source_.head<3>() = set.model.sun_source.array();
+  sun_target_.head<3>() = set.model.sun_target.array();
+  sky_target_.head<3>() = set.model.sky_target.array();
+  const std::size_t bin_count = static_cast<std::size_t>(bins_) * static_cast<std::size_t>(bins_);
+  for (int k = 0; k < 4; ++k) {
+    const RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    RELUME_CHECK_MSG(map.bins == bins_ && map.ratio.size() == bin_count && map.source.size() == bin_count,
+                     "RatioTable: the maps of an IrmSet share one bin count");
+    const auto kind = static_cast<MapKind>(k);
+    std::vector<Bin>& bins = maps_[static_cast<std::size_t>(k)];
+    bins.resize(bin_count);
+    for (std::size_t b = 0; b < bin_count; ++b) {
+      Bin& bin = bins[b];
+      bin.ratio.head<3>() = map.ratio[b].array();
+      if (!Finite(map.ratio[b])) continue;
+      bin.flags = kFinite | (map.source[b] == 1 ? kMeasured : 0);
+      // As RatioMap::Interpolate's correction: only bins with a mean normal, and only where the
+      // model there is finite and not ~0.
+      if (!correct_ || b >= map.mean_normal.size() || !map.mean_normal[b].allFinite()) continue;
+      const float sky = b < map.mean_sky_view.size() ? map.mean_sky_view[b] : kNaN;
+      const Eigen::Vector3f at_bin = set.model.Ratio(map.mean_normal[b], MapSourceSun(kind), MapTargetSun(kind), sky);
+      if (!Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) continue;
+      bin.ratio_over_model.head<3>() = map.ratio[b].cwiseQuotient(at_bin).array();
+      bin.flags |= kCorrected;
+    }
+  }
+}
+
+RatioTable::NormalTerms RatioTable::Prepare(const Eigen::Vector3f& normal) const {
+  NormalTerms terms;
+  const SunSkyModel& model = set_->model;
+  terms.cos_source = std::max(0.0f, normal.dot(model.sun_dir_source));
+  terms.cos_target = std::max(0.0f, normal.dot(model.sun_dir_target));
+  terms.open_sky = SkyFactor(normal);
+  // The four bins around the normal and their weights: the same arithmetic as
+  // RatioMap::Interpolate, so that the same bins and weights come out.
+  const Eigen::Vector2f uv =
+      OctahedralFromDirection(normal) * static_cast<float>(bins_) - Eigen::Vector2f::Constant(0.5f);
+  const int i0 = static_cast<int>(std::floor(uv.x())), j0 = static_cast<int>(std::floor(uv.y()));
+  const float fx = uv.x() - static_cast<float>(i0), fy = uv.y() - static_cast<float>(j0);
+  std::array<std::size_t, 4> corner{};
+  std::array<float, 4> weight{};
+  for (int dj = 0; dj <= 1; ++dj) {
+    for (int di = 0; di <= 1; ++di) {
+      const int i = std::clamp(i0 + di, 0, bins_ - 1), j = std::clamp(j0 + dj, 0, bins_ - 1);
+      const auto q = static_cast<std::size_t>(2 * dj + di);
+      corner[q] = static_cast<std::size_t>(j * bins_ + i);
+      weight[q] = std::max(1e-4f, (di ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy));
+    }
+  }
+  for (std::size_t k = 0; k < 4; ++k) {
+    const std::vector<Bin>& bins = maps_[k];
+    MapTerms& m = terms.maps[k];
+    // Measured bins first: filled values (smoothing, model) only where no measured neighbour is.
+    for (const std::uint8_t needed : {std::uint8_t{kFinite | kMeasured}, std::uint8_t{kFinite}}) {
+      Eigen::Array4f plain = Eigen::Array4f::Zero(), fixed = Eigen::Array4f::Zero(), corrected = Eigen::Array4f::Zero();
+      float total = 0.0f;
+      for (std::size_t q = 0; q < 4; ++q) {
+        const Bin& bin = bins[corner[q]];
+        if ((bin.flags & needed) != needed) continue;
+        plain += weight[q] * bin.ratio;
+        if (bin.flags & kCorrected) {
+          corrected += weight[q] * bin.ratio_over_model;
+        } else {
+          fixed += weight[q] * bin.ratio;
+        }
+        total += weight[q];
+      }
+      if (total > 0.0f) {
+        m = {plain / total, fixed / total, corrected / total, true};
+        break;
+      }
+    }
+    // No neighbour holds a value: RatioMap::Interpolate then reads the normal's own bin, which
+    // is one of them, so there is no value either (`any` stays false).
+  }
+  return terms;
+}
+
+Eigen::Array4f RatioTable::ModelRatio(const NormalTerms& terms, float source_sun, float target_sun,
+                                      float sky_view) const {
+  if (!set_->model.valid) return Eigen::Array4f::Constant(kNaN);
+  const float h = std::isfinite(sky_view) ? sky_view : terms.open_sky;
+  const float a_s = source_sun * terms.cos_source;
+  const float a_t = target_sun * terms.cos_target;
+  // Lane by lane the operations of SunSkyModel::Ratio, so the same values.
+  const Eigen::Array4f source = sun_source_ * a_s + h;
+  const Eigen::Array4f target = sun_target_ * a_t + sky_target_ * h;
+  return (source > 1e-6f).select(target / source, kNaN);
+}
+
+namespace {
+bool Finite3(const Eigen::Array4f& v) {
+  return v.head<3>().allFinite();
+}
+Eigen::Vector3f Rgb(const Eigen::Array4f& v) {
+  return v.head<3>().matrix();
+}
+}  // namespace
+
+Eigen::Vector3f RatioTable::Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const {
+  auto at = [&](MapKind kind) -> Eigen::Vector3f {
+    const MapTerms& m = terms.maps[static_cast<std::size_t>(kind)];
+    if (!m.any) return Eigen::Vector3f::Constant(kNaN);
+    if (!correct_) return Rgb(m.plain);
+    const Eigen::Array4f at_normal = ModelRatio(terms, MapSourceSun(kind), MapTargetSun(kind), sky_view);
+    return Finite3(at_normal) ? Rgb(m.fixed + at_normal * m.corrected) : Rgb(m.plain);
+  };
+  auto model_at = [&] { return Rgb(ModelRatio(terms, source_sun, target_sun, sky_view)); };
+  return CombineMaps(*set_, at, model_at, source_sun, target_sun);
 }
 
 }  // namespace relume::irm

@@ -33,6 +33,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <string>
@@ -129,6 +130,62 @@ struct IrmSet {
   // samples' mean sky view to this one; NaN: unknown). NaN when nothing covers that normal.
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
                         float sky_view = std::numeric_limits<float>::quiet_NaN()) const;
+};
+
+// IrmSet::Ratio for many lookups (every pixel of a photograph). What depends on a bin only is
+// baked once per map (which bins hold a value, which are measured, and with model_correction
+// the bin's ratio divided by the model at the bin's mean normal and sky view); what depends on
+// the normal only (its four bins and their weights in every map, its cosines to the suns) is
+// prepared once per normal (NormalTerms: RelightPixels keeps them per flat normal, for every
+// pixel of the triangles that share it); what is left per lookup is one model evaluation per
+// map read. IrmSet::Ratio evaluates the model five
+// times per map and redoes the bins each time. Equal to IrmSet::Ratio up to float rounding (the
+// correction's product is regrouped: sum_b w_b ratio_b model(n) / model(b) becomes
+// model(n) sum_b (w_b / w) (ratio_b / model(b))). Keeps a pointer to `set`, which must outlive it.
+class RatioTable {
+ public:
+  explicit RatioTable(const IrmSet& set);
+
+  // One map's interpolated value for a normal: fixed + model(n) x corrected where the model
+  // correction applies and the model at the normal is finite, else plain. (RGB and a fourth
+  // lane of zeros, for 4-wide vector arithmetic.)
+  struct MapTerms {
+    Eigen::Array4f plain = Eigen::Array4f::Zero();      // every bin used, uncorrected, over the weight
+    Eigen::Array4f fixed = Eigen::Array4f::Zero();      // the bins without a correction, over the weight
+    Eigen::Array4f corrected = Eigen::Array4f::Zero();  // sum of w_b ratio_b / model(b), over the weight
+    bool any = false;                                   // some bin around the normal holds a value
+  };
+  struct NormalTerms {
+    float cos_source = 0.0f, cos_target = 0.0f;  // max(0, n . sun) for each photograph's sun
+    float open_sky = 0.0f;                       // (1 + n_z) / 2: the sky view when it is unknown
+    std::array<MapTerms, 4> maps;                // indexed by MapKind
+  };
+  NormalTerms Prepare(const Eigen::Vector3f& normal) const;
+  Eigen::Vector3f Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const;
+  Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
+                        float sky_view = std::numeric_limits<float>::quiet_NaN()) const {
+    return Ratio(Prepare(normal), source_sun, target_sun, sky_view);
+  }
+
+ private:
+  enum BinFlags : std::uint8_t { kFinite = 1, kMeasured = 2, kCorrected = 4 };
+  struct Bin {  // RGB and a fourth lane of zeros
+    Eigen::Array4f ratio = Eigen::Array4f::Zero();
+    Eigen::Array4f ratio_over_model = Eigen::Array4f::Zero();  // kCorrected: ratio / model(bin)
+    std::uint8_t flags = 0;
+  };
+
+  // SunSkyModel::Ratio from the normal's terms, the three channels in one vector division
+  // (the fourth lane is meaningless).
+  Eigen::Array4f ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const;
+
+  const IrmSet* set_;
+  int bins_ = 0;
+  bool correct_ = false;                  // model_correction with a valid model
+  std::array<std::vector<Bin>, 4> maps_;  // indexed by MapKind
+  // The model's coefficients per channel, a fourth lane of zeros for the vector arithmetic.
+  Eigen::Array4f sun_source_ = Eigen::Array4f::Zero(), sun_target_ = Eigen::Array4f::Zero(),
+                 sky_target_ = Eigen::Array4f::Zero();
 };
 
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,

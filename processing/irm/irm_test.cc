@@ -4,7 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <random>
+#include <string>
+#include <utility>
 
 #include "core/error.h"
 
@@ -203,6 +207,67 @@ TEST(IrmTest, DegenerateInputsHaveDefinedOutcomes) {
   IrmOptions bad;
   bad.bins = 1;
   EXPECT_THROW(BuildIrms({}, {0, 0, 1}, {0, 0, 1}, bad), InvalidArgumentError);
+}
+
+// RatioTable bakes what IrmSet::Ratio recomputes per lookup; both must give the same ratio up
+// to float rounding, for every kind of set: four maps with the model correction, one map,
+// smoothing fill, no correction, no valid model, nothing at all.
+TEST(IrmTest, RatioTableGivesIrmSetRatio) {
+  const Truth truth;
+  std::mt19937 rng(5);
+  const std::vector<Sample> shadows = MakeSamples(truth, 20000, true, rng);
+  const std::vector<Sample> lit = MakeSamples(truth, 5000, false, rng);
+  IrmOptions corrected;
+  corrected.bins = 16;
+  IrmOptions smoothing = corrected;
+  smoothing.fill = FillMethod::kSmoothing;
+  IrmOptions uncorrected = corrected;
+  uncorrected.model_correction = false;
+  Sample flat;
+  flat.normal = {0, 0, 1};
+  flat.source_rgb = Eigen::Vector3f::Constant(0.5f);
+  flat.target_rgb = Eigen::Vector3f::Constant(0.6f);
+  const std::vector<std::pair<const char*, IrmSet>> sets = {
+      {"four maps", BuildIrms(shadows, truth.sun_s, truth.sun_t, corrected)},
+      {"one map", BuildIrms(lit, truth.sun_s, truth.sun_t, corrected)},
+      {"smoothing", BuildIrms(shadows, truth.sun_s, truth.sun_t, smoothing)},
+      {"uncorrected", BuildIrms(shadows, truth.sun_s, truth.sun_t, uncorrected)},
+      {"no model", BuildIrms(std::vector<Sample>(100, flat), {0.3f, 0, 0.95f}, {0, 0.3f, 0.95f}, corrected)},
+      {"empty", BuildIrms({}, truth.sun_s, truth.sun_t, corrected)}};
+  std::vector<Eigen::Vector3f> normals = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {0, -1, 0}};
+  for (int j = 0; j < 16; ++j) {  // bin centres and bin corners: the interpolation's edges
+    for (int i = 0; i < 16; ++i) {
+      normals.push_back(DirectionFromOctahedral({(i + 0.5f) / 16, (j + 0.5f) / 16}));
+      normals.push_back(DirectionFromOctahedral({i / 16.0f, j / 16.0f}));
+    }
+  }
+  for (int i = 0; i < 3000; ++i) normals.push_back(RandomDirection(rng));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const auto& [name, set] : sets) {
+    const RatioTable table(set);
+    double worst = 0.0;
+    int finite = 0;
+    for (const Eigen::Vector3f& n : normals) {
+      for (float fs : {0.0f, 0.005f, 0.37f, 0.995f, 1.0f}) {
+        for (float ft : {0.0f, 0.81f, 1.0f}) {
+          for (float sky : {nan, 0.3f, 1.0f}) {
+            const Eigen::Vector3f expected = set.Ratio(n, fs, ft, sky), got = table.Ratio(n, fs, ft, sky);
+            ASSERT_EQ(expected.allFinite(), got.allFinite())
+                << name << " n " << n.transpose() << " fs " << fs << " ft " << ft << " sky " << sky;
+            if (!expected.allFinite()) continue;
+            ++finite;
+            worst =
+                std::max(worst, static_cast<double>((got - expected).cwiseQuotient(expected).cwiseAbs().maxCoeff()));
+          }
+        }
+      }
+    }
+    std::printf("%s: %d finite ratios, worst relative difference %.2e\n", name, finite, worst);
+    EXPECT_LE(worst, 1e-5) << name;
+    if (std::string(name) != "empty") {
+      EXPECT_GT(finite, 1000) << name;
+    }
+  }
 }
 
 }  // namespace

@@ -64,8 +64,13 @@ struct RelightSummary {
   std::int64_t pixels_without_geometry = 0;  // sky, background: left untouched
   std::int64_t pixels_without_ratio = 0;     // geometry but no IRM value or model: left untouched
   std::int64_t pixels_masked = 0;            // View::mask of the source: left untouched
-  double overlap_rms_before = 0.0;           // relative RMS target vs source at vertices seen in both
-  double overlap_rms_after = 0.0;            // ... vs relit source
+  // Pixels that cast their own sun rays (a shadow edge across their triangle, or a vertex
+  // without a fraction) or sky-view rays (a vertex without a sky view): most of the per-pixel
+  // cost beyond the camera rays when there are many.
+  std::int64_t pixels_with_own_sun_rays = 0;
+  std::int64_t pixels_with_own_sky_rays = 0;
+  double overlap_rms_before = 0.0;  // relative RMS target vs source at vertices seen in both
+  double overlap_rms_after = 0.0;   // ... vs relit source
   double preprocess_s = 0.0;
   double build_s = 0.0;
   double relight_s = 0.0;

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "processing/irm/testing_reference.h"
 #include "processing/irm/testing_scene.h"
 
 namespace relume::irm {
@@ -128,6 +129,72 @@ TEST_F(RelightTest, AnOccludedSkyIsFollowedThroughEachSurfacesSkyView) {
   EXPECT_LT(with.lit, 0.02);
   EXPECT_LT(with.shadow, 0.02);
   EXPECT_GT(without.shadow, 2.0 * with.shadow);
+}
+
+// RelightPixels against the plain per-pixel definition (testing_reference.h) on the analytic
+// scene: the same status and sun fractions everywhere, the same relit radiance up to float
+// rounding, with and without sky views, penumbra fractions, exact shadow edges, a mask, and
+// vertices without fractions or sky views (the pixels' own rays).
+TEST_F(RelightTest, RelightPixelsMatchesItsDefinitionPerPixel) {
+  const RadianceImage source = testing::Render(caster_, source_camera_, source_light_);
+  const RadianceImage target = testing::Render(caster_, target_camera_, target_light_);
+  cv::Mat mask(source.height(), source.width(), CV_8UC1, cv::Scalar(0));
+  mask(cv::Rect(90, 60, 20, 15)).setTo(1);
+  struct Case {
+    int sky_samples;
+    bool penumbra, exact_shadow_edges, vertices_without_values;
+  };
+  for (const Case& k : {Case{144, true, true, false}, Case{0, true, true, false}, Case{144, false, true, false},
+                        Case{144, true, false, false}, Case{144, true, true, true}, Case{0, false, false, true}}) {
+    RelightOptions options;
+    options.irm.bins = 24;
+    options.sky_samples = k.sky_samples;
+    options.use_penumbra_fractions = k.penumbra;
+    options.exact_shadow_edges = k.exact_shadow_edges;
+    const View s{&source, source_camera_, source_light_.sun_dir, mask};
+    const View t{&target, target_camera_, target_light_.sun_dir, {}};
+    ViewGeometry gs = ComputeViewGeometry(caster_, s, options);
+    ViewGeometry gt = ComputeViewGeometry(caster_, t, options, /*with_sky_view=*/false);
+    RelightSummary summary;
+    const IrmSet irms = BuildIrmsFromViews(caster_, s, t, gs, gt, options, &summary);
+    if (k.vertices_without_values) {
+      for (std::size_t i = 0; i < gs.sun_fraction.size(); i += 7) gs.sun_fraction[i] = NAN;
+      for (std::size_t i = 0; i < gs.sky_view.size(); i += 5) gs.sky_view[i] = NAN;
+      for (std::size_t i = 3; i < gt.sun_fraction.size(); i += 11) gt.sun_fraction[i] = NAN;
+    }
+    const RelightResult fast = RelightPixels(caster_, s, t, gs, gt, irms, options, summary);
+    const RelightResult plain = testing::RelightPixelsByDefinition(caster_, s, t, gs, gt, irms, options);
+    const testing::RelightDifference d = testing::CompareRelightings(fast, plain);
+    const std::string name = "sky " + std::to_string(k.sky_samples) + " penumbra " + std::to_string(k.penumbra) +
+                             " exact " + std::to_string(k.exact_shadow_edges) + " holes " +
+                             std::to_string(k.vertices_without_values);
+    std::printf("%s: %lld relit, %lld with own sun rays, %lld with own sky rays; largest relative difference %.2e\n",
+                name.c_str(), static_cast<long long>(fast.summary.pixels_relit),
+                static_cast<long long>(fast.summary.pixels_with_own_sun_rays),
+                static_cast<long long>(fast.summary.pixels_with_own_sky_rays), d.max_relative);
+    EXPECT_EQ(d.status_differs, 0) << name;
+    EXPECT_EQ(d.fraction_differs, 0) << name;
+    EXPECT_LE(d.max_relative, 1e-5) << name;
+    EXPECT_GT(fast.summary.pixels_relit, 10000) << name;
+    std::int64_t masked = 0;  // mask pixels with geometry
+    for (int y = 0; y < mask.rows; ++y) {
+      for (int x = 0; x < mask.cols; ++x) masked += mask.at<std::uint8_t>(y, x) && plain.status.at<std::uint8_t>(y, x);
+    }
+    EXPECT_EQ(fast.summary.pixels_masked, masked) << name;
+    EXPECT_GT(masked, 0) << name;
+    if (k.exact_shadow_edges || k.vertices_without_values) {
+      EXPECT_GT(fast.summary.pixels_with_own_sun_rays, 100) << name;
+    }
+    EXPECT_EQ(fast.summary.pixels_with_own_sky_rays > 0, k.vertices_without_values && k.sky_samples > 0) << name;
+    // Per-worker caches must not make a pixel depend on which worker relit it.
+    RelightOptions other_threads = options;
+    other_threads.threads = options.threads == 1 ? 3 : 1;
+    const testing::RelightDifference threads =
+        testing::CompareRelightings(RelightPixels(caster_, s, t, gs, gt, irms, other_threads, summary), fast);
+    EXPECT_EQ(threads.status_differs, 0) << name;
+    EXPECT_EQ(threads.fraction_differs, 0) << name;
+    EXPECT_EQ(threads.max_relative, 0.0) << name;
+  }
 }
 
 TEST_F(RelightTest, NoCastShadowMeansOneMap) {

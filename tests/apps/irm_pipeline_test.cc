@@ -19,6 +19,7 @@
 #include "core/frames.h"
 #include "core/time.h"
 #include "processing/irm/relight.h"
+#include "processing/irm/testing_reference.h"
 #include "tests/apps/cli_runner.h"
 
 namespace relume::app::process {
@@ -201,6 +202,48 @@ TEST(IrmAccuracyTest, NoiseFreeRelightingBeatsTheBaselineInEveryRegion) {
   const NoiseFreeCase bits = RunNoiseFree(false);
   EXPECT_LT(bits.relit.lit, 0.01);
   EXPECT_LT(bits.relit.all, 0.2 * bits.baseline.all);
+}
+
+// RelightPixels against its plain per-pixel definition (processing/irm/testing_reference.h) on
+// the simulated world's noise-free renders: the dome's smooth vertex normals take the
+// per-pixel path, the flat walls and ground the per-triangle one.
+TEST(IrmAccuracyTest, RelightPixelsMatchesItsDefinitionOnTheWorld) {
+  const RigConfig rig = LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
+  PinholeCamera camera = rig.devices.front().camera;
+  camera.intrinsics = PinholeIntrinsics::FromHorizontalFov(320, 240, DegToRad(70.0));
+  const UtcTime morning = ParseIso8601("2026-06-21T09:00:00+03:00").utc;
+  const UtcTime afternoon = ParseIso8601("2026-06-21T15:00:00+03:00").utc;
+  const sim::GroundTruth source = rig.world->Render(camera, morning);
+  const sim::GroundTruth target = rig.world->Render(camera, afternoon);
+  const TriangleMesh mesh = ProcessingMeshFromScene(rig.world->scene(), IrmMeshOptions{});
+  int smooth_triangles = 0;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    const Eigen::Vector3f& n0 = mesh.normals[static_cast<std::size_t>(t[0])];
+    smooth_triangles +=
+        n0 != mesh.normals[static_cast<std::size_t>(t[1])] || n0 != mesh.normals[static_cast<std::size_t>(t[2])];
+  }
+  ASSERT_GT(smooth_triangles, 100);  // the dome
+  const RayCaster caster(mesh);
+  for (const bool penumbra : {true, false}) {
+    irm::RelightOptions options;
+    options.use_penumbra_fractions = penumbra;
+    const irm::View s{&source.radiance, camera, rig.world->SunDirection(morning).cast<float>(), {}};
+    const irm::View t{&target.radiance, camera, rig.world->SunDirection(afternoon).cast<float>(), {}};
+    const irm::ViewGeometry gs = irm::ComputeViewGeometry(caster, s, options);
+    const irm::ViewGeometry gt = irm::ComputeViewGeometry(caster, t, options, /*with_sky_view=*/false);
+    irm::RelightSummary summary;
+    const irm::IrmSet irms = irm::BuildIrmsFromViews(caster, s, t, gs, gt, options, &summary);
+    const irm::RelightResult fast = irm::RelightPixels(caster, s, t, gs, gt, irms, options, summary);
+    const irm::RelightResult plain = irm::testing::RelightPixelsByDefinition(caster, s, t, gs, gt, irms, options);
+    const irm::testing::RelightDifference d = irm::testing::CompareRelightings(fast, plain);
+    std::printf("penumbra %d: %lld relit, %lld with own sun rays; largest relative difference %.2e\n", penumbra,
+                static_cast<long long>(fast.summary.pixels_relit),
+                static_cast<long long>(fast.summary.pixels_with_own_sun_rays), d.max_relative);
+    EXPECT_EQ(d.status_differs, 0);
+    EXPECT_EQ(d.fraction_differs, 0);
+    EXPECT_LE(d.max_relative, 1e-5);
+    EXPECT_GT(fast.summary.pixels_relit, 20000);
+  }
 }
 
 // Counts the decisions of a run with this action, per stage prefix.

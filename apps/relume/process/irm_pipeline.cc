@@ -326,6 +326,8 @@ nlohmann::json SummaryJson(const irm::RelightSummary& s) {
           {"pixels_without_geometry", s.pixels_without_geometry},
           {"pixels_without_ratio", s.pixels_without_ratio},
           {"pixels_masked", s.pixels_masked},
+          {"pixels_with_own_sun_rays", s.pixels_with_own_sun_rays},
+          {"pixels_with_own_sky_rays", s.pixels_with_own_sky_rays},
           {"overlap_vertex_rms_before", s.overlap_rms_before},
           {"overlap_vertex_rms_after", s.overlap_rms_after},
           {"build_s", s.build_s},
