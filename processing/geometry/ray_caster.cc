@@ -160,8 +160,10 @@ void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, i
 }
 
 int RayCaster::CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Eigen::Vector3f> directions,
-                               std::span<const std::uint8_t> use, float t_near, float t_far, bool coherent) const {
+                               std::span<const std::uint8_t> use, float t_near, float t_far, bool coherent,
+                               std::span<const float> weights, double* weight_sum) const {
   RELUME_CHECK(use.size() >= directions.size());
+  RELUME_CHECK(weight_sum == nullptr || weights.size() >= directions.size());
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
@@ -192,7 +194,11 @@ int RayCaster::CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Ei
     }
     if (!any) continue;
     rtcOccluded16(valid, impl_->scene, &context, &packet);
-    for (std::size_t i = 0; i < 16; ++i) unoccluded += valid[i] != 0 && !(packet.tfar[i] < 0.0f);  // -inf: blocked
+    for (std::size_t i = 0; i < 16; ++i) {
+      if (valid[i] == 0 || packet.tfar[i] < 0.0f) continue;  // inactive, or blocked (-inf)
+      ++unoccluded;
+      if (weight_sum != nullptr) *weight_sum += weights[start + i];
+    }
   }
   return unoccluded;
 }
@@ -204,14 +210,20 @@ class RayBatch {
  public:
   RayBatch(const RayCaster& caster, const Eigen::Vector3f& origin, float t_near, bool coherent)
       : caster_(caster), origin_(origin), t_near_(t_near), coherent_(coherent) {}
-  void Add(const Eigen::Vector3f& direction, bool use) {
+  void Add(const Eigen::Vector3f& direction, bool use, float weight = 0.0f) {
     directions_[size_] = direction;
     use_[size_] = use ? 1 : 0;
+    weights_[size_] = weight;
     if (++size_ == kCapacity) Flush();
   }
   int Unoccluded() {
     Flush();
     return unoccluded_;
+  }
+  // The sum of the weights of the unblocked rays.
+  double UnoccludedWeight() {
+    Flush();
+    return weight_sum_;
   }
 
  private:
@@ -219,7 +231,8 @@ class RayBatch {
   void Flush() {
     if (size_ == 0) return;
     unoccluded_ += caster_.CountUnoccluded(origin_, std::span(directions_.data(), size_), std::span(use_.data(), size_),
-                                           t_near_, std::numeric_limits<float>::infinity(), coherent_);
+                                           t_near_, std::numeric_limits<float>::infinity(), coherent_,
+                                           std::span(weights_.data(), size_), &weight_sum_);
     size_ = 0;
   }
   const RayCaster& caster_;
@@ -228,8 +241,10 @@ class RayBatch {
   bool coherent_;
   std::array<Eigen::Vector3f, kCapacity> directions_;
   std::array<std::uint8_t, kCapacity> use_{};
+  std::array<float, kCapacity> weights_{};
   std::size_t size_ = 0;
   int unoccluded_ = 0;
+  double weight_sum_ = 0.0;
 };
 }  // namespace
 
@@ -274,8 +289,8 @@ float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, 
   return static_cast<float>(batch.Unoccluded()) / static_cast<float>(disk_directions.size());
 }
 
-float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
-                      int samples) {
+SkyView SkyViewMoments(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                       int samples) {
   RELUME_CHECK(samples >= 1);
   const Eigen::Vector3f n = normal.normalized();
   const Eigen::Vector3f origin = point + n * (2.0f * caster.epsilon());
@@ -286,7 +301,8 @@ float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, con
   // not coherent.
   RayBatch batch(caster, origin, 4.0f * caster.epsilon(), /*coherent=*/false);
   // Cosine-weighted directions (Malley: uniform on the unit disk, lifted to the hemisphere), one
-  // per cell of a rings x sectors grid over the disk's area, so the unblocked share estimates v.
+  // per cell of a rings x sectors grid over the disk's area, so the unblocked share estimates v
+  // and the unblocked rays' mean elevation sine (blocked ones counting 0) estimates m.
   const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(samples)))));
   const int sectors = std::max(1, (samples + rings - 1) / rings);
   int total = 0;
@@ -297,10 +313,18 @@ float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, con
       const float phi = 2.0f * std::numbers::pi_v<float> * (k + 0.5f * (ring % 2)) / static_cast<float>(sectors);
       const Eigen::Vector3f d = u * (r * std::cos(phi)) + v * (r * std::sin(phi)) + n * lift;
       ++total;
-      batch.Add(d, d.z() > 0.0f);  // below the horizon: ground, not sky
+      batch.Add(d, d.z() > 0.0f, d.z());  // below the horizon: ground, not sky
     }
   }
-  return static_cast<float>(batch.Unoccluded()) / static_cast<float>(total);
+  SkyView sky;
+  sky.view = static_cast<float>(batch.Unoccluded()) / static_cast<float>(total);
+  sky.zenith_moment = static_cast<float>(batch.UnoccludedWeight() / total);
+  return sky;
+}
+
+float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                      int samples) {
+  return SkyViewMoments(caster, point, normal, samples).view;
 }
 
 }  // namespace relume

@@ -36,8 +36,11 @@ class RayCaster {
   // Rays from one origin along each of `directions` whose `use` entry is non-zero, in packets of
   // 16 (`coherent`: the directions are close, as over the sun's disk): how many reach t_far
   // unblocked. The same answers as Occluded per ray, at a fraction of the cost per ray.
+  // With `weights` (one per direction) and `weight_sum`, also adds the weights of the
+  // unblocked rays to *weight_sum.
   int CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Eigen::Vector3f> directions,
-                      std::span<const std::uint8_t> use, float t_near, float t_far, bool coherent) const;
+                      std::span<const std::uint8_t> use, float t_near, float t_far, bool coherent,
+                      std::span<const float> weights = {}, double* weight_sum = nullptr) const;
 
   // First hits of the camera rays through the centres of pixels [x0, x0+count) of row y, in
   // packets of 16 (coherent rays are several times faster than single rays).
@@ -82,5 +85,16 @@ float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, 
 // pattern (about sqrt(samples) x sqrt(samples) cells; the estimate is the unblocked share).
 float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
                       int samples);
+
+// The sky view v (SkyViewFraction) and, from the same rays, the sky's zenith moment
+// m = (1/pi) times the integral of w_z max(0, n . w) over the same unblocked directions: the
+// irradiance a sky of radiance w_z / pi gives (2/3 on open flat ground, 0 when only the horizon
+// is open). A sky L(w) = a (1 + g w_z) gives E = pi a (v + g m) (processing/irm/sky_shape.h).
+struct SkyView {
+  float view = 0.0f;
+  float zenith_moment = 0.0f;
+};
+SkyView SkyViewMoments(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                       int samples);
 
 }  // namespace relume

@@ -138,5 +138,31 @@ TEST(RayCasterTest, SkyViewMatchesAnalyticViewFactors) {
   }
 }
 
+TEST(RayCasterTest, SkyZenithMomentMatchesAnalyticIntegrals) {
+  // m = (1/pi) int z max(0, n . w) over the unblocked sky (w_z > 0).
+  const TriangleMesh ground = MakeQuad({-50, -50, 0}, {100, 0, 0}, {0, 100, 0}, 2);
+  const RayCaster open(ground);
+  // Open ground: (1/pi) int cos^2 = 2/3, with the same sky view as SkyViewFraction.
+  const SkyView up = SkyViewMoments(open, {0, 0, 0}, {0, 0, 1}, 1024);
+  EXPECT_NEAR(up.view, 1.0f, 1e-6f);
+  EXPECT_NEAR(up.zenith_moment, 2.0f / 3.0f, 0.01f);
+  EXPECT_EQ(up.view, SkyViewFraction(open, {0, 0, 0}, {0, 0, 1}, 1024));
+  // An open vertical wall facing +x: (1/pi) int_{z>0, x>0} z x = (1/pi) (2)(1/3) = 2 / (3 pi).
+  const SkyView wall_face = SkyViewMoments(open, {0, 0, 5}, {1, 0, 0}, 1024);
+  EXPECT_NEAR(wall_face.view, 0.5f, 0.02f);
+  EXPECT_NEAR(wall_face.zenith_moment, 2.0f / (3.0f * std::numbers::pi_v<float>), 0.01f);
+  // The ground at the foot of a very tall, long wall: half of open ground's sky, both moments.
+  TriangleMesh both = ground;
+  both.Append(MakeQuad({5, -1000, 0}, {0, 2000, 0}, {0, 0, 1000}, 1));
+  const RayCaster caster(both);
+  const SkyView foot = SkyViewMoments(caster, {4.5f, 0, 0}, {0, 0, 1}, 1024);
+  EXPECT_NEAR(foot.view, 0.5f, 0.02f);
+  EXPECT_NEAR(foot.zenith_moment, 1.0f / 3.0f, 0.015f);  // plus the sliver above the wall 0.5 m away
+  // Below the horizon there is no sky: a downward normal sees none of either.
+  const SkyView down = SkyViewMoments(open, {0, 0, 5}, {0, 0, -1}, 256);
+  EXPECT_EQ(down.view, 0.0f);
+  EXPECT_EQ(down.zenith_moment, 0.0f);
+}
+
 }  // namespace
 }  // namespace relume

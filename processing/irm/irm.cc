@@ -22,6 +22,12 @@ float SkyFactor(const Eigen::Vector3f& n) {
 float SkyView(const Eigen::Vector3f& n, float sky_view) {
   return std::isfinite(sky_view) ? sky_view : SkyFactor(n);
 }
+// The sky term of one photograph and channel: v + g m with the sky's shape g (top of irm.h);
+// v alone (a uniform sky) when the view or the moment is unknown.
+float SkyTerm(const Eigen::Vector3f& n, float sky_view, float sky_moment, float gradient) {
+  if (!std::isfinite(sky_view) || !std::isfinite(sky_moment)) return SkyView(n, sky_view);
+  return sky_view + gradient * sky_moment;
+}
 
 enum class State { kLit, kShadow, kPenumbra };
 State Classify(float fraction, const IrmOptions& o) {
@@ -101,15 +107,14 @@ int RatioMap::BinOf(const Eigen::Vector3f& normal) const {
 }
 
 Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal) const {
-  return Interpolate(normal, [](const Eigen::Vector3f&, float) { return Eigen::Vector3f::Ones().eval(); });
+  return Interpolate(normal, [](std::size_t) { return Eigen::Vector3f::Ones().eval(); });
 }
 
 template <typename Correction>
 Eigen::Vector3f RatioMap::Interpolate(const Eigen::Vector3f& normal, const Correction& correction) const {
   auto value = [&](std::size_t b) -> Eigen::Vector3f {
-    if (b >= mean_normal.size() || !mean_normal[b].allFinite()) return ratio[b];
-    const float sky = b < mean_sky_view.size() ? mean_sky_view[b] : kNaN;
-    const Eigen::Vector3f c = correction(mean_normal[b], sky);
+    if (b >= model_ratio.size() || !model_ratio[b].allFinite()) return ratio[b];
+    const Eigen::Vector3f c = correction(b);
     return c.allFinite() ? ratio[b].cwiseProduct(c).eval() : ratio[b];
   };
   const Eigen::Vector2f uv =
@@ -139,15 +144,15 @@ int RatioMap::measured_bins() const {
   return static_cast<int>(std::count(source.begin(), source.end(), std::uint8_t{1}));
 }
 
-Eigen::Vector3f SunSkyModel::Ratio(const Eigen::Vector3f& n, float source_sun, float target_sun, float sky_view) const {
+Eigen::Vector3f SunSkyModel::Ratio(const Eigen::Vector3f& n, float source_sun, float target_sun, float sky_view,
+                                   float sky_moment) const {
   if (!valid) return Eigen::Vector3f::Constant(kNaN);
-  const float h = SkyView(n, sky_view);
   const float a_s = source_sun * std::max(0.0f, n.dot(sun_dir_source));
   const float a_t = target_sun * std::max(0.0f, n.dot(sun_dir_target));
   Eigen::Vector3f ratio;
   for (int c = 0; c < 3; ++c) {
-    const float source = sun_source[c] * a_s + h;
-    const float target = sun_target[c] * a_t + sky_target[c] * h;
+    const float source = sun_source[c] * a_s + SkyTerm(n, sky_view, sky_moment, sky_gradient_source[c]);
+    const float target = sun_target[c] * a_t + sky_target[c] * SkyTerm(n, sky_view, sky_moment, sky_gradient_target[c]);
     ratio[c] = source > 1e-6f ? target / source : kNaN;  // a downward normal sees neither sun nor sky
   }
   return ratio;
@@ -172,10 +177,13 @@ Eigen::Vector3f TrimmedMean(std::vector<Eigen::Vector3f>& values, float trim) {
 // Fits the model to the measured bins (robust means, so sampling noise is averaged out
 // first), each bin a row weighted by the square root of its sample count.
 SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> counts, const Eigen::Vector3f& sun_s,
-                     const Eigen::Vector3f& sun_t) {
+                     const Eigen::Vector3f& sun_t, const Eigen::Vector3f& gradient_s,
+                     const Eigen::Vector3f& gradient_t) {
   SunSkyModel model;
   model.sun_dir_source = sun_s.normalized();
   model.sun_dir_target = sun_t.normalized();
+  model.sky_gradient_source = gradient_s;
+  model.sky_gradient_target = gradient_t;
   std::vector<std::size_t> rows;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     if (SkyView(samples[i].normal, samples[i].sky_view) > 0.05f) rows.push_back(i);
@@ -191,16 +199,17 @@ SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> co
     for (std::size_t r = 0; r < rows.size(); ++r) {
       const Sample& s = samples[rows[r]];
       const double ratio = s.target_rgb[c] / s.source_rgb[c];
-      const double h = SkyView(s.normal, s.sky_view);
+      const double h_s = SkyTerm(s.normal, s.sky_view, s.sky_moment, gradient_s[c]);
+      const double h_t = SkyTerm(s.normal, s.sky_view, s.sky_moment, gradient_t[c]);
       const double a_s = s.source_sun * std::max(0.0f, s.normal.dot(model.sun_dir_source));
       const double a_t = s.target_sun * std::max(0.0f, s.normal.dot(model.sun_dir_target));
-      // Unknowns (S_s, S_t, K_t): S_t a_t + K_t h - ratio a_s S_s = ratio h, divided by
-      // ratio * h so that every row weighs its relative error.
-      const double w = std::sqrt(counts[rows[r]]) / (ratio * h);
+      // Unknowns (S_s, S_t, K_t): S_t a_t + K_t h_t - ratio a_s S_s = ratio h_s, divided by
+      // ratio * h_s so that every row weighs its relative error.
+      const double w = std::sqrt(counts[rows[r]]) / (ratio * h_s);
       const auto row = static_cast<Eigen::Index>(r);
       a(row, 0) = -ratio * a_s * w;
       a(row, 1) = a_t * w;
-      a(row, 2) = h * w;
+      a(row, 2) = h_t * w;
       b(row) = std::sqrt(counts[rows[r]]);
     }
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
@@ -269,15 +278,23 @@ void FillBySmoothing(RatioMap& map, float sigma) {
 }  // namespace
 
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,
-                 const Eigen::Vector3f& sun_dir_target, const IrmOptions& options) {
+                 const Eigen::Vector3f& sun_dir_target, const IrmOptions& options,
+                 const Eigen::Vector3f& sky_gradient_source, const Eigen::Vector3f& sky_gradient_target) {
+  if (!sky_gradient_source.allFinite() || !sky_gradient_target.allFinite() ||
+      (Eigen::Vector3f::Ones() + sky_gradient_source).minCoeff() <= 0.0f ||
+      (Eigen::Vector3f::Ones() + sky_gradient_target).minCoeff() <= 0.0f) {
+    throw InvalidArgumentError("IRMs: a sky gradient must be finite and above -1 (a sky brighter than black)");
+  }
   ThrowIfInvalid(options, "IRM options");
   IrmSet set;
   set.lit_threshold = options.lit_threshold;
   set.shadow_threshold = options.shadow_threshold;
   const std::size_t bin_count = static_cast<std::size_t>(options.bins * options.bins);
   std::array<std::vector<std::vector<Eigen::Vector3f>>, 4> per_bin;
+  std::array<std::vector<std::vector<std::size_t>>, 4> bin_samples;  // indices into samples, as per_bin
   std::array<std::vector<Eigen::Vector3f>, 4> normal_sum;
-  std::array<std::vector<double>, 4> sky_sum;  // of the samples' sky views (NaN once one is unknown)
+  std::array<std::vector<double>, 4> sky_sum;     // of the samples' sky views (NaN once one is unknown)
+  std::array<std::vector<double>, 4> moment_sum;  // of their zenith moments (likewise)
   for (int k = 0; k < 4; ++k) {
     set.maps[static_cast<std::size_t>(k)].bins = options.bins;
     set.maps[static_cast<std::size_t>(k)].ratio.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
@@ -285,7 +302,11 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     set.maps[static_cast<std::size_t>(k)].source.assign(bin_count, 0);
     set.maps[static_cast<std::size_t>(k)].mean_normal.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
     set.maps[static_cast<std::size_t>(k)].mean_sky_view.assign(bin_count, kNaN);
+    set.maps[static_cast<std::size_t>(k)].mean_sky_moment.assign(bin_count, kNaN);
+    set.maps[static_cast<std::size_t>(k)].model_ratio.assign(bin_count, Eigen::Vector3f::Constant(kNaN));
+    bin_samples[static_cast<std::size_t>(k)].resize(bin_count);
     sky_sum[static_cast<std::size_t>(k)].assign(bin_count, 0.0);
+    moment_sum[static_cast<std::size_t>(k)].assign(bin_count, 0.0);
     per_bin[static_cast<std::size_t>(k)].resize(bin_count);
     normal_sum[static_cast<std::size_t>(k)].assign(bin_count, Eigen::Vector3f::Zero());
   }
@@ -308,8 +329,10 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     RatioMap& map = set.maps[static_cast<std::size_t>(kind)];
     const auto bin = static_cast<std::size_t>(map.BinOf(s.normal.normalized()));
     per_bin[static_cast<std::size_t>(kind)][bin].push_back(s.target_rgb.cwiseQuotient(s.source_rgb));
+    bin_samples[static_cast<std::size_t>(kind)][bin].push_back(i);
     normal_sum[static_cast<std::size_t>(kind)][bin] += s.normal.normalized();
     sky_sum[static_cast<std::size_t>(kind)][bin] += s.sky_view;  // NaN stays NaN: unknown
+    moment_sum[static_cast<std::size_t>(kind)][bin] += s.sky_moment;
     ++set.samples_used;
   }
   for (int k = 0; k < 4; ++k) {
@@ -322,6 +345,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
         map.source[b] = 1;
         map.mean_normal[b] = normal_sum[static_cast<std::size_t>(k)][b].normalized();
         map.mean_sky_view[b] = static_cast<float>(sky_sum[static_cast<std::size_t>(k)][b] / values.size());
+        map.mean_sky_moment[b] = static_cast<float>(moment_sum[static_cast<std::size_t>(k)][b] / values.size());
       }
     }
   }
@@ -338,6 +362,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       Sample row;
       row.normal = normal_sum[static_cast<std::size_t>(k)][b].normalized();
       row.sky_view = map.mean_sky_view[b];
+      row.sky_moment = map.mean_sky_moment[b];
       row.source_rgb = Eigen::Vector3f::Ones();
       row.target_rgb = map.ratio[b];
       row.source_sun = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
@@ -346,7 +371,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       bin_counts.push_back(map.count[b]);
     }
   }
-  set.model = FitModel(bin_rows, bin_counts, sun_dir_source, sun_dir_target);
+  set.model = FitModel(bin_rows, bin_counts, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
   if (!set.model.valid || set.model.rms_relative_residual > 0.01) {
     // Bin means smear the ratio across a bin; with exact data the samples themselves fit
     // better. Keep whichever explains the data best.
@@ -359,9 +384,36 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       }
     }
     const std::vector<double> ones(usable_samples.size(), 1.0);
-    SunSkyModel per_sample = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target);
+    SunSkyModel per_sample =
+        FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
     if (per_sample.valid && (!set.model.valid || per_sample.rms_relative_residual < set.model.rms_relative_residual)) {
       set.model = per_sample;
+    }
+  }
+
+  // The model correction's reference per measured bin: the model's ratio at the bin's own
+  // samples, averaged as their ratios were. The ratio is far from linear in a sample's sky view
+  // (a shadowed surface's 1 / v), so the model at the bin's mean sky view is not what the bin's
+  // mean ratio measured when the bin mixes open ground with ground beside a wall.
+  if (set.model.valid) {
+    std::vector<Eigen::Vector3f> at_samples;
+    for (int k = 0; k < 4; ++k) {
+      RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+      const auto kind = static_cast<MapKind>(k);
+      const float fs = (kind == MapKind::kLitToLit || kind == MapKind::kLitToShadow) ? 1.0f : 0.0f;
+      const float ft = (kind == MapKind::kLitToLit || kind == MapKind::kShadowToLit) ? 1.0f : 0.0f;
+      for (std::size_t b = 0; b < bin_count; ++b) {
+        if (map.source[b] != 1) continue;
+        at_samples.clear();
+        for (std::size_t i : bin_samples[static_cast<std::size_t>(k)][b]) {
+          const Sample& s = samples[i];
+          const Eigen::Vector3f r = set.model.Ratio(s.normal.normalized(), fs, ft, s.sky_view, s.sky_moment);
+          if (Finite(r) && r.minCoeff() > 1e-6f) at_samples.push_back(r);
+        }
+        if (at_samples.size() == bin_samples[static_cast<std::size_t>(k)][b].size()) {
+          map.model_ratio[b] = TrimmedMean(at_samples, options.trim_fraction);
+        }
+      }
     }
   }
 
@@ -382,6 +434,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
           map.ratio[b] = ratio;
           map.source[b] = 3;
           map.mean_normal[b] = centre;
+          if (ratio.minCoeff() > 1e-6f) map.model_ratio[b] = ratio;  // the model at its centre, open plane
         }
       }
     } else if (options.fill != FillMethod::kNone) {
@@ -454,20 +507,20 @@ Eigen::Vector3f CombineMaps(const IrmSet& set, const MapAt& at, const ModelAt& m
 }
 }  // namespace
 
-Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun, float sky_view) const {
+Eigen::Vector3f IrmSet::Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun, float sky_view,
+                              float sky_moment) const {
   auto at = [&](MapKind kind) {
     const RatioMap& map = maps[static_cast<std::size_t>(kind)];
     if (!model_correction || !model.valid) return map.Interpolate(normal);
     // The map's own pure states: the correction compares normals, not sun fractions.
     const float fs = MapSourceSun(kind), ft = MapTargetSun(kind);
-    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft, sky_view);
-    return map.Interpolate(normal, [&](const Eigen::Vector3f& bin_normal, float bin_sky_view) -> Eigen::Vector3f {
-      const Eigen::Vector3f at_bin = model.Ratio(bin_normal, fs, ft, bin_sky_view);
-      if (!Finite(at_normal) || !Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) return Eigen::Vector3f::Constant(kNaN);
-      return at_normal.cwiseQuotient(at_bin);
+    const Eigen::Vector3f at_normal = model.Ratio(normal, fs, ft, sky_view, sky_moment);
+    return map.Interpolate(normal, [&](std::size_t b) -> Eigen::Vector3f {
+      if (!Finite(at_normal)) return Eigen::Vector3f::Constant(kNaN);
+      return at_normal.cwiseQuotient(map.model_ratio[b]);
     });
   };
-  auto model_at = [&] { return model.Ratio(normal, source_sun, target_sun, sky_view); };
+  auto model_at = [&] { return model.Ratio(normal, source_sun, target_sun, sky_view, sky_moment); };
   return CombineMaps(*this, at, model_at, source_sun, target_sun);
 }
 
@@ -476,12 +529,13 @@ RatioTable::RatioTable(const IrmSet& set)
   sun_source_.head<3>() = set.model.sun_source.array();
   sun_target_.head<3>() = set.model.sun_target.array();
   sky_target_.head<3>() = set.model.sky_target.array();
+  sky_gradient_source_.head<3>() = set.model.sky_gradient_source.array();
+  sky_gradient_target_.head<3>() = set.model.sky_gradient_target.array();
   const std::size_t bin_count = static_cast<std::size_t>(bins_) * static_cast<std::size_t>(bins_);
   for (int k = 0; k < 4; ++k) {
     const RatioMap& map = set.maps[static_cast<std::size_t>(k)];
     RELUME_CHECK_MSG(map.bins == bins_ && map.ratio.size() == bin_count && map.source.size() == bin_count,
                      "RatioTable: the maps of an IrmSet share one bin count");
-    const auto kind = static_cast<MapKind>(k);
     std::vector<Bin>& bins = maps_[static_cast<std::size_t>(k)];
     bins.resize(bin_count);
     for (std::size_t b = 0; b < bin_count; ++b) {
@@ -489,12 +543,9 @@ RatioTable::RatioTable(const IrmSet& set)
       bin.ratio.head<3>() = map.ratio[b].array();
       if (!Finite(map.ratio[b])) continue;
       bin.flags = kFinite | (map.source[b] == 1 ? kMeasured : 0);
-      // As RatioMap::Interpolate's correction: only bins with a mean normal, and only where the
-      // model there is finite and not ~0.
-      if (!correct_ || b >= map.mean_normal.size() || !map.mean_normal[b].allFinite()) continue;
-      const float sky = b < map.mean_sky_view.size() ? map.mean_sky_view[b] : kNaN;
-      const Eigen::Vector3f at_bin = set.model.Ratio(map.mean_normal[b], MapSourceSun(kind), MapTargetSun(kind), sky);
-      if (!Finite(at_bin) || at_bin.minCoeff() <= 1e-6f) continue;
+      // As RatioMap::Interpolate's correction: only bins with a model reference.
+      if (!correct_ || b >= map.model_ratio.size() || !Finite(map.model_ratio[b])) continue;
+      const Eigen::Vector3f& at_bin = map.model_ratio[b];
       bin.ratio_over_model.head<3>() = map.ratio[b].cwiseQuotient(at_bin).array();
       bin.flags |= kCorrected;
     }
@@ -552,15 +603,21 @@ RatioTable::NormalTerms RatioTable::Prepare(const Eigen::Vector3f& normal) const
   return terms;
 }
 
-Eigen::Array4f RatioTable::ModelRatio(const NormalTerms& terms, float source_sun, float target_sun,
-                                      float sky_view) const {
+Eigen::Array4f RatioTable::ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view,
+                                      float sky_moment) const {
   if (!set_->model.valid) return Eigen::Array4f::Constant(kNaN);
-  const float h = std::isfinite(sky_view) ? sky_view : terms.open_sky;
   const float a_s = source_sun * terms.cos_source;
   const float a_t = target_sun * terms.cos_target;
-  // Lane by lane the operations of SunSkyModel::Ratio, so the same values.
-  const Eigen::Array4f source = sun_source_ * a_s + h;
-  const Eigen::Array4f target = sun_target_ * a_t + sky_target_ * h;
+  // Lane by lane the operations of SunSkyModel::Ratio (and SkyTerm), so the same values.
+  Eigen::Array4f h_s, h_t;
+  if (std::isfinite(sky_view) && std::isfinite(sky_moment)) {
+    h_s = sky_view + sky_gradient_source_ * sky_moment;
+    h_t = sky_view + sky_gradient_target_ * sky_moment;
+  } else {
+    h_s = h_t = Eigen::Array4f::Constant(std::isfinite(sky_view) ? sky_view : terms.open_sky);
+  }
+  const Eigen::Array4f source = sun_source_ * a_s + h_s;
+  const Eigen::Array4f target = sun_target_ * a_t + sky_target_ * h_t;
   return (source > 1e-6f).select(target / source, kNaN);
 }
 
@@ -573,15 +630,16 @@ Eigen::Vector3f Rgb(const Eigen::Array4f& v) {
 }
 }  // namespace
 
-Eigen::Vector3f RatioTable::Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const {
+Eigen::Vector3f RatioTable::Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view,
+                                  float sky_moment) const {
   auto at = [&](MapKind kind) -> Eigen::Vector3f {
     const MapTerms& m = terms.maps[static_cast<std::size_t>(kind)];
     if (!m.any) return Eigen::Vector3f::Constant(kNaN);
     if (!correct_) return Rgb(m.plain);
-    const Eigen::Array4f at_normal = ModelRatio(terms, MapSourceSun(kind), MapTargetSun(kind), sky_view);
+    const Eigen::Array4f at_normal = ModelRatio(terms, MapSourceSun(kind), MapTargetSun(kind), sky_view, sky_moment);
     return Finite3(at_normal) ? Rgb(m.fixed + at_normal * m.corrected) : Rgb(m.plain);
   };
-  auto model_at = [&] { return Rgb(ModelRatio(terms, source_sun, target_sun, sky_view)); };
+  auto model_at = [&] { return Rgb(ModelRatio(terms, source_sun, target_sun, sky_view, sky_moment)); };
   return CombineMaps(*set_, at, model_at, source_sun, target_sun);
 }
 

@@ -28,6 +28,11 @@
 //    in the penumbra, gives R(n, f_s, f_t) from the four maps exactly:
 //      R = [f_t (R_sl / R_ss - 1) + 1] / [f_s (1 / R_ls - 1 / R_ss) + 1 / R_ss]
 //    where R_xy is the map from source state x to target state y (l = lit, s = shadow).
+//  - A sky brighter at the horizon than at the zenith (or darker) weighs directions unequally:
+//    with the sky's shape L(w) = a (1 + g w_z) measured in each photograph (sky_shape.h), the
+//    sky term v becomes v + g_s m in the source and v + g_t m in the target, m the surface's
+//    zenith moment (SkyViewMoments: (1/pi) times the integral of w_z max(0, n . w) over the
+//    same unblocked directions). g = 0, or m unknown (NaN), is the uniform sky above.
 //  - Empty bins can instead be filled by a Gaussian kernel over the sphere (Beauchesne & Roy).
 #pragma once
 
@@ -74,7 +79,8 @@ struct Sample {
   Eigen::Vector3f target_rgb;
   float source_sun = 1.0f;  // visible sun fraction when each photograph was taken
   float target_sun = 1.0f;
-  float sky_view = std::numeric_limits<float>::quiet_NaN();  // v (top of this file); NaN: unknown
+  float sky_view = std::numeric_limits<float>::quiet_NaN();    // v (top of this file); NaN: unknown
+  float sky_moment = std::numeric_limits<float>::quiet_NaN();  // m (top of this file); NaN: unknown
 };
 
 Eigen::Vector2f OctahedralFromDirection(const Eigen::Vector3f& n);  // unit vector -> [0, 1]^2
@@ -87,13 +93,19 @@ struct RatioMap {
   std::vector<std::uint8_t> source;          // 0 empty, 1 measured, 2 smoothing, 3 model
   std::vector<Eigen::Vector3f> mean_normal;  // measured: mean sample normal; model: bin centre; else NaN
   std::vector<float> mean_sky_view;          // measured: mean sample sky view (NaN: unknown, open plane)
+  std::vector<float> mean_sky_moment;        // measured: mean sample zenith moment (NaN: unknown, uniform sky)
+  // What the model correction divides by: for a measured bin, the sun + sky model's ratio at
+  // each of the bin's samples (their normals, sky views and moments, the map's pure sun
+  // states), averaged as the bin's ratio is (trimmed mean); for a model-filled bin, the model at
+  // its centre. NaN: no correction for this bin (no valid model, smoothing fill, empty).
+  std::vector<Eigen::Vector3f> model_ratio;
   int BinOf(const Eigen::Vector3f& normal) const;
   int measured_bins() const;
   // Bilinear interpolation between the centres of the four nearest bins that hold a value
   // (weights renormalised over those); NaN when none does.
   Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal) const;
-  // The same, each bin's value times correction(bin's mean normal, bin's mean sky view) where
-  // it has a mean normal.
+  // The same, each bin's value times correction(bin index) where the bin has a finite
+  // model_ratio and the correction is finite.
   template <typename Correction>
   Eigen::Vector3f Interpolate(const Eigen::Vector3f& normal, const Correction& correction) const;
 };
@@ -106,12 +118,18 @@ struct SunSkyModel {
   Eigen::Vector3f sky_target = Eigen::Vector3f::Zero();  // K_t
   Eigen::Vector3f sun_dir_source = Eigen::Vector3f::UnitZ();
   Eigen::Vector3f sun_dir_target = Eigen::Vector3f::UnitZ();
+  // The sky's shape in each photograph, g per channel (sky_shape.h; 0: uniform). Inputs of the
+  // fit, not fitted.
+  Eigen::Vector3f sky_gradient_source = Eigen::Vector3f::Zero();
+  Eigen::Vector3f sky_gradient_target = Eigen::Vector3f::Zero();
   double rms_relative_residual = 0.0;  // of the fitted ratios
   double condition_number = 0.0;       // of the weighted least-squares system (worst channel)
   std::string reason;                  // why invalid, when it is
-  // `sky_view` NaN: the open-plane value (1 + n_z) / 2.
+  // `sky_view` NaN: the open-plane value (1 + n_z) / 2; `sky_moment` NaN (or sky_view NaN):
+  // the sky taken as uniform.
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
-                        float sky_view = std::numeric_limits<float>::quiet_NaN()) const;
+                        float sky_view = std::numeric_limits<float>::quiet_NaN(),
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const;
 };
 
 struct IrmSet {
@@ -127,9 +145,11 @@ struct IrmSet {
   bool model_correction = true;
   // The ratio for a normal, the two sun fractions (penumbrae interpolate exactly between maps)
   // and the surface's sky view (with model_correction, a bin's ratio is carried from its
-  // samples' mean sky view to this one; NaN: unknown). NaN when nothing covers that normal.
+  // samples' mean sky view to this one; NaN: unknown) and zenith moment (NaN: a uniform sky).
+  // NaN when nothing covers that normal.
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
-                        float sky_view = std::numeric_limits<float>::quiet_NaN()) const;
+                        float sky_view = std::numeric_limits<float>::quiet_NaN(),
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const;
 };
 
 // IrmSet::Ratio for many lookups (every pixel of a photograph). What depends on a bin only is
@@ -161,10 +181,12 @@ class RatioTable {
     std::array<MapTerms, 4> maps;                // indexed by MapKind
   };
   NormalTerms Prepare(const Eigen::Vector3f& normal) const;
-  Eigen::Vector3f Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const;
+  Eigen::Vector3f Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view,
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const;
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
-                        float sky_view = std::numeric_limits<float>::quiet_NaN()) const {
-    return Ratio(Prepare(normal), source_sun, target_sun, sky_view);
+                        float sky_view = std::numeric_limits<float>::quiet_NaN(),
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const {
+    return Ratio(Prepare(normal), source_sun, target_sun, sky_view, sky_moment);
   }
 
  private:
@@ -177,18 +199,24 @@ class RatioTable {
 
   // SunSkyModel::Ratio from the normal's terms, the three channels in one vector division
   // (the fourth lane is meaningless).
-  Eigen::Array4f ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view) const;
+  Eigen::Array4f ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view,
+                            float sky_moment) const;
 
   const IrmSet* set_;
   int bins_ = 0;
   bool correct_ = false;                  // model_correction with a valid model
   std::array<std::vector<Bin>, 4> maps_;  // indexed by MapKind
   // The model's coefficients per channel, a fourth lane of zeros for the vector arithmetic.
+  Eigen::Array4f sky_gradient_source_ = Eigen::Array4f::Zero(), sky_gradient_target_ = Eigen::Array4f::Zero();
   Eigen::Array4f sun_source_ = Eigen::Array4f::Zero(), sun_target_ = Eigen::Array4f::Zero(),
                  sky_target_ = Eigen::Array4f::Zero();
 };
 
+// `sky_gradient_*`: the sky's shape g in each photograph (sky_shape.h; zero: uniform), used
+// with the samples' zenith moments.
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,
-                 const Eigen::Vector3f& sun_dir_target, const IrmOptions& options);
+                 const Eigen::Vector3f& sun_dir_target, const IrmOptions& options,
+                 const Eigen::Vector3f& sky_gradient_source = Eigen::Vector3f::Zero(),
+                 const Eigen::Vector3f& sky_gradient_target = Eigen::Vector3f::Zero());
 
 }  // namespace relume::irm

@@ -185,13 +185,16 @@ std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vect
 }
 
 std::vector<float> VertexSkyViews(const RayCaster& caster, int samples, int threads,
-                                  const std::vector<std::uint8_t>* needed) {
+                                  const std::vector<std::uint8_t>* needed, std::vector<float>* zenith_moments) {
   const TriangleMesh& mesh = caster.mesh();
   std::vector<float> sky(mesh.vertex_count(), std::numeric_limits<float>::quiet_NaN());
+  if (zenith_moments != nullptr) zenith_moments->assign(mesh.vertex_count(), std::numeric_limits<float>::quiet_NaN());
   ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
     const auto k = static_cast<std::size_t>(i);
     if (needed != nullptr && (*needed)[k] == 0) return;
-    sky[k] = SkyViewFraction(caster, mesh.positions[k], mesh.normals[k], samples);
+    const SkyView view = SkyViewMoments(caster, mesh.positions[k], mesh.normals[k], samples);
+    sky[k] = view.view;
+    if (zenith_moments != nullptr) (*zenith_moments)[k] = view.zenith_moment;
   });
   return sky;
 }
@@ -230,7 +233,13 @@ ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, cons
   geometry.sun_fraction = VertexSunFractions(caster, view.sun_dir, options.sun_samples, options.sun_angular_radius_rad,
                                              options.threads, &near);
   if (with_sky_view && options.sky_samples > 0)
-    geometry.sky_view = VertexSkyViews(caster, options.sky_samples, options.threads, &near);
+    geometry.sky_view = VertexSkyViews(caster, options.sky_samples, options.threads, &near, &geometry.sky_moment);
+  if (options.sky_samples > 0 && options.sky_gradient) {
+    geometry.sky_shape =
+        FitSkyShape(caster, view.image->pixels, view.camera, view.mask, view.sun_dir.normalized(), options.sky_shape);
+  } else {
+    geometry.sky_shape.reason = options.sky_samples > 0 ? "sky_gradient is off" : "no sky views (sky_samples 0)";
+  }
   if (!options.use_penumbra_fractions) {
     for (float& f : geometry.sun_fraction) {
       if (!std::isnan(f)) f = f >= 0.5f ? 1.0f : 0.0f;
@@ -271,6 +280,7 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     s.source_sun = source_geometry.sun_fraction[i];
     s.target_sun = target_geometry.sun_fraction[i];
     if (!source_geometry.sky_view.empty()) s.sky_view = source_geometry.sky_view[i];
+    if (!source_geometry.sky_moment.empty()) s.sky_moment = source_geometry.sky_moment[i];
     keep[static_cast<std::size_t>(k)] =
         ConsistentSample(caster, source, source_from_world, source_disk, i, s.source_sun, options, &s.source_rgb) &&
         ConsistentSample(caster, target, target_from_world, target_disk, i, s.target_sun, options, &s.target_rgb);
@@ -280,13 +290,15 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     if (keep[k]) samples.push_back(candidates[k]);
   }
   summary->consistent_samples = static_cast<int>(samples.size());
-  IrmSet irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm);
+  // Each photograph's sky shape (zero, a uniform sky, where it was not measured).
+  IrmSet irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm,
+                          source_geometry.sky_shape.gradient, target_geometry.sky_shape.gradient);
   summary->irm_summary = irms.summary;
   double before = 0.0, after = 0.0;
   int compared = 0;
   for (const Sample& s : samples) {
     if (!s.source_rgb.allFinite() || !s.target_rgb.allFinite() || s.target_rgb.minCoeff() <= 0.0f) continue;
-    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun, s.sky_view);
+    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun, s.sky_view, s.sky_moment);
     if (!ratio.allFinite()) continue;
     before += (s.source_rgb - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
     after += (s.source_rgb.cwiseProduct(ratio) - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
@@ -310,7 +322,8 @@ struct PixelContext {
   const View& source;
   const std::vector<float>& sun_source;
   const std::vector<float>& sun_target;
-  const std::vector<float>& sky_view;  // the source's; empty without sky views
+  const std::vector<float>& sky_view;    // the source's; empty without sky views
+  const std::vector<float>& sky_moment;  // the source's zenith moments; empty without
   const RelightOptions& options;
   Eigen::Vector3f source_sun_dir, target_sun_dir;  // normalised
   std::vector<Eigen::Vector3f> source_disk, target_disk;
@@ -336,7 +349,7 @@ struct PixelCounts {
 struct TriangleTerms {
   int triangle = -1;
   // The vertices' fractions and sky views (NaN without sky views), read once per triangle.
-  std::array<float, 3> source_sun{}, target_sun{}, sky_view{};
+  std::array<float, 3> source_sun{}, target_sun{}, sky_view{}, sky_moment{};
   bool own_source = false, own_target = false, own_sky = false;
   bool flat = false;
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
@@ -393,6 +406,7 @@ void PrepareTriangle(const PixelContext& c, int triangle, NormalTermsCache& norm
     t.source_sun[k] = c.sun_source[vertex];
     t.target_sun[k] = c.sun_target[vertex];
     t.sky_view[k] = c.sky_view.empty() ? std::numeric_limits<float>::quiet_NaN() : c.sky_view[vertex];
+    t.sky_moment[k] = c.sky_moment.empty() ? std::numeric_limits<float>::quiet_NaN() : c.sky_moment[vertex];
   }
   // An interpolated value is NaN exactly when a vertex's is.
   if (AnyNaN(c.sun_source, tri) || AnyNaN(c.sun_target, tri)) {
@@ -430,14 +444,17 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
     }
     ++counts.own_sun_rays;
   }
-  float sky = std::numeric_limits<float>::quiet_NaN();
+  float sky = std::numeric_limits<float>::quiet_NaN(), moment = std::numeric_limits<float>::quiet_NaN();
   if (t.own_sky) {  // a vertex outside the view's neighbourhood: the pixel's own rays
-    sky = SkyViewFraction(caster, caster.Interpolate(mesh.positions, hit), normal, c.options.sky_samples);
+    const SkyView own = SkyViewMoments(caster, caster.Interpolate(mesh.positions, hit), normal, c.options.sky_samples);
+    sky = own.view;
+    if (!c.sky_moment.empty()) moment = own.zenith_moment;
     ++counts.own_sky_rays;
   } else if (!c.sky_view.empty()) {
     sky = InterpolateAt(t.sky_view, hit);
+    if (!c.sky_moment.empty()) moment = InterpolateAt(t.sky_moment, hit);
   }
-  return t.flat ? c.ratios.Ratio(*t.ratio_terms, *fs, *ft, sky) : c.ratios.Ratio(normal, *fs, *ft, sky);
+  return t.flat ? c.ratios.Ratio(*t.ratio_terms, *fs, *ft, sky, moment) : c.ratios.Ratio(normal, *fs, *ft, sky, moment);
 }
 
 // One row of the source: every output pixel is written here (no image is filled beforehand).
@@ -492,12 +509,14 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
   RELUME_CHECK(source_geometry.sun_fraction.size() == mesh.vertex_count() &&
                target_geometry.sun_fraction.size() == mesh.vertex_count());
   RELUME_CHECK(source_geometry.sky_view.empty() || source_geometry.sky_view.size() == mesh.vertex_count());
+  RELUME_CHECK(source_geometry.sky_moment.empty() || source_geometry.sky_moment.size() == mesh.vertex_count());
   const Eigen::Vector3f source_sun_dir = source.sun_dir.normalized(), target_sun_dir = target.sun_dir.normalized();
   const PixelContext context{caster,
                              source,
                              source_geometry.sun_fraction,
                              target_geometry.sun_fraction,
                              source_geometry.sky_view,  // the source's pixels are relit
+                             source_geometry.sky_moment,
                              options,
                              source_sun_dir,
                              target_sun_dir,

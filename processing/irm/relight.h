@@ -25,6 +25,7 @@
 #include "core/pinhole.h"
 #include "processing/geometry/ray_caster.h"
 #include "processing/irm/irm.h"
+#include "processing/irm/sky_shape.h"
 
 namespace relume::irm {
 
@@ -34,6 +35,11 @@ struct RelightOptions {
   // Cosine-weighted rays per vertex for its sky view (SkyViewFraction; irm.h says how the sun +
   // sky model uses it). 0: not computed, every surface counts as open to the sky.
   int sky_samples = 144;
+  // Measure the sky's brightness against elevation in each photograph's own sky pixels
+  // (FitSkyShape) and weigh each surface's sky by it (irm.h). Needs sky_samples > 0; without
+  // enough sky in a photograph its sky is taken as uniform, and the view geometry says why.
+  bool sky_gradient = true;
+  SkyShapeOptions sky_shape;
   float sun_angular_radius_rad = 0.5f * 0.533f * 3.14159265f / 180.0f;
   bool use_penumbra_fractions = true;
   // Pixels on triangles whose vertices disagree about the sun (a shadow edge crosses them)
@@ -98,9 +104,11 @@ std::vector<std::uint8_t> VertexVisibility(const RayCaster& caster, const Pinhol
 std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vector3f& sun_dir, int samples,
                                       float angular_radius_rad, int threads,
                                       const std::vector<std::uint8_t>* needed = nullptr);
-// Per-vertex sky views (SkyViewFraction) where needed[i] is non-zero (all with null), NaN elsewhere.
+// Per-vertex sky views (SkyViewFraction) where needed[i] is non-zero (all with null), NaN elsewhere;
+// with `zenith_moments`, the same vertices' zenith moments from the same rays (SkyViewMoments).
 std::vector<float> VertexSkyViews(const RayCaster& caster, int samples, int threads,
-                                  const std::vector<std::uint8_t>* needed = nullptr);
+                                  const std::vector<std::uint8_t>* needed = nullptr,
+                                  std::vector<float>* zenith_moments = nullptr);
 // Vertices in front of the camera whose projection falls within the image widened by half its
 // size on every side: the vertices a photograph's pixels can interpolate from.
 std::vector<std::uint8_t> VerticesNearView(const TriangleMesh& mesh, const PinholeCamera& camera);
@@ -120,6 +128,11 @@ struct ViewGeometry {
   // RelightOptions::sky_samples is 0 or `with_sky_view` was false. It depends on the geometry
   // only, and only the source photograph's is used (its pixels are the ones relit).
   std::vector<float> sky_view;
+  // The same vertices' zenith moments (SkyViewMoments), with sky_view; empty without.
+  std::vector<float> sky_moment;
+  // The sky's shape measured in this photograph (RelightOptions::sky_gradient; not measured:
+  // gradient 0, a uniform sky, with the reason).
+  SkyShape sky_shape;
   double seconds = 0.0;
 };
 ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, const RelightOptions& options,

@@ -62,12 +62,17 @@ inline RelightResult RelightPixelsByDefinition(const RayCaster& caster, const Vi
       }
       result.source_sun.at<float>(y, x) = fs;
       result.target_sun.at<float>(y, x) = ft;
-      float sky = nan;
+      float sky = nan, moment = nan;
       if (!source_geometry.sky_view.empty()) {
         sky = caster.Interpolate(source_geometry.sky_view, hit);
-        if (std::isnan(sky)) sky = SkyViewFraction(caster, point, normal, options.sky_samples);
+        if (!source_geometry.sky_moment.empty()) moment = caster.Interpolate(source_geometry.sky_moment, hit);
+        if (std::isnan(sky)) {
+          const SkyView own = SkyViewMoments(caster, point, normal, options.sky_samples);
+          sky = own.view;
+          if (!source_geometry.sky_moment.empty()) moment = own.zenith_moment;
+        }
       }
-      const Eigen::Vector3f ratio = irms.Ratio(normal, fs, ft, sky);
+      const Eigen::Vector3f ratio = irms.Ratio(normal, fs, ft, sky, moment);
       if (!ratio.allFinite()) {
         result.status.at<std::uint8_t>(y, x) = kNoRatio;
         continue;

@@ -155,7 +155,7 @@ SceneGeometry LoadGeometry(PipelineRun& run) {
 
 irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const RayCaster& caster, const irm::View& view,
                             const irm::RelightOptions& options, const StageKey& mesh_key, StageKey* key) {
-  key->Add("stage", "irm-view-v3").AddKey("mesh", mesh_key);
+  key->Add("stage", "irm-view-v4").AddKey("mesh", mesh_key);
   AddCamera(*key, "camera", view.camera);
   for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
   key->Add("sun_samples", options.sun_samples).Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
@@ -175,6 +175,8 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
               static_cast<std::streamsize>(geometry.sun_fraction.size() * sizeof(float)));
     out.write(reinterpret_cast<const char*>(geometry.sky_view.data()),
               static_cast<std::streamsize>(geometry.sky_view.size() * sizeof(float)));
+    out.write(reinterpret_cast<const char*>(geometry.sky_moment.data()),
+              static_cast<std::streamsize>(geometry.sky_moment.size() * sizeof(float)));
     if (!out) throw IoError((dir / "vertices.bin").string(), "cannot be written");
     out.close();
     WriteJsonFile(dir / "view.json", {{"vertices", geometry.visible.size()},
@@ -192,9 +194,29 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
     if (with_sky_view) {
       geometry.sky_view.resize(n);
       in.read(reinterpret_cast<char*>(geometry.sky_view.data()), static_cast<std::streamsize>(n * sizeof(float)));
+      geometry.sky_moment.resize(n);
+      in.read(reinterpret_cast<char*>(geometry.sky_moment.data()), static_cast<std::streamsize>(n * sizeof(float)));
     }
     if (!in) throw IoError((stage.dir / "vertices.bin").string(), "is short or unreadable; run with --force");
     geometry.visible_in_cast_shadow = ReadJsonFile(stage.dir / "view.json")["visible_in_cast_shadow"].get<int>();
+  }
+  // The sky's shape is the photograph's, not the geometry's: measured on every run (a fraction of
+  // a second), and the build stage's key holds the radiance it comes from.
+  if (options.sky_samples > 0 && options.sky_gradient) {
+    geometry.sky_shape = irm::FitSkyShape(caster, view.image->pixels, view.camera, view.mask, view.sun_dir.normalized(),
+                                          options.sky_shape);
+    const irm::SkyShape& shape = geometry.sky_shape;
+    char text[200];
+    if (shape.measured) {
+      std::snprintf(text, sizeof(text),
+                    "sky brightness against elevation from %d sky pixels (%.0f to %.0f deg): g = %.3f, %.3f, %.3f",
+                    shape.pixels, shape.min_elevation_rad * 180.0 / std::numbers::pi,
+                    shape.max_elevation_rad * 180.0 / std::numbers::pi, shape.gradient.x(), shape.gradient.y(),
+                    shape.gradient.z());
+      run.Decide("irm-sky-" + role, "note", text);
+    } else {
+      run.Decide("irm-sky-" + role, "note", "sky taken as uniform: " + shape.reason);
+    }
   }
   return geometry;
 }
@@ -390,6 +412,13 @@ nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
     nlohmann::json sky = nlohmann::json::array();
     for (float v : map.mean_sky_view) sky.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
     m["mean_sky_view"] = std::move(sky);
+    nlohmann::json moment = nlohmann::json::array();
+    for (float v : map.mean_sky_moment)
+      moment.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
+    m["mean_sky_moment"] = std::move(moment);
+    nlohmann::json reference = nlohmann::json::array();
+    for (const Eigen::Vector3f& r : map.model_ratio) reference.push_back(VecJson(r));
+    m["model_ratio"] = std::move(reference);
     j["maps"].push_back(std::move(m));
   }
   const irm::SunSkyModel& model = set.model;
@@ -397,6 +426,8 @@ nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
                 {"sun_source", VecJson(model.sun_source)},
                 {"sun_target", VecJson(model.sun_target)},
                 {"sky_target", VecJson(model.sky_target)},
+                {"sky_gradient_source", VecJson(model.sky_gradient_source)},
+                {"sky_gradient_target", VecJson(model.sky_gradient_target)},
                 {"sun_dir_source", VecJson(model.sun_dir_source)},
                 {"sun_dir_target", VecJson(model.sun_dir_target)},
                 {"rms_relative_residual", model.rms_relative_residual},
@@ -425,9 +456,23 @@ irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
     for (const nlohmann::json& n : m.at("mean_normal")) map.mean_normal.push_back(VecFromJson(n));
     for (const nlohmann::json& v : m.at("mean_sky_view"))
       map.mean_sky_view.push_back(v.is_null() ? kNaN : v.get<float>());
+    // Files from before 2026-12-02 have no model references (no correction) and no moments (a
+    // uniform sky).
+    if (m.contains("model_ratio")) {
+      for (const nlohmann::json& r : m.at("model_ratio")) map.model_ratio.push_back(VecFromJson(r));
+    } else {
+      map.model_ratio.assign(map.ratio.size(), Eigen::Vector3f::Constant(kNaN));
+    }
+    if (m.contains("mean_sky_moment")) {
+      for (const nlohmann::json& v : m.at("mean_sky_moment"))
+        map.mean_sky_moment.push_back(v.is_null() ? kNaN : v.get<float>());
+    } else {
+      map.mean_sky_moment.assign(map.mean_sky_view.size(), kNaN);
+    }
     const std::size_t bins = static_cast<std::size_t>(map.bins) * static_cast<std::size_t>(map.bins);
     if (map.count.size() != bins || map.source.size() != bins || map.ratio.size() != bins ||
-        map.mean_normal.size() != bins || map.mean_sky_view.size() != bins) {
+        map.mean_normal.size() != bins || map.mean_sky_view.size() != bins || map.mean_sky_moment.size() != bins ||
+        map.model_ratio.size() != bins) {
       throw InvalidArgumentError("IRM file: map " + std::to_string(k) + " has the wrong number of bins");
     }
   }
@@ -436,6 +481,10 @@ irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
   set.model.sun_source = VecFromJson(model.at("sun_source"));
   set.model.sun_target = VecFromJson(model.at("sun_target"));
   set.model.sky_target = VecFromJson(model.at("sky_target"));
+  if (model.contains("sky_gradient_source")) {
+    set.model.sky_gradient_source = VecFromJson(model.at("sky_gradient_source"));
+    set.model.sky_gradient_target = VecFromJson(model.at("sky_gradient_target"));
+  }
   set.model.sun_dir_source = VecFromJson(model.at("sun_dir_source"));
   set.model.sun_dir_target = VecFromJson(model.at("sun_dir_target"));
   set.model.rms_relative_residual = model.at("rms_relative_residual").get<double>();
@@ -615,6 +664,7 @@ void RunIrmPipeline(PipelineRun& run) {
   options.exact_shadow_edges = run.Setting("exact_shadow_edges", options.exact_shadow_edges);
   options.threads = run.Setting("threads", options.threads);
   options.irm.model_correction = run.Setting("model_correction", options.irm.model_correction);
+  options.sky_gradient = run.Setting("sky_gradient", options.sky_gradient);
   const bool compare_truth = run.Setting("compare_truth", true);
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgumentError("irm settings: " + why);
@@ -650,7 +700,8 @@ void RunIrmPipeline(PipelineRun& run) {
       ViewStage(run, "target", caster, target, options, geometry.key, &target_view_key);
   // IRM build.
   StageKey build_key;
-  build_key.Add("stage", "irm-build-v2").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
+  build_key.Add("stage", "irm-build-v3").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
+  build_key.Add("sky_gradient", options.sky_samples > 0 && options.sky_gradient);
   build_key.AddKey("source_radiance", source_radiance.key).AddKey("target_radiance", target_radiance.key);
   build_key.Add("bins", options.irm.bins).Add("lit", static_cast<double>(options.irm.lit_threshold));
   build_key.Add("shadow", static_cast<double>(options.irm.shadow_threshold));
@@ -735,6 +786,18 @@ void RunIrmPipeline(PipelineRun& run) {
   m["irm"]["visible_in_cast_shadow"] = {{"source", source_geometry.visible_in_cast_shadow},
                                         {"target", target_geometry.visible_in_cast_shadow}};
   m["irm"]["single_map"] = irms.single_map;
+  auto sky_json = [](const irm::SkyShape& shape) {
+    return nlohmann::json{
+        {"measured", shape.measured},
+        {"gradient", VecJson(shape.gradient)},
+        {"pixels", shape.pixels},
+        {"elevation_deg",
+         {shape.min_elevation_rad * 180.0 / std::numbers::pi, shape.max_elevation_rad * 180.0 / std::numbers::pi}},
+        {"rms_relative_residual", shape.rms_relative_residual},
+        {"reason", shape.reason}};
+  };
+  m["irm"]["sky_shape"] = {{"source", sky_json(source_geometry.sky_shape)},
+                           {"target", sky_json(target_geometry.sky_shape)}};
 
   // Against the simulated world's truth: the source camera under the target's sun.
   if (compare_truth && run.rig() != nullptr && run.rig()->world) {
