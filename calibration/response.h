@@ -56,8 +56,8 @@ enum class ResponseSmoothness {
   kCode,
   // z^-2 d2g/d(ln z)^2 = g''(z) + g'(z) / z: the same weight per code as kCode, but its null
   // space g = a + b ln z is every power law X = c z^b, i.e. gamma encodings and linear codes
-  // (b = 1). Better for power-law-like curves, worse for some S-shaped tone curves (see
-  // docs/calibration.md).
+  // (b = 1). The default: on sparse brackets it is as good or better for every test curve
+  // but one S-shaped tone curve (docs/calibration.md).
   kLogCode,
 };
 const char* ToString(ResponseSmoothness smoothness);
@@ -69,9 +69,10 @@ struct ResponseOptions {
   // intensity range of the reference frame and over the image; flat regions preferred.
   int sample_count = 300;
   // Debevec: weight of the second-derivative smoothness term (relative to hat weights in
-  // [0, 1]). Larger = smoother curve.
-  double lambda = 40.0;
-  ResponseSmoothness smoothness = ResponseSmoothness::kCode;
+  // [0, 1]). Larger = smoother curve. 60 suits kLogCode; kCode was tuned at 40 (Debevec's
+  // earlier default: smoothness kCode with lambda 40).
+  double lambda = 60.0;
+  ResponseSmoothness smoothness = ResponseSmoothness::kLogCode;
   // Debevec: the curve is also solved with the other smoothness term; where the two differ by
   // more than this (largest relative difference of X over well-exposed codes), the data do not
   // determine the curve and the summary is flagged low_confidence.
