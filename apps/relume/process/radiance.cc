@@ -151,6 +151,9 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   merge.saturation_margin = run.Setting("merge_saturation_margin", merge.saturation_margin);
   calibration::ResponseOptions response_options;
   response_options.sample_count = run.Setting("response_samples", response_options.sample_count);
+  response_options.lambda = run.Setting("response_lambda", response_options.lambda);
+  response_options.smoothness = calibration::ResponseSmoothnessFromString(
+      run.Setting("response_smoothness", std::string(calibration::ToString(response_options.smoothness))));
   std::string why;
   if (!merge.IsValid(&why)) throw InvalidArgumentError("merge settings: " + why);
   if (!response_options.IsValid(&why)) throw InvalidArgumentError("response settings: " + why);
@@ -173,7 +176,9 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   for (const capture::FrameRecord& f : bracket)
     key.Add("frame", f.sha256).Add("exposure", RelativeExposure(f.exposure));
   key.Add("black_margin", merge.black_margin).Add("saturation_margin", merge.saturation_margin);
-  key.Add("response_samples", response_options.sample_count);
+  key.Add("response_samples", response_options.sample_count)
+      .Add("response_lambda", response_options.lambda)
+      .Add("response_smoothness", calibration::ToString(response_options.smoothness));
   key.Add("profile", profile_id).Add("response", response_id);
 
   const bool sensor_linear = bracket.front().encoding == SampleEncoding::kSensorLinear;
