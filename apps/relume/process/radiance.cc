@@ -107,24 +107,25 @@ LinearisedBracket LineariseBracket(const capture::SessionReader& session,
                                  bracket.front().device_id + ": record one with `relume calibrate response --session " +
                                  session.dir().string() + " --frames bracket:N`");
     }
+    calibration::ResponseSummary summary;
     if (IsEvOnly(bracket)) {
       std::vector<double> ev;
       for (const capture::FrameRecord& f : bracket) ev.push_back(f.exposure.ev_compensation);
       const calibration::EvCalibration ev_cal = calibration::RecoverResponseFromEv(frames, ev, response_options);
-      if (!ev_cal.result.summary.usable) {
-        throw InvalidArgumentError(
-            name + ": the response cannot be recovered from this bracket: " + ev_cal.result.summary.reason);
-      }
+      summary = ev_cal.result.summary;
       response = ev_cal.result.response;
       times = ev_cal.exposure_times_s;
     } else {
       const calibration::ResponseResult r = calibration::RecoverResponse(frames, times, response_options);
-      if (!r.summary.usable) {
-        throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + r.summary.reason);
-      }
+      summary = r.summary;
       response = r.response;
     }
+    if (!summary.usable) {
+      throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + summary.reason);
+    }
     out.response_source = "recovered from the bracket";
+    // A sparse bracket's curve rests on the smoothness prior: say so wherever the source is shown.
+    if (summary.low_confidence) out.response_source += ", low confidence (" + summary.reason + ")";
   }
   calibration::HdrMergeResult merged = calibration::MergeHdr(frames, times, response, merge);
   if (profile) merged.radiance = calibration::ApplyProfile(*profile, merged.radiance);

@@ -56,7 +56,8 @@ std::vector<std::vector<capture::FrameRecord>> StillBrackets(const capture::Sess
 struct LinearisedBracket {
   RadianceImage radiance;
   cv::Mat status;
-  std::string response_source;  // "sensor-linear", "recorded", "recovered from the bracket"
+  // "sensor-linear", "recorded", "recovered from the bracket" (+ ", low confidence (why)")
+  std::string response_source;
 };
 LinearisedBracket LineariseBracket(const capture::SessionReader& session,
                                    const std::vector<capture::FrameRecord>& bracket,
