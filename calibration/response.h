@@ -56,8 +56,8 @@ enum class ResponseSmoothness {
   kCode,
   // z^-2 d2g/d(ln z)^2 = g''(z) + g'(z) / z: the same weight per code as kCode, but its null
   // space g = a + b ln z is every power law X = c z^b, i.e. gamma encodings and linear codes
-  // (b = 1). The default: on sparse brackets it is as good or better for every test curve
-  // but one S-shaped tone curve (docs/calibration.md).
+  // (b = 1). The default: on sparse brackets it is better, or equal within noise, for every
+  // test curve but one S-shaped tone curve (docs/calibration.md).
   kLogCode,
 };
 const char* ToString(ResponseSmoothness smoothness);
@@ -101,9 +101,9 @@ struct ResponseSummary {
   int monotonic_fixes = 0;  // codes where the curve had to be made non-decreasing
   // Debevec only: largest relative difference of X(z), over codes with hat weight >= 0.15 and
   // all channels, between the curves recovered with the two ResponseSmoothness terms. It
-  // measures how much of the curve rests on the smoothness prior rather than on the data, so it
-  // is a lower bound of the curve's error, not an estimate of it (curves with kinks fool both
-  // terms alike). Empty for Robertson.
+  // measures how much of the curve rests on the smoothness prior rather than on the data (two
+  // curves d apart cannot both be within d/2 of the truth); it is not the chosen curve's error,
+  // and curves with kinks fool both terms alike. Empty for Robertson.
   std::optional<double> prior_disagreement;
   // The curve is usable but poorly determined (prior disagreement above the options' limit, or
   // few informative samples); reason says why.

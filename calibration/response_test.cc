@@ -222,8 +222,6 @@ TEST(ResponseTest, SparseBracketIsFlaggedLowConfidence) {
   EXPECT_GT(*r.summary.prior_disagreement, 0.1) << r.summary.BriefReport();
   EXPECT_TRUE(r.summary.low_confidence);
   EXPECT_NE(r.summary.reason.find("smoothness priors"), std::string::npos) << r.summary.reason;
-  // The disagreement is a lower bound of the error: the curve is off by more.
-  EXPECT_GT(CurveError(r.response, ResponseShape::kSCurve, 24, 235), *r.summary.prior_disagreement / 2);
 }
 
 TEST(ResponseTest, DenseBracketIsNotFlagged) {
