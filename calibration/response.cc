@@ -4,7 +4,9 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <opencv2/core.hpp>
 #include <random>
@@ -125,7 +127,8 @@ struct ChannelSolve {
   int iterations = 0;
   bool converged = false;
   int monotonic_fixes = 0;
-  std::string problem;  // non-empty: unusable
+  std::optional<double> prior_disagreement;  // Debevec only
+  std::string problem;                       // non-empty: unusable
 };
 
 constexpr int kMinDistinctCodes = 4;
@@ -142,21 +145,20 @@ std::vector<int> InformativeSamples(const Samples& samples, int channel, const s
 }
 
 // Debevec & Malik 1997: unknowns g(z) = ln X(z) and ln E_i per sample; equations
-// w(z_ij) [g(z_ij) - ln E_i - ln t_j] = 0, lambda w(z) g''(z) = 0, g(mid) = 0. The sample
-// unknowns are eliminated (Schur complement: each ln E_i couples only to its own codes), so
-// the solve is a dense levels x levels system whatever the sample count.
-ChannelSolve SolveDebevec(const Samples& samples, int channel, const std::vector<double>& log_t,
-                          const std::vector<double>& weight, const ResponseOptions& options) {
-  ChannelSolve out;
+// w(z_ij) [g(z_ij) - ln E_i - ln t_j] = 0, lambda w(z) D g(z) = 0 (D: the smoothness operator),
+// g(mid) = 0. The sample unknowns are eliminated (Schur complement: each ln E_i couples only to
+// its own codes), so the solve is a dense levels x levels system whatever the sample count.
+struct DebevecData {
+  Eigen::MatrixXd normal;  // data part of the reduced normal equations
+  Eigen::VectorXd rhs;
+};
+
+DebevecData ReducedDataEquations(const Samples& samples, int channel, const std::vector<int>& useful,
+                                 const std::vector<double>& log_t, const std::vector<double>& weight) {
   const int n = static_cast<int>(weight.size());
-  const std::vector<int> useful = InformativeSamples(samples, channel, weight);
-  out.samples_used = static_cast<int>(useful.size());
-  if (out.samples_used < 2) {
-    out.problem = "fewer than 2 sampled pixels are well exposed in two frames";
-    return out;
-  }
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, n);
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
+  DebevecData data{Eigen::MatrixXd::Zero(n, n), Eigen::VectorXd::Zero(n)};
+  Eigen::MatrixXd& S = data.normal;
+  Eigen::VectorXd& rhs = data.rhs;
   std::vector<int> z(samples.frames);
   std::vector<double> w2(samples.frames);
   for (int s : useful) {
@@ -180,27 +182,43 @@ ChannelSolve SolveDebevec(const Samples& samples, int channel, const std::vector
       rhs(z[f]) -= (-w2[f]) * be / d;
     }
   }
-  // Smoothness, with a small weight floor so codes never observed are extrapolated smoothly.
+  return data;
+}
+
+// Three-point stencil of the smoothness operator at code c (1 <= c <= levels - 2), applied to
+// g(c - 1), g(c), g(c + 1). kLogCode: the second derivative in v = ln z on the non-uniform grid
+// (exact, so zero for every power law), times 1/c^2 so that it is in units of codes^-2 like
+// kCode's [1, -2, 1]; at c = 1 (code 0 has no logarithm) the same operator by central
+// differences: g'' + g'/z.
+std::array<double, 3> SmoothnessStencil(ResponseSmoothness smoothness, int c) {
+  if (smoothness == ResponseSmoothness::kCode) return {1.0, -2.0, 1.0};
+  if (c == 1) return {1.0 - 0.5, -2.0, 1.0 + 0.5};
+  const double h1 = std::log(static_cast<double>(c) / (c - 1));
+  const double h2 = std::log(static_cast<double>(c + 1) / c);
+  const double scale = 2.0 / (static_cast<double>(c) * c * (h1 + h2));
+  const double lo = scale / h1, hi = scale / h2;
+  return {lo, -lo - hi, hi};
+}
+
+// Smoothness rows, with a small weight floor so codes never observed are extrapolated
+// smoothly, and g(mid) = 0.
+void AddSmoothness(Eigen::MatrixXd& S, const std::vector<double>& weight, double lambda,
+                   ResponseSmoothness smoothness) {
+  const int n = static_cast<int>(weight.size());
   for (int c = 1; c + 1 < n; ++c) {
-    const double lw = options.lambda * std::max(weight[c], 0.05);
+    const double lw = lambda * std::max(weight[c], 0.05);
     const int idx[3] = {c - 1, c, c + 1};
-    const double coef[3] = {1.0, -2.0, 1.0};
+    const std::array<double, 3> coef = SmoothnessStencil(smoothness, c);
     for (int a = 0; a < 3; ++a) {
       for (int b = 0; b < 3; ++b) S(idx[a], idx[b]) += lw * lw * coef[a] * coef[b];
     }
   }
-  S(n / 2, n / 2) += 1.0;  // g(mid) = 0
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S, Eigen::EigenvaluesOnly);
-  const double lmin = eig.eigenvalues().minCoeff();
-  const double lmax = eig.eigenvalues().maxCoeff();
-  out.condition = lmin > 0.0 ? std::sqrt(lmax / lmin) : std::numeric_limits<double>::infinity();
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
-  const Eigen::VectorXd g = ldlt.solve(rhs);
-  if (ldlt.info() != Eigen::Success || !g.allFinite()) {
-    out.problem = "the least-squares system is singular";
-    return out;
-  }
-  // Residual of the data equations, with each sample's optimal ln E.
+  S(n / 2, n / 2) += 1.0;
+}
+
+// RMS of the data equations, with each sample's optimal ln E.
+double DataResidual(const Samples& samples, int channel, const std::vector<int>& useful,
+                    const std::vector<double>& log_t, const std::vector<double>& weight, const Eigen::VectorXd& g) {
   double sum = 0.0;
   int rows = 0;
   for (int s : useful) {
@@ -219,12 +237,70 @@ ChannelSolve SolveDebevec(const Samples& samples, int channel, const std::vector
       rows += weight[zf] > 0.0 ? 1 : 0;
     }
   }
-  out.residual = std::sqrt(sum / std::max(rows, 1));
+  return std::sqrt(sum / std::max(rows, 1));
+}
+
+// g -> X(z) = exp(g(z) - g(mid)), made non-decreasing; X(0) = 0 (black stands for no light).
+std::vector<double> InverseFromLog(const Eigen::VectorXd& g, int* monotonic_fixes) {
+  const int n = static_cast<int>(g.size());
   std::vector<double> log_curve(g.data(), g.data() + n);
-  out.monotonic_fixes = MakeMonotonic(log_curve);
-  out.inverse.resize(n);
-  for (int c = 0; c < n; ++c) out.inverse[c] = std::exp(log_curve[c] - log_curve[n / 2]);
-  out.inverse[0] = 0.0;  // code 0 (black) stands for no light
+  const int fixes = MakeMonotonic(log_curve);
+  if (monotonic_fixes) *monotonic_fixes = fixes;
+  std::vector<double> inverse(n, 0.0);
+  for (int c = 1; c < n; ++c) inverse[c] = std::exp(log_curve[c] - log_curve[n / 2]);
+  return inverse;
+}
+
+// Largest relative difference between two inverse responses over codes with weight >= 0.15,
+// where both are defined by data if the data can define them at all.
+double LargestRelativeDifference(const std::vector<double>& a, const std::vector<double>& b,
+                                 const std::vector<double>& weight) {
+  double worst = 0.0;
+  for (std::size_t z = 0; z < a.size(); ++z) {
+    if (weight[z] < 0.15 || !(a[z] > 0.0) || !(b[z] > 0.0)) continue;
+    worst = std::max(worst, std::abs(a[z] / b[z] - 1.0));
+  }
+  return worst;
+}
+
+ResponseSmoothness OtherSmoothness(ResponseSmoothness smoothness) {
+  return smoothness == ResponseSmoothness::kCode ? ResponseSmoothness::kLogCode : ResponseSmoothness::kCode;
+}
+
+ChannelSolve SolveDebevec(const Samples& samples, int channel, const std::vector<double>& log_t,
+                          const std::vector<double>& weight, const ResponseOptions& options) {
+  ChannelSolve out;
+  const std::vector<int> useful = InformativeSamples(samples, channel, weight);
+  out.samples_used = static_cast<int>(useful.size());
+  if (out.samples_used < 2) {
+    out.problem = "fewer than 2 sampled pixels are well exposed in two frames";
+    return out;
+  }
+  const DebevecData data = ReducedDataEquations(samples, channel, useful, log_t, weight);
+  Eigen::MatrixXd S = data.normal;
+  AddSmoothness(S, weight, options.lambda, options.smoothness);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S, Eigen::EigenvaluesOnly);
+  const double lmin = eig.eigenvalues().minCoeff();
+  const double lmax = eig.eigenvalues().maxCoeff();
+  out.condition = lmin > 0.0 ? std::sqrt(lmax / lmin) : std::numeric_limits<double>::infinity();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+  const Eigen::VectorXd g = ldlt.solve(data.rhs);
+  if (ldlt.info() != Eigen::Success || !g.allFinite()) {
+    out.problem = "the least-squares system is singular";
+    return out;
+  }
+  out.residual = DataResidual(samples, channel, useful, log_t, weight, g);
+  out.inverse = InverseFromLog(g, &out.monotonic_fixes);
+  // The same data under the other smoothness term: where the two curves differ, the data do
+  // not decide between them (periodic ambiguity of sparse brackets), the prior does.
+  Eigen::MatrixXd S_other = data.normal;
+  AddSmoothness(S_other, weight, options.lambda, OtherSmoothness(options.smoothness));
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt_other(S_other);
+  const Eigen::VectorXd g_other = ldlt_other.solve(data.rhs);
+  out.prior_disagreement =
+      ldlt_other.info() == Eigen::Success && g_other.allFinite()
+          ? std::optional<double>(LargestRelativeDifference(out.inverse, InverseFromLog(g_other, nullptr), weight))
+          : std::nullopt;
   out.iterations = 1;
   out.converged = true;
   return out;
@@ -347,6 +423,20 @@ ResponseMethod ResponseMethodFromString(const std::string& name) {
   throw InvalidArgumentError("response method '" + name + "' is unknown; use debevec or robertson");
 }
 
+const char* ToString(ResponseSmoothness smoothness) {
+  switch (smoothness) {
+    case ResponseSmoothness::kCode: return "code";
+    case ResponseSmoothness::kLogCode: return "log-code";
+  }
+  return "unknown";
+}
+
+ResponseSmoothness ResponseSmoothnessFromString(const std::string& name) {
+  if (name == "code") return ResponseSmoothness::kCode;
+  if (name == "log-code") return ResponseSmoothness::kLogCode;
+  throw InvalidArgumentError("response smoothness '" + name + "' is unknown; use code or log-code");
+}
+
 CameraResponse CameraResponse::Linear(int channels, int levels, int black_level, int white_level) {
   RELUME_CHECK(channels > 0 && levels > 1 && black_level < white_level);
   CameraResponse r;
@@ -379,6 +469,12 @@ bool CameraResponse::IsValid(std::string* why) const {
 bool ResponseOptions::IsValid(std::string* why) const {
   if (sample_count < 8) return Fail(why, "sample_count must be >= 8");
   if (!(lambda >= 0.0) || !std::isfinite(lambda)) return Fail(why, "lambda must be finite and >= 0");
+  if (smoothness != ResponseSmoothness::kCode && smoothness != ResponseSmoothness::kLogCode) {
+    return Fail(why, "smoothness must be kCode or kLogCode");
+  }
+  if (!(max_prior_disagreement > 0.0) || !std::isfinite(max_prior_disagreement)) {
+    return Fail(why, "max_prior_disagreement must be finite and > 0");
+  }
   if (robertson_max_iterations < 1) return Fail(why, "robertson_max_iterations must be >= 1");
   if (!(robertson_tolerance > 0.0)) return Fail(why, "robertson_tolerance must be > 0");
   if (black_margin < 0 || saturation_margin < 0 || black_margin + saturation_margin > 200) {
@@ -393,6 +489,8 @@ std::string ResponseSummary::BriefReport() const {
     << (converged ? "converged" : "not converged") << ", iterations " << iterations << ", residual " << residual
     << ", condition " << condition << ", samples " << samples_used << ", frames " << frames_used;
   if (monotonic_fixes > 0) s << ", monotonic fixes " << monotonic_fixes;
+  if (prior_disagreement) s << ", prior disagreement " << *prior_disagreement;
+  if (low_confidence) s << ", LOW CONFIDENCE";
   if (!reason.empty()) s << " (" << reason << ")";
   return s.str();
 }
@@ -408,6 +506,29 @@ std::vector<double> HatWeights(int levels, int black_margin, int saturation_marg
   }
   return w;
 }
+
+namespace {
+void AppendReason(ResponseSummary& summary, const std::string& note) {
+  summary.reason += (summary.reason.empty() ? "" : "; ") + note;
+}
+
+// Flags a usable curve that the bracket does not determine well, and says why.
+void NoteLowConfidence(const ResponseOptions& options, ResponseSummary& summary) {
+  if (summary.samples_used < 32) {
+    summary.low_confidence = true;
+    AppendReason(summary, "only " + std::to_string(summary.samples_used) + " informative samples: low confidence");
+  }
+  if (summary.prior_disagreement && *summary.prior_disagreement > options.max_prior_disagreement) {
+    summary.low_confidence = true;
+    std::ostringstream note;
+    note.precision(2);
+    note << "low confidence: the two smoothness priors give curves up to " << 100.0 * *summary.prior_disagreement
+         << " % apart, so the curve rests on the prior rather than on the data (exposures too far apart: "
+            "more frames, at most 2 stops apart, or irregular ratios would determine it)";
+    AppendReason(summary, note.str());
+  }
+}
+}  // namespace
 
 ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std::vector<double>& exposure_times_s,
                                const ResponseOptions& options) {
@@ -486,12 +607,12 @@ ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std
     summary.samples_used = std::min(summary.samples_used, solve.samples_used);
     summary.monotonic_fixes += solve.monotonic_fixes;
     summary.converged = summary.converged && solve.converged;
+    if (solve.prior_disagreement) {
+      summary.prior_disagreement = std::max(summary.prior_disagreement.value_or(0.0), *solve.prior_disagreement);
+    }
   }
   if (!summary.converged) summary.reason = "Robertson reached the iteration limit before the tolerance";
-  if (summary.samples_used < 32) {
-    summary.reason += std::string(summary.reason.empty() ? "" : "; ") + "only " + std::to_string(summary.samples_used) +
-                      " informative samples: low confidence";
-  }
+  NoteLowConfidence(options, summary);
   return result;
 }
 

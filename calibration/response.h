@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,14 +47,36 @@ enum class ResponseMethod { kDebevec, kRobertson };
 const char* ToString(ResponseMethod method);
 ResponseMethod ResponseMethodFromString(const std::string& name);  // throws InvalidArgumentError
 
+// What Debevec's smoothness term penalises, at code z of g(z) = ln X(z). Where the bracket's
+// exposures are far apart the data fix g only up to a function periodic in ln X (period: the
+// log exposure ratio), and the term chooses among those curves; each choice is exact for the
+// curves it does not penalise at all (its null space).
+enum class ResponseSmoothness {
+  // g''(z) (Debevec & Malik 1997). Null space g = a + b z: X grows exponentially with the code.
+  kCode,
+  // z^-2 d2g/d(ln z)^2 = g''(z) + g'(z) / z: the same weight per code as kCode, but its null
+  // space g = a + b ln z is every power law X = c z^b, i.e. gamma encodings and linear codes
+  // (b = 1). The default: on sparse brackets it is better, or equal within noise, for every
+  // test curve but one S-shaped tone curve (docs/calibration.md).
+  kLogCode,
+};
+const char* ToString(ResponseSmoothness smoothness);
+ResponseSmoothness ResponseSmoothnessFromString(const std::string& name);  // throws InvalidArgumentError
+
 struct ResponseOptions {
   ResponseMethod method = ResponseMethod::kDebevec;
   // Pixels sampled from the image (each gives one equation per frame). Spread over the
   // intensity range of the reference frame and over the image; flat regions preferred.
   int sample_count = 300;
   // Debevec: weight of the second-derivative smoothness term (relative to hat weights in
-  // [0, 1]). Larger = smoother curve.
-  double lambda = 40.0;
+  // [0, 1]). Larger = smoother curve. 60 suits kLogCode; kCode was tuned at 40 (Debevec's
+  // earlier default: smoothness kCode with lambda 40).
+  double lambda = 60.0;
+  ResponseSmoothness smoothness = ResponseSmoothness::kLogCode;
+  // Debevec: the curve is also solved with the other smoothness term; where the two differ by
+  // more than this (largest relative difference of X over well-exposed codes), the data do not
+  // determine the curve and the summary is flagged low_confidence.
+  double max_prior_disagreement = 0.02;
   // Robertson: stop when the largest relative change of the curve is below tolerance.
   int robertson_max_iterations = 50;
   double robertson_tolerance = 1e-4;
@@ -76,7 +99,16 @@ struct ResponseSummary {
   int samples_used = 0;    // pixels contributing equations
   int frames_used = 0;
   int monotonic_fixes = 0;  // codes where the curve had to be made non-decreasing
-  std::string reason;       // how it ended / warnings
+  // Debevec only: largest relative difference of X(z), over codes with hat weight >= 0.15 and
+  // all channels, between the curves recovered with the two ResponseSmoothness terms. It
+  // measures how much of the curve rests on the smoothness prior rather than on the data (two
+  // curves d apart cannot both be within d/2 of the truth); it is not the chosen curve's error,
+  // and curves with kinks fool both terms alike. Empty for Robertson.
+  std::optional<double> prior_disagreement;
+  // The curve is usable but poorly determined (prior disagreement above the options' limit, or
+  // few informative samples); reason says why.
+  bool low_confidence = false;
+  std::string reason;  // how it ended / warnings
 
   std::string BriefReport() const;
 };

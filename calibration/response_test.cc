@@ -166,7 +166,17 @@ TEST(ResponseTest, OptionsValidation) {
   options = {};
   options.lambda = -1.0;
   EXPECT_FALSE(options.IsValid(&why));
+  options = {};
+  options.max_prior_disagreement = 0.0;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("max_prior_disagreement"), std::string::npos);
+  options.max_prior_disagreement = std::nan("");
+  EXPECT_FALSE(options.IsValid(&why));
   EXPECT_THROW(ResponseMethodFromString("bogus"), InvalidArgumentError);
+  EXPECT_THROW(ResponseSmoothnessFromString("bogus"), InvalidArgumentError);
+  for (ResponseSmoothness s : {ResponseSmoothness::kCode, ResponseSmoothness::kLogCode}) {
+    EXPECT_EQ(ResponseSmoothnessFromString(ToString(s)), s);
+  }
 }
 
 TEST(ResponseTest, EvBracketRefinesScaleFactors) {
@@ -198,6 +208,114 @@ TEST(ResponseTest, EvBracketRefinesScaleFactors) {
     const double est = std::log(cal.exposure_times_s[i] / cal.exposure_times_s[2]);
     const double truth = std::log(true_times[i] / true_times[2]);
     EXPECT_NEAR(est, g * truth, 0.02) << "frame " << i;  // the skew is 0.05..0.09
+  }
+}
+
+// Exposures 4 stops apart: the data fix g only up to a function periodic in ln X with period
+// ln 16, and for the S curve no pixel puts codes ~25..105 in two well-exposed frames at all,
+// so the curve there is the smoothness prior's. The summary must say so.
+TEST(ResponseTest, SparseBracketIsFlaggedLowConfidence) {
+  const Bracket b = MakeBracket(ResponseShape::kSCurve, 3, 4.0, 2e-5);
+  const ResponseResult r = RecoverResponse(b.frames, b.times);
+  ASSERT_TRUE(r.summary.usable) << r.summary.BriefReport();
+  ASSERT_TRUE(r.summary.prior_disagreement.has_value());
+  EXPECT_GT(*r.summary.prior_disagreement, 0.1) << r.summary.BriefReport();
+  EXPECT_TRUE(r.summary.low_confidence);
+  EXPECT_NE(r.summary.reason.find("smoothness priors"), std::string::npos) << r.summary.reason;
+}
+
+TEST(ResponseTest, DenseBracketIsNotFlagged) {
+  for (ResponseShape shape : {ResponseShape::kGamma, ResponseShape::kSCurve}) {
+    const Bracket b = MakeBracket(shape, 9, 1.0, 2e-5);
+    const ResponseResult r = RecoverResponse(b.frames, b.times);
+    ASSERT_TRUE(r.summary.usable) << r.summary.BriefReport();
+    ASSERT_TRUE(r.summary.prior_disagreement.has_value());
+    EXPECT_LT(*r.summary.prior_disagreement, 0.01) << testing::ToString(shape) << ": " << r.summary.BriefReport();
+    EXPECT_FALSE(r.summary.low_confidence) << r.summary.reason;
+  }
+}
+
+TEST(ResponseTest, RobertsonHasNoPriorDisagreement) {
+  const Bracket b = MakeBracket(ResponseShape::kGamma, 5, 1.5);
+  ResponseOptions options;
+  options.method = ResponseMethod::kRobertson;
+  const ResponseResult r = RecoverResponse(b.frames, b.times, options);
+  ASSERT_TRUE(r.summary.usable);
+  EXPECT_FALSE(r.summary.prior_disagreement.has_value());
+}
+
+// Debevec's term as it was before log-code became the default.
+ResponseOptions CodeSmoothnessOptions() {
+  ResponseOptions options;
+  options.smoothness = ResponseSmoothness::kCode;
+  options.lambda = 40.0;
+  return options;
+}
+
+// A power law is in the null space of the log-code smoothness term (the default), so a
+// 3-frame bracket 4 stops apart recovers a gamma curve where the code term (whose null space
+// is exponential curves) bends it.
+TEST(ResponseTest, LogCodeSmoothnessRecoversSparseGammaBracket) {
+  const Bracket b = MakeBracket(ResponseShape::kGamma, 3, 4.0);
+  const ResponseResult log_code = RecoverResponse(b.frames, b.times);
+  const ResponseResult code = RecoverResponse(b.frames, b.times, CodeSmoothnessOptions());
+  ASSERT_TRUE(log_code.summary.usable) << log_code.summary.BriefReport();
+  ASSERT_TRUE(code.summary.usable);
+  const double log_code_error = CurveError(log_code.response, ResponseShape::kGamma, 24, 235);
+  const double code_error = CurveError(code.response, ResponseShape::kGamma, 24, 235);
+  EXPECT_LT(log_code_error, 0.01) << log_code.summary.BriefReport();  // measured 0.47 % (code term: 2.7 %)
+  EXPECT_LT(log_code_error, code_error);
+}
+
+// Degenerate brackets under either smoothness term: a clear "not usable" or a valid curve,
+// never NaN.
+TEST(ResponseTest, DegenerateBracketsGiveNoNaNWithEitherSmoothness) {
+  std::vector<std::vector<CameraImage>> brackets;
+  const auto uniform = [](int code) {
+    CameraImage f;
+    f.pixels = cv::Mat(32, 32, CV_8UC3, cv::Scalar::all(code));
+    return f;
+  };
+  brackets.push_back({uniform(0), uniform(0), uniform(0)});        // black everywhere
+  brackets.push_back({uniform(255), uniform(255), uniform(255)});  // saturated everywhere
+  brackets.push_back({uniform(90), uniform(120), uniform(160)});   // a flat scene
+  // Two frames 10 stops apart: almost nothing is well exposed in both.
+  const Bracket wide = MakeBracket(ResponseShape::kGamma, 2, 10.0, 2e-5);
+  brackets.push_back(wide.frames);
+  // A mono ramp: few distinct codes per frame.
+  std::vector<CameraImage> ramp(3);
+  for (int j = 0; j < 3; ++j) {
+    ramp[j].layout = ColorLayout::kMono;
+    ramp[j].pixels = cv::Mat(16, 16, CV_8UC1);
+    for (int y = 0; y < 16; ++y) {
+      for (int x = 0; x < 16; ++x)
+        ramp[j].pixels.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(std::min(255, (x + 1) * 8 * (j + 1)));
+    }
+  }
+  brackets.push_back(ramp);
+  for (ResponseSmoothness smoothness : {ResponseSmoothness::kCode, ResponseSmoothness::kLogCode}) {
+    ResponseOptions options;
+    options.smoothness = smoothness;
+    for (std::size_t i = 0; i < brackets.size(); ++i) {
+      const std::vector<double> times = brackets[i].size() == 2 ? wide.times : std::vector<double>{0.1, 0.2, 0.4};
+      const ResponseResult r = RecoverResponse(brackets[i], times, options);
+      SCOPED_TRACE(std::string(ToString(smoothness)) + ", bracket " + std::to_string(i) + ": " +
+                   r.summary.BriefReport());
+      EXPECT_TRUE(std::isfinite(r.summary.residual));
+      if (r.summary.prior_disagreement) {
+        EXPECT_TRUE(std::isfinite(*r.summary.prior_disagreement));
+      }
+      if (!r.summary.usable) {
+        EXPECT_FALSE(r.summary.reason.empty());
+        EXPECT_TRUE(r.response.inverse.empty());
+        continue;
+      }
+      std::string why;
+      EXPECT_TRUE(r.response.IsValid(&why)) << why;
+      if (i == 3) {
+        EXPECT_TRUE(r.summary.low_confidence);  // 10 stops apart: the prior decides
+      }
+    }
   }
 }
 

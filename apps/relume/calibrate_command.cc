@@ -164,6 +164,7 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& ou
   options.method = ResponseMethodFromString(args.method);
   options.sample_count = args.samples;
   options.lambda = args.lambda;
+  options.smoothness = ResponseSmoothnessFromString(args.smoothness);
   ResponseResult result;
   std::vector<double> times;
   if (!args.exposure.ev.empty() && args.exposure.exposures_s.empty()) {
@@ -191,17 +192,22 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& ou
   const std::string plot = args.plot.empty() ? WithoutJson(args.out) + ".png" : args.plot;
   SaveImage(PlotResponse(result.response), plot);
   const std::string report = WithoutJson(args.out) + "_report.json";
-  nlohmann::json j = {{"method", ToString(result.summary.method)},
-                      {"usable", result.summary.usable},
-                      {"converged", result.summary.converged},
-                      {"iterations", result.summary.iterations},
-                      {"residual", result.summary.residual},
-                      {"condition", result.summary.condition},
-                      {"samples_used", result.summary.samples_used},
-                      {"frames", result.summary.frames_used},
-                      {"reason", result.summary.reason},
-                      {"exposure_times_s", times},
-                      {"files", args.files}};
+  nlohmann::json j = {
+      {"method", ToString(result.summary.method)},
+      {"usable", result.summary.usable},
+      {"converged", result.summary.converged},
+      {"iterations", result.summary.iterations},
+      {"residual", result.summary.residual},
+      {"condition", result.summary.condition},
+      {"smoothness", ToString(options.smoothness)},
+      {"prior_disagreement", result.summary.prior_disagreement ? nlohmann::json(*result.summary.prior_disagreement)
+                                                               : nlohmann::json(nullptr)},
+      {"low_confidence", result.summary.low_confidence},
+      {"samples_used", result.summary.samples_used},
+      {"frames", result.summary.frames_used},
+      {"reason", result.summary.reason},
+      {"exposure_times_s", times},
+      {"files", args.files}};
   std::ofstream(report) << j.dump(1) << "\n";
   out << "wrote " << args.out << ", " << plot << ", " << report << "\n";
 }
@@ -350,6 +356,10 @@ void AddCalibrateCommand(CLI::App& app) {
   response->add_option("--method", r->method, "debevec or robertson")->capture_default_str();
   response->add_option("--samples", r->samples, "Pixels sampled (Debevec; Robertson uses 20x)")->capture_default_str();
   response->add_option("--lambda", r->lambda, "Debevec smoothness weight")->capture_default_str();
+  response
+      ->add_option("--smoothness", r->smoothness,
+                   "Debevec smoothness term: code (g'') or log-code (d2g/d(ln z)^2, exact for power laws)")
+      ->capture_default_str();
   response->add_option("--out", r->out, "Profile JSON to write")->capture_default_str();
   response->add_option("--plot", r->plot, "PNG plot of the curves (default: beside --out)");
   response->callback([r]() { RunCalibrateResponse(*r, std::cout); });

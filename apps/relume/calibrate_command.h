@@ -41,9 +41,10 @@ struct CalibrateResponseArgs {
   ExposureArgs exposure;
   std::string method = "debevec";
   int samples = 300;
-  double lambda = 40.0;
-  std::string out = "response.json";  // a calibration profile holding the response
-  std::string plot;                   // PNG; default: <out without .json>.png
+  double lambda = 60.0;
+  std::string smoothness = "log-code";  // Debevec's smoothness term: code or log-code
+  std::string out = "response.json";    // a calibration profile holding the response
+  std::string plot;                     // PNG; default: <out without .json>.png
 };
 // Writes the profile and the plot; prints the summary. Throws relume::Error on bad input.
 void RunCalibrateResponse(const CalibrateResponseArgs& args, std::ostream& out);

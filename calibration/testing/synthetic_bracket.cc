@@ -15,9 +15,20 @@ const char* ToString(ResponseShape shape) {
     case ResponseShape::kGamma: return "gamma";
     case ResponseShape::kSCurve: return "s-curve";
     case ResponseShape::kTable: return "table";
+    case ResponseShape::kSrgb: return "srgb";
+    case ResponseShape::kRec709: return "rec709";
+    case ResponseShape::kSrgbSTone: return "srgb+s-tone";
+    case ResponseShape::kLogEncoding: return "log";
   }
   return "unknown";
 }
+
+namespace {
+// A small per-channel difference for the standard encodings: 0.96, 1.0, 1.04.
+double ChannelTint(int channel) {
+  return 1.0 + 0.04 * (channel % 3 - 1);
+}
+}  // namespace
 
 double SyntheticResponse::Forward(int channel, double x) const {
   x = std::clamp(x, 0.0, 1.0);
@@ -41,6 +52,23 @@ double SyntheticResponse::Forward(int channel, double x) const {
         if (x <= kx[i]) return y[i - 1] + (y[i] - y[i - 1]) * (x - kx[i - 1]) / (kx[i] - kx[i - 1]);
       }
       return 1.0;
+    }
+    case ResponseShape::kSrgb: {
+      const double exponent = 1.0 / (2.4 * ChannelTint(channel));
+      return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, exponent) - 0.055;
+    }
+    case ResponseShape::kRec709: {
+      const double exponent = 0.45 * ChannelTint(channel);
+      return x < 0.018 ? 4.5 * x : 1.099 * std::pow(x, exponent) - 0.099;
+    }
+    case ResponseShape::kSrgbSTone: {
+      const double y = x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+      const double contrast = 0.35 * ChannelTint(channel);
+      return (1.0 - contrast) * y + contrast * y * y * (3.0 - 2.0 * y);
+    }
+    case ResponseShape::kLogEncoding: {
+      const double k = 100.0 * ChannelTint(channel);
+      return std::log10(1.0 + k * x) / std::log10(1.0 + k);
     }
   }
   return x;

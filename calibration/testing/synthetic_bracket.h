@@ -22,6 +22,12 @@ enum class ResponseShape {
   kGamma,   // x^(1/2.2) per channel
   kSCurve,  // a film-like S curve, x^s / (x^s + m^s) normalised; a different s per channel
   kTable,   // a tabulated piecewise-linear curve with per-channel knots
+  // Standard encodings, to check that a method generalises beyond the three shapes above
+  // (each with a slightly different exponent or slope per channel, as real channels differ):
+  kSrgb,         // IEC 61966-2-1: linear toe, then 1.055 x^(1/2.4) - 0.055
+  kRec709,       // ITU-R BT.709 OETF: linear toe up to x = 0.018, then 1.099 x^0.45 - 0.099
+  kSrgbSTone,    // sRGB followed by a mild S-shaped contrast curve (a camera's picture style)
+  kLogEncoding,  // log10(1 + k x) / log10(1 + k), k ~ 100 (cinema-camera log curves)
 };
 const char* ToString(ResponseShape shape);
 

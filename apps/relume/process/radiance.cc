@@ -107,24 +107,25 @@ LinearisedBracket LineariseBracket(const capture::SessionReader& session,
                                  bracket.front().device_id + ": record one with `relume calibrate response --session " +
                                  session.dir().string() + " --frames bracket:N`");
     }
+    calibration::ResponseSummary summary;
     if (IsEvOnly(bracket)) {
       std::vector<double> ev;
       for (const capture::FrameRecord& f : bracket) ev.push_back(f.exposure.ev_compensation);
       const calibration::EvCalibration ev_cal = calibration::RecoverResponseFromEv(frames, ev, response_options);
-      if (!ev_cal.result.summary.usable) {
-        throw InvalidArgumentError(
-            name + ": the response cannot be recovered from this bracket: " + ev_cal.result.summary.reason);
-      }
+      summary = ev_cal.result.summary;
       response = ev_cal.result.response;
       times = ev_cal.exposure_times_s;
     } else {
       const calibration::ResponseResult r = calibration::RecoverResponse(frames, times, response_options);
-      if (!r.summary.usable) {
-        throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + r.summary.reason);
-      }
+      summary = r.summary;
       response = r.response;
     }
+    if (!summary.usable) {
+      throw InvalidArgumentError(name + ": the response cannot be recovered from this bracket: " + summary.reason);
+    }
     out.response_source = "recovered from the bracket";
+    // A sparse bracket's curve rests on the smoothness prior: say so wherever the source is shown.
+    if (summary.low_confidence) out.response_source += ", low confidence (" + summary.reason + ")";
   }
   calibration::HdrMergeResult merged = calibration::MergeHdr(frames, times, response, merge);
   if (profile) merged.radiance = calibration::ApplyProfile(*profile, merged.radiance);
@@ -151,6 +152,9 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   merge.saturation_margin = run.Setting("merge_saturation_margin", merge.saturation_margin);
   calibration::ResponseOptions response_options;
   response_options.sample_count = run.Setting("response_samples", response_options.sample_count);
+  response_options.lambda = run.Setting("response_lambda", response_options.lambda);
+  response_options.smoothness = calibration::ResponseSmoothnessFromString(
+      run.Setting("response_smoothness", std::string(calibration::ToString(response_options.smoothness))));
   std::string why;
   if (!merge.IsValid(&why)) throw InvalidArgumentError("merge settings: " + why);
   if (!response_options.IsValid(&why)) throw InvalidArgumentError("response settings: " + why);
@@ -173,7 +177,9 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   for (const capture::FrameRecord& f : bracket)
     key.Add("frame", f.sha256).Add("exposure", RelativeExposure(f.exposure));
   key.Add("black_margin", merge.black_margin).Add("saturation_margin", merge.saturation_margin);
-  key.Add("response_samples", response_options.sample_count);
+  key.Add("response_samples", response_options.sample_count)
+      .Add("response_lambda", response_options.lambda)
+      .Add("response_smoothness", calibration::ToString(response_options.smoothness));
   key.Add("profile", profile_id).Add("response", response_id);
 
   const bool sensor_linear = bracket.front().encoding == SampleEncoding::kSensorLinear;

@@ -56,7 +56,8 @@ std::vector<std::vector<capture::FrameRecord>> StillBrackets(const capture::Sess
 struct LinearisedBracket {
   RadianceImage radiance;
   cv::Mat status;
-  std::string response_source;  // "sensor-linear", "recorded", "recovered from the bracket"
+  // "sensor-linear", "recorded", "recovered from the bracket" (+ ", low confidence (why)")
+  std::string response_source;
 };
 LinearisedBracket LineariseBracket(const capture::SessionReader& session,
                                    const std::vector<capture::FrameRecord>& bracket,
@@ -71,8 +72,9 @@ std::optional<std::pair<calibration::CalibrationProfile, std::int64_t>> SessionC
     const capture::SessionReader& session, const std::string& device_id, const std::string& kind);
 
 // Settings read (all optional): merge_black_margin, merge_saturation_margin (codes),
-// response_samples. Throws InvalidArgumentError when the frames cannot be linearised (an
-// encoded single frame and no recorded response: the message says to run `relume calibrate`).
+// response_samples, response_lambda, response_smoothness (code or log-code). Throws InvalidArgumentError when the
+// frames cannot be linearised (an encoded single frame and no recorded response: the message says to run `relume
+// calibrate`).
 BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket);
 
 // An 8-bit sRGB preview of linear radiance: scaled so that `white` maps to 1, clipped, sRGB
