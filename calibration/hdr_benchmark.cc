@@ -31,10 +31,11 @@ struct Case {
   cv::Mat mask;
 };
 
-// Brackets are built once per (size, frames, shape, noise) and cached.
-const Case& GetCase(int width, int height, int frames, ResponseShape shape, bool noisy) {
-  static std::map<std::tuple<int, int, int, int, bool>, Case> cache;
-  const auto key = std::make_tuple(width, height, frames, static_cast<int>(shape), noisy);
+// Brackets are built once per (size, frames, shape, noise, spacing) and cached. `unequal`:
+// steps alternating 1.2 and 0.8 times their mean, as relume's bracket planner spaces them.
+const Case& GetCase(int width, int height, int frames, ResponseShape shape, bool noisy, bool unequal = false) {
+  static std::map<std::tuple<int, int, int, int, bool, bool>, Case> cache;
+  const auto key = std::make_tuple(width, height, frames, static_cast<int>(shape), noisy, unequal);
   auto it = cache.find(key);
   if (it != cache.end()) return it->second;
   Case c;
@@ -44,7 +45,8 @@ const Case& GetCase(int width, int height, int frames, ResponseShape shape, bool
   scene.dynamic_range = 1e4;
   c.radiance = testing::MakeHdrRadiance(scene);
   // The bracket spans the same 8 stops whatever the frame count.
-  c.times = testing::BracketExposures(frames, 8.0 / (frames - 1), 18.0);
+  c.times = unequal ? testing::UnequalBracketExposures(frames, 8.0 / (frames - 1), 18.0, 0.2)
+                    : testing::BracketExposures(frames, 8.0 / (frames - 1), 18.0);
   testing::NoiseOptions noise;
   if (noisy) {
     noise.shot_noise = 2e-5;
@@ -82,13 +84,14 @@ ResponseShape ShapeArg(const benchmark::State& state) {
 }
 
 void SetLabel(benchmark::State& state) {
-  state.SetLabel(std::string(testing::ToString(ShapeArg(state))) + (state.range(2) ? " noisy" : " clean"));
+  state.SetLabel(std::string(testing::ToString(ShapeArg(state))) + (state.range(2) ? " noisy" : " clean") +
+                 (state.range(3) ? ", unequal steps" : ""));
 }
 
 // Response recovery + merge, end to end, on 640 x 480. prior_dis = the summary's prior
 // disagreement (the two smoothness terms' curves apart), low_conf = 1 when flagged.
 void RunRelumeDebevec(benchmark::State& state, const ResponseOptions& options) {
-  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2));
+  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2), state.range(3));
   ResponseResult r;
   for (auto _ : state) {
     r = RecoverResponse(c.frames, c.times, options);
@@ -114,7 +117,7 @@ void BM_RelumeDebevecCode(benchmark::State& state) {
 }
 
 void BM_RelumeRobertson(benchmark::State& state) {
-  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2));
+  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2), state.range(3));
   ResponseOptions options;
   options.method = ResponseMethod::kRobertson;
   ResponseResult r;
@@ -130,7 +133,7 @@ void BM_RelumeRobertson(benchmark::State& state) {
 }
 
 void BM_OpenCvDebevec(benchmark::State& state) {
-  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2));
+  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2), state.range(3));
   cv::Mat response;
   auto calibrate = cv::createCalibrateDebevec();
   for (auto _ : state) {
@@ -145,7 +148,7 @@ void BM_OpenCvDebevec(benchmark::State& state) {
 }
 
 void BM_OpenCvRobertson(benchmark::State& state) {
-  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2));
+  const Case& c = GetCase(640, 480, static_cast<int>(state.range(0)), ShapeArg(state), state.range(2), state.range(3));
   cv::Mat response;
   auto calibrate = cv::createCalibrateRobertson();
   for (auto _ : state) {
@@ -159,18 +162,22 @@ void BM_OpenCvRobertson(benchmark::State& state) {
   SetLabel(state);
 }
 
+// {frames, shape, noisy, unequal steps}: the brackets span 8 stops.
 void CalibrationArgs(benchmark::internal::Benchmark* b) {
   for (int frames : {3, 5, 9}) {
-    for (int shape : {0, 1, 2}) b->Args({frames, shape, 1});
+    for (int shape : {0, 1, 2}) b->Args({frames, shape, 1, 0});
   }
-  b->Args({5, 0, 0});
+  b->Args({5, 0, 0, 0});
+  for (int frames : {3, 5}) {
+    for (int shape : {0, 1, 2}) b->Args({frames, shape, 1, 1});
+  }
   b->Unit(benchmark::kMillisecond);
 }
 // The standard encodings (sRGB, Rec. 709, sRGB + S tone, log), noisy: relume only, to check
 // that what was chosen on the three shapes above holds for curves it was not chosen on.
 void StandardEncodingArgs(benchmark::internal::Benchmark* b) {
   for (int frames : {3, 5, 9}) {
-    for (int shape : {3, 4, 5, 6}) b->Args({frames, shape, 1});
+    for (int shape : {3, 4, 5, 6}) b->Args({frames, shape, 1, 0});
   }
   b->Unit(benchmark::kMillisecond);
 }

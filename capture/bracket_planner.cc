@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/color.h"
 #include "core/error.h"
@@ -79,6 +80,7 @@ bool BracketPlannerOptions::IsValid(std::string* why) const {
     return fail("clipped_extension_stops must be in [0, 20]");
   }
   if (max_exposures < 1 || max_exposures > 64) return fail("max_exposures must be within 1..64");
+  if (!(unequal_steps >= 0.0 && unequal_steps <= 0.5)) return fail("unequal_steps must be in [0, 0.5]");
   return true;
 }
 
@@ -150,6 +152,51 @@ MeteringStats MeasureMeteringFrame(const CameraImage& frame, double relative_exp
   return stats;
 }
 
+namespace {
+// Gaps (in stops) between n exposures over `span` stops that alternate 1 + d and 1 - d times
+// their mean, with the largest d <= options.unequal_steps that keeps every gap within
+// `step_stops` (so coverage holds). When that d is below half of unequal_steps, one exposure
+// more is tried (while `may_add`, within max_exposures). Two exposures have one ratio and are
+// left as they are. d = 0: equal gaps.
+struct UnequalSteps {
+  int exposures = 1;
+  double d = 0.0;
+  std::vector<double> gaps;
+};
+UnequalSteps ChooseUnequalSteps(double span, double step_stops, int n, const BracketPlannerOptions& options,
+                                bool may_add) {
+  auto largest_d = [&](int count) {
+    const int g = count - 1;
+    if (g < 2 || options.unequal_steps <= 0.0) return 0.0;  // one ratio (or none): nothing to vary
+    // max gap = span (1 + d) / (g + d (g mod 2)) <= step_stops
+    const double room = step_stops * g - span;
+    const double denominator = span - step_stops * (g % 2);
+    if (room <= 0.0) return 0.0;
+    const double d = denominator > 0.0 ? room / denominator : options.unequal_steps;
+    return std::clamp(d, 0.0, options.unequal_steps);
+  };
+  UnequalSteps out;
+  out.exposures = n;
+  out.d = largest_d(n);
+  if (out.d < 0.5 * options.unequal_steps && n >= 3 && may_add && n + 1 <= options.max_exposures &&
+      options.unequal_steps > 0.0) {
+    const double more = largest_d(n + 1);
+    if (more >= 0.5 * options.unequal_steps) {
+      out.exposures = n + 1;
+      out.d = more;
+    }
+  }
+  const int g = out.exposures - 1;
+  double total = 0.0;
+  for (int i = 0; i < g; ++i) {
+    out.gaps.push_back(1.0 + (i % 2 == 0 ? out.d : -out.d));
+    total += out.gaps.back();
+  }
+  for (double& gap : out.gaps) gap *= span / total;
+  return out;
+}
+}  // namespace
+
 BracketPlan PlanBracket(const MeteringStats& metering, const drivers::ExposureCapabilities& caps,
                         double metering_exposure_time_s, double metering_ev, const BracketPlannerOptions& options) {
   ThrowIfInvalid(options, "bracket planner options");
@@ -197,8 +244,20 @@ BracketPlan PlanBracket(const MeteringStats& metering, const drivers::ExposureCa
       plan.covers_range = false;
       notes.push_back("the range needs more than max_exposures; the darkest regions will be noisier");
     }
+    const UnequalSteps unequal = ChooseUnequalSteps(span, step_stops, n, options, plan.covers_range);
+    n = unequal.exposures;
+    double stops = 0.0;
     for (int i = 0; i < n; ++i) {
-      targets.push_back(short_relative * std::exp2(n == 1 ? 0.0 : span * i / (n - 1)));
+      targets.push_back(short_relative * std::exp2(stops));
+      if (i + 1 < n) stops += unequal.gaps[static_cast<std::size_t>(i)];
+    }
+    if (unequal.d > 0.0) {
+      char text[160];
+      std::snprintf(text, sizeof(text),
+                    "steps alternate %.2f and %.2f stops (unequal exposure ratios let the response be recovered "
+                    "from the bracket)",
+                    unequal.gaps.front(), unequal.gaps.size() > 1 ? unequal.gaps[1] : unequal.gaps.front());
+      notes.push_back(text);
     }
   }
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <tuple>
 
@@ -66,6 +67,49 @@ TEST(BracketPlannerTest, SeventeenStops) {
   EXPECT_NEAR(plan.scene_range_stops, 17.0, 1e-9);
   ExpectCoverage(plan, m, o);
   EXPECT_TRUE(plan.covers_range);
+}
+
+// Steps alternate longer and shorter (two exposure ratios: the response is recoverable from
+// the bracket), within the coverage the overlap allows; equal when asked.
+TEST(BracketPlannerTest, StepsAlternateWithinCoverageUnlessEqualStepsAreAsked) {
+  MeteringStats m;
+  m.bright_signal = 0.2;
+  auto gaps = [](const BracketPlan& plan) {
+    std::vector<double> out;
+    for (std::size_t i = 0; i + 1 < plan.exposures.size(); ++i) {
+      out.push_back(std::log2(plan.exposures[i + 1].relative_exposure / plan.exposures[i].relative_exposure));
+    }
+    return out;
+  };
+  for (const double span_stops : {10.0, 12.5, 17.0}) {  // 3, 4 and 5 exposures
+    m.dark_signal = m.bright_signal * std::exp2(-span_stops);
+    const BracketPlannerOptions unequal;
+    const BracketPlan plan = PlanBracket(m, MachineVisionCaps(), 1e-4, 0.0, unequal);
+    EXPECT_TRUE(plan.covers_range) << plan.reason;
+    ASSERT_GE(plan.exposures.size(), 3u) << span_stops;
+    ExpectCoverage(plan, m, unequal);
+    const std::vector<double> g = gaps(plan);
+    const auto [lo, hi] = std::minmax_element(g.begin(), g.end());
+    EXPECT_GT(*hi - *lo, 0.2 * *hi) << span_stops << " stops: " << plan.reason;
+    EXPECT_NE(plan.reason.find("steps alternate"), std::string::npos) << plan.reason;
+    BracketPlannerOptions equal;
+    equal.unequal_steps = 0.0;
+    const BracketPlan even = PlanBracket(m, MachineVisionCaps(), 1e-4, 0.0, equal);
+    ExpectCoverage(even, m, equal);
+    const std::vector<double> e = gaps(even);
+    for (double x : e) EXPECT_NEAR(x, e.front(), 1e-9);
+    // At most one exposure more for the unequal steps.
+    EXPECT_LE(plan.exposures.size(), even.exposures.size() + 1);
+  }
+  // A DSLR's third-stop shutter list keeps them unequal.
+  m.dark_signal = m.bright_signal * std::exp2(-12.5);
+  const BracketPlan dslr = PlanBracket(m, DslrCaps(), 1.0 / 250, 0.0, BracketPlannerOptions{});
+  const std::vector<double> d = gaps(dslr);
+  const auto [lo, hi] = std::minmax_element(d.begin(), d.end());
+  EXPECT_GT(*hi - *lo, 0.3) << dslr.reason;
+  BracketPlannerOptions bad;
+  bad.unequal_steps = 0.7;
+  EXPECT_FALSE(bad.IsValid(nullptr));
 }
 
 TEST(BracketPlannerTest, OneExposureWhenTheSceneFits) {

@@ -290,12 +290,14 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
         std::chrono::duration<double, std::ratio<60>>(file.RequireDouble(root, "duration_minutes")));
   }
   if (const YAML::Node b = root["bracket"]) {
-    file.RejectUnknownKeys(b, {"saturation_fraction", "min_signal_fraction", "overlap_stops", "max_exposures"});
+    file.RejectUnknownKeys(
+        b, {"saturation_fraction", "min_signal_fraction", "overlap_stops", "max_exposures", "unequal_steps"});
     capture::BracketPlannerOptions& o = rig.recorder.bracket;
     if (b["saturation_fraction"]) o.saturation_fraction = file.RequireDouble(b, "saturation_fraction");
     if (b["min_signal_fraction"]) o.min_signal_fraction = file.RequireDouble(b, "min_signal_fraction");
     if (b["overlap_stops"]) o.overlap_stops = file.RequireDouble(b, "overlap_stops");
     if (b["max_exposures"]) o.max_exposures = static_cast<int>(file.RequireDouble(b, "max_exposures"));
+    if (b["unequal_steps"]) o.unequal_steps = file.RequireDouble(b, "unequal_steps");
     std::string why;
     if (!o.IsValid(&why)) file.Fail(b, "bracket", why);
   }

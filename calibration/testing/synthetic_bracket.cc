@@ -116,6 +116,23 @@ std::vector<double> BracketExposures(int count, double stops, double middle_s) {
   return t;
 }
 
+std::vector<double> UnequalBracketExposures(int count, double stops, double middle_s, double d) {
+  const double span = stops * (count - 1);
+  std::vector<double> gaps;
+  double total = 0.0;
+  for (int i = 0; i + 1 < count; ++i) {
+    gaps.push_back(1.0 + (i % 2 == 0 ? d : -d));
+    total += gaps.back();
+  }
+  std::vector<double> t;
+  double at = -0.5 * span;
+  for (int i = 0; i < count; ++i) {
+    t.push_back(middle_s * std::exp2(at));
+    if (i + 1 < count) at += gaps[static_cast<std::size_t>(i)] * span / total;
+  }
+  return t;
+}
+
 cv::Mat IdealExposure(const cv::Mat& radiance, double exposure_time_s) {
   return radiance * exposure_time_s;
 }

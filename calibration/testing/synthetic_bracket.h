@@ -50,6 +50,10 @@ cv::Mat MakeHdrRadiance(const SceneOptions& options);
 
 // Geometric exposure times around `middle_s`, `stops` EV apart, shortest first.
 std::vector<double> BracketExposures(int count, double stops, double middle_s);
+// The same span (count - 1) x stops, with steps alternating (1 + d) and (1 - d) times their
+// mean, rescaled to the span, centred on middle_s as BracketExposures (relume's bracket
+// planner spaces exposures so; capture/bracket_planner.h, unequal_steps).
+std::vector<double> UnequalBracketExposures(int count, double stops, double middle_s, double d);
 
 struct NoiseOptions {
   double shot_noise = 0.0;  // photon noise: stddev = sqrt(shot_noise * X), X in [0, 1]
