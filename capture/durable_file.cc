@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "capture/path_policy.h"
 #include "core/error.h"
 
 namespace relume::capture {
@@ -136,6 +137,12 @@ std::string Sha256HexOfFile(const std::filesystem::path& path) {
     digest.Update(buffer.data(), static_cast<std::size_t>(file.gcount()));
   }
   if (file.bad()) throw IoError(path.string(), "read error while checksumming");
+  return digest.Finish();
+}
+
+std::string Sha256HexOfRegularFile(const std::filesystem::path& path) {
+  DigestContext digest;
+  ReadRegularFileBlocks(path, [&](std::span<const std::uint8_t> block) { digest.Update(block.data(), block.size()); });
   return digest.Finish();
 }
 

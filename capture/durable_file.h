@@ -25,5 +25,8 @@ void CreateDirectoryDurably(const std::filesystem::path& dir);
 // SHA-256 of bytes and of a file, as 64 lowercase hex digits.
 std::string Sha256Hex(std::span<const std::uint8_t> bytes);
 std::string Sha256HexOfFile(const std::filesystem::path& path);
+// The same for a file relume reads from a session: only a regular file, never through a final
+// symbolic link, never blocking on a FIFO (capture/path_policy.h); IoError otherwise.
+std::string Sha256HexOfRegularFile(const std::filesystem::path& path);
 
 }  // namespace relume::capture

@@ -1,5 +1,6 @@
 #include "capture/session.h"
 
+#include <charconv>
 #include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -10,6 +11,8 @@
 #include <sstream>
 
 #include "capture/durable_file.h"
+#include "capture/folder_lock.h"
+#include "capture/path_policy.h"
 #include "capture/rgbd_geometry.h"
 #include "capture/tiff_codec.h"
 #include "core/error.h"
@@ -55,7 +58,16 @@ int SchemaVersion(Database& db) {
   exists.Step();
   if (exists.Int(0) == 0) return 0;
   Statement version = db.Prepare("SELECT value FROM meta WHERE key = 'schema_version'");
-  return version.Step() ? std::stoi(version.Text(0)) : 0;
+  if (!version.Step()) return 0;
+  const std::string text = version.Text(0);
+  int value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value < 0) {
+    throw IoError(db.path(), "schema_version '" + text +
+                                 "' is not a version number: the session database is damaged (its frames are "
+                                 "still on disk under frames/)");
+  }
+  return value;
 }
 
 // Brings the schema to kSessionSchemaVersion; refuses a newer one.
@@ -76,13 +88,37 @@ void Migrate(Database& db) {
   }
 }
 
-std::unique_ptr<Database> OpenDatabase(const fs::path& dir, bool create) {
-  auto db = std::make_unique<Database>((dir / kSessionDatabaseName).string(), create);
+std::unique_ptr<Database> OpenDatabase(const fs::path& dir, Database::Mode mode) {
+  auto db = std::make_unique<Database>((dir / kSessionDatabaseName).string(), mode);
+  if (mode == Database::Mode::kReadOnly) {
+    // A reader never writes, not even a schema: a database of another relume, or a file that
+    // is not a session at all, is reported as it is.
+    const int version = SchemaVersion(*db);
+    if (version == 0) {
+      throw IoError(db->path(),
+                    "is not a relume session database (it has no session tables: an empty or foreign "
+                    "file); nothing was changed");
+    }
+    if (version > kSessionSchemaVersion) Migrate(*db);  // throws the "newer relume" error
+    return db;
+  }
   db->Exec("PRAGMA journal_mode = WAL");
   db->Exec("PRAGMA synchronous = FULL");  // fsync the WAL at every commit: a committed row is durable
   db->Exec("PRAGMA foreign_keys = ON");
   Migrate(*db);
   return db;
+}
+
+// True when the folder's database was left by a creation that never finished (the disk filled,
+// the process was killed): no session row and no frame. Such a database recorded nothing.
+bool IsUnfinishedCreation(const fs::path& dir) {
+  Database db((dir / kSessionDatabaseName).string(), Database::Mode::kReadOnly);
+  if (SchemaVersion(db) == 0) return true;
+  Statement sessions = db.Prepare("SELECT count(*) FROM session");
+  sessions.Step();
+  Statement frames = db.Prepare("SELECT count(*) FROM frames");
+  frames.Step();
+  return sessions.Int(0) == 0 && frames.Int(0) == 0;
 }
 
 std::int64_t Ns(UtcTime t) {
@@ -125,12 +161,6 @@ std::vector<std::uint8_t> Encode(const cv::Mat& pixels_rgb_or_mono, const std::s
   return bytes;
 }
 
-std::vector<std::uint8_t> ReadFile(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw IoError(path.string(), "frame file is missing (run `relume session verify`)");
-  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
-}
-
 }  // namespace
 
 RgbdFileFormat ParseRgbdFileFormat(const std::string& text) {
@@ -147,8 +177,9 @@ DepthUnits ParseDepthUnits(const std::string& text) {
                              "float, exact)");
 }
 
-SessionWriter::SessionWriter(fs::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options)
-    : dir_(std::move(dir)), db_(std::move(db)), site_(site), options_(options), sun_(site) {
+SessionWriter::SessionWriter(fs::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options,
+                             FolderLock lock)
+    : dir_(std::move(dir)), lock_(std::move(lock)), db_(std::move(db)), site_(site), options_(options), sun_(site) {
   Statement count = db_->Prepare("SELECT coalesce(max(id), 0) FROM frames");
   count.Step();
   file_counter_ = count.Int(0);
@@ -158,11 +189,17 @@ std::unique_ptr<SessionWriter> SessionWriter::Create(const fs::path& dir, const 
                                                      const SessionWriterOptions& options) {
   std::string why;
   if (!info.site.IsValid(&why)) throw InvalidArgumentError("session site: " + why);
+  CreateDirectoryDurably(dir);
+  FolderLock lock = FolderLock::Acquire(dir, "capture");
   if (fs::exists(dir / kSessionDatabaseName)) {
-    throw IoError(dir.string(), "already holds a session; choose a new --out folder (or append after `recover`)");
+    if (!IsUnfinishedCreation(dir)) {
+      throw IoError(dir.string(), "already holds a session; choose a new --out folder (or append after `recover`)");
+    }
+    // Nothing was recorded in it: start the creation again.
+    for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(dir / (std::string(kSessionDatabaseName) + suffix));
   }
   CreateDirectoryDurably(dir / "frames");
-  auto db = OpenDatabase(dir, true);
+  auto db = OpenDatabase(dir, Database::Mode::kCreate);
   {
     Transaction transaction(*db);
     db->Prepare(
@@ -180,13 +217,15 @@ std::unique_ptr<SessionWriter> SessionWriter::Create(const fs::path& dir, const 
     transaction.Commit();
   }
   SyncDirectory(dir);
-  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), info.site, options));
+  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), info.site, options, std::move(lock)));
 }
 
 std::unique_ptr<SessionWriter> SessionWriter::Append(const fs::path& dir, const SessionWriterOptions& options) {
   const SessionReader reader(dir);
-  auto db = OpenDatabase(dir, false);
-  return std::unique_ptr<SessionWriter>(new SessionWriter(dir, std::move(db), reader.info().site, options));
+  FolderLock lock = FolderLock::Acquire(dir, "session writer");
+  auto db = OpenDatabase(dir, Database::Mode::kReadWrite);
+  return std::unique_ptr<SessionWriter>(
+      new SessionWriter(dir, std::move(db), reader.info().site, options, std::move(lock)));
 }
 
 void SessionWriter::AddDevice(const drivers::DeviceInfo& device) {
@@ -485,11 +524,16 @@ SessionReader::SessionReader(const fs::path& dir) : dir_(dir) {
   if (!fs::exists(dir / kSessionDatabaseName)) {
     throw IoError(dir.string(), "no session here (no " + std::string(kSessionDatabaseName) + ")");
   }
-  db_ = OpenDatabase(dir, false);
+  db_ = OpenDatabase(dir, Database::Mode::kReadOnly);
   Statement s = db_->Prepare(
       "SELECT name, latitude_deg, longitude_deg, height_m, rig_config, software_version, clock, created_utc_ns "
       "FROM session WHERE id = 1");
-  if (!s.Step()) throw IoError(dir.string(), "the session database has no session row (was it created by relume?)");
+  if (!s.Step()) {
+    throw IoError(dir.string(),
+                  "the session database has no session row: the session was never completely created (e.g. the "
+                  "disk filled or the capture was stopped while creating it), so nothing was recorded in it; "
+                  "capture again into this folder (relume replaces the empty database) or delete it");
+  }
   info_.name = s.Text(0);
   info_.site = Site{DegToRad(s.Double(1)), DegToRad(s.Double(2)), s.Double(3)};
   info_.rig_config = s.Text(4);
@@ -596,8 +640,14 @@ std::vector<CalibrationRecord> SessionReader::Calibrations() const {
 }
 
 std::vector<std::uint8_t> SessionReader::ReadFrameFile(const FrameRecord& frame, bool verify_checksum) const {
-  const fs::path path = dir_ / frame.file_path;
-  std::vector<std::uint8_t> bytes = ReadFile(path);
+  const fs::path path = SessionFilePath(dir_, frame.file_path, "frame " + std::to_string(frame.id));
+  std::vector<std::uint8_t> bytes;
+  try {
+    bytes = ReadRegularFile(path);
+  } catch (const IoError& e) {
+    const std::string reason = std::string(e.what()).substr(e.path().size() + 2);  // without "path: "
+    throw IoError(path.string(), "frame " + std::to_string(frame.id) + " " + reason + " (run `relume session verify`)");
+  }
   if (verify_checksum && Sha256Hex(bytes) != frame.sha256) {
     throw IoError(path.string(), "checksum mismatch: the file changed after it was recorded");
   }

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "capture/folder_lock.h"
 #include "capture/sqlite.h"
 #include "core/site.h"
 #include "core/sun/sun_track.h"
@@ -122,9 +123,13 @@ RgbdFileFormat ParseRgbdFileFormat(const std::string& text);
 DepthUnits ParseDepthUnits(const std::string& text);
 
 // Writes one session. Not thread-safe: callers serialise (the recorder owns one writer thread).
+// A writer holds the session's folder lock (capture/folder_lock.h) while it lives: a second
+// process that opens a writer on the same session gets an IoError naming the first.
 class SessionWriter {
  public:
-  // Creates a new session in `dir` (created if missing; must not already hold a session).
+  // Creates a new session in `dir` (created if missing; must not already hold a session: a
+  // database left by a creation that never finished, with no session row and no frame, is
+  // replaced).
   static std::unique_ptr<SessionWriter> Create(const std::filesystem::path& dir, const SessionInfo& info,
                                                const SessionWriterOptions& options = {});
   // Appends to an existing session (after `recover`).
@@ -159,11 +164,13 @@ class SessionWriter {
   std::uint64_t bytes_written() const { return bytes_written_; }
 
  private:
-  SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options);
+  SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options,
+                FolderLock lock);
   FrameRecord StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder = true);
   void InsertFrame(FrameRecord& record);
 
   std::filesystem::path dir_;
+  FolderLock lock_;  // held while the writer lives (capture/folder_lock.h); released after db_ closes
   std::unique_ptr<Database> db_;
   Site site_;
   SessionWriterOptions options_;

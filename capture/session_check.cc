@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "capture/durable_file.h"
+#include "capture/folder_lock.h"
+#include "capture/path_policy.h"
 #include "capture/session.h"
 #include "core/clock.h"
 #include "core/error.h"
@@ -20,18 +22,32 @@ bool IsTemp(const fs::path& path) {
   return path.string().ends_with(kTempSuffix);
 }
 
-// Files under frames/ that no row names.
-std::vector<fs::path> UnlistedFiles(const fs::path& dir, const std::set<std::string>& listed) {
-  std::vector<fs::path> unlisted;
+// What lies under frames/ that no row names: regular files (debris or orphans) and entries that
+// are not regular files at all (links, FIFOs, devices), which relume never wrote and never follows.
+struct Unlisted {
+  std::vector<fs::path> files;
+  std::vector<fs::path> foreign;
+};
+
+Unlisted UnlistedEntries(const fs::path& dir, const std::set<std::string>& listed) {
+  Unlisted unlisted;
   const fs::path frames = dir / "frames";
-  if (!fs::exists(frames)) return unlisted;
-  for (const auto& entry : fs::recursive_directory_iterator(frames)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string relative = fs::relative(entry.path(), dir).generic_string();
-    if (!listed.contains(relative)) unlisted.push_back(entry.path());
+  std::error_code ec;
+  if (!fs::is_directory(fs::symlink_status(frames, ec))) return unlisted;
+  for (auto it = fs::recursive_directory_iterator(frames); it != fs::recursive_directory_iterator(); ++it) {
+    const fs::file_status status = it->symlink_status();
+    if (fs::is_directory(status)) continue;  // the iterator does not descend into linked folders
+    const std::string relative = it->path().lexically_relative(dir).generic_string();
+    if (listed.contains(relative)) continue;
+    (fs::is_regular_file(status) ? unlisted.files : unlisted.foreign).push_back(it->path());
   }
-  std::sort(unlisted.begin(), unlisted.end());
+  std::sort(unlisted.files.begin(), unlisted.files.end());
+  std::sort(unlisted.foreign.begin(), unlisted.foreign.end());
   return unlisted;
+}
+
+std::string Relative(const fs::path& path, const fs::path& dir) {
+  return path.lexically_relative(dir).generic_string();
 }
 
 std::set<std::string> ListedFiles(const std::vector<FrameRecord>& frames) {
@@ -47,10 +63,44 @@ std::string VerifyReport::Summary() const {
   out << (ok() ? "OK" : "PROBLEMS") << ": " << frames_checked << " frames checked, " << missing_files << " missing, "
       << checksum_mismatches << " checksum mismatches, " << orphan_files << " orphan files, " << temp_files
       << " temporary files, " << open_brackets << " open brackets";
+  if (unsafe_paths > 0) out << ", " << unsafe_paths << " unreadable or unsafe frame paths";
+  if (foreign_entries > 0) out << ", " << foreign_entries << " foreign entries under frames/";
   for (const std::string& p : problems) out << "\n  " << p;
-  if (!ok() && missing_files == 0 && checksum_mismatches == 0) out << "\n  run `relume session recover` to fix";
+  if (!ok() && missing_files == 0 && checksum_mismatches == 0 && unsafe_paths == 0 && foreign_entries == 0) {
+    out << "\n  run `relume session recover` to fix";
+  }
   return out.str();
 }
+
+namespace {
+
+// Checks one frame's file: inside the session, a regular file, its SHA-256 as recorded.
+void VerifyFrame(const fs::path& dir, const FrameRecord& frame, VerifyReport& report) {
+  const std::string name = "frame " + std::to_string(frame.id);
+  if (const std::optional<std::string> problem = SessionPathProblem(dir, frame.file_path)) {
+    ++report.unsafe_paths;
+    report.problems.push_back(name + ": " + *problem + " (not read: relume reads only files inside the session)");
+    return;
+  }
+  const fs::path path = dir / frame.file_path;
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(path, ec))) {
+    ++report.missing_files;
+    report.problems.push_back(name + ": file " + frame.file_path + " is missing");
+    return;
+  }
+  try {
+    if (Sha256HexOfRegularFile(path) != frame.sha256) {
+      ++report.checksum_mismatches;
+      report.problems.push_back(name + ": " + frame.file_path + " does not match its recorded SHA-256");
+    }
+  } catch (const IoError& e) {
+    ++report.unsafe_paths;
+    report.problems.push_back(name + ": " + e.what());
+  }
+}
+
+}  // namespace
 
 VerifyReport VerifySession(const fs::path& dir) {
   const SessionReader reader(dir);
@@ -58,26 +108,22 @@ VerifyReport VerifySession(const fs::path& dir) {
   const std::vector<FrameRecord> frames = reader.Frames();
   for (const FrameRecord& frame : frames) {
     ++report.frames_checked;
-    const fs::path path = dir / frame.file_path;
-    if (!fs::exists(path)) {
-      ++report.missing_files;
-      report.problems.push_back("frame " + std::to_string(frame.id) + ": file " + frame.file_path + " is missing");
-      continue;
-    }
-    if (Sha256HexOfFile(path) != frame.sha256) {
-      ++report.checksum_mismatches;
-      report.problems.push_back("frame " + std::to_string(frame.id) + ": " + frame.file_path +
-                                " does not match its recorded SHA-256");
-    }
+    VerifyFrame(dir, frame, report);
   }
-  for (const fs::path& path : UnlistedFiles(dir, ListedFiles(frames))) {
+  const Unlisted unlisted = UnlistedEntries(dir, ListedFiles(frames));
+  for (const fs::path& path : unlisted.files) {
     if (IsTemp(path)) {
       ++report.temp_files;
-      report.problems.push_back("temporary file of an interrupted write: " + fs::relative(path, dir).string());
+      report.problems.push_back("temporary file of an interrupted write: " + Relative(path, dir));
     } else {
       ++report.orphan_files;
-      report.problems.push_back("file without a row (never acknowledged): " + fs::relative(path, dir).string());
+      report.problems.push_back("file without a row (never acknowledged): " + Relative(path, dir));
     }
+  }
+  for (const fs::path& path : unlisted.foreign) {
+    ++report.foreign_entries;
+    report.problems.push_back("not a regular file (a link, FIFO or device relume never writes): " +
+                              Relative(path, dir) + "; remove it by hand");
   }
   for (const BracketRecord& bracket : reader.Brackets()) {
     if (bracket.status == "open") {
@@ -93,12 +139,30 @@ std::string RecoverReport::Summary() const {
   std::ostringstream out;
   out << "recovered: " << temp_files_removed << " temporary files removed, " << orphans_kept
       << " unacknowledged files kept in orphans/, " << brackets_closed << " open brackets marked partial";
+  if (foreign_left > 0) out << ", " << foreign_left << " foreign entries left in place";
   for (const std::string& a : actions) out << "\n  " << a;
   return out.str();
 }
 
+namespace {
+
+// A name under orphans/ for an unacknowledged file that no earlier orphan has: an orphan is kept,
+// never overwritten.
+fs::path FreeOrphanPath(const fs::path& dir, const fs::path& file) {
+  const fs::path target = dir / "orphans" / file.lexically_relative(dir / "frames");
+  fs::path candidate = target;
+  std::error_code ec;
+  for (int n = 1; fs::exists(fs::symlink_status(candidate, ec)); ++n) {
+    candidate = target.parent_path() / (target.filename().string() + '.' + std::to_string(n));
+  }
+  return candidate;
+}
+
+}  // namespace
+
 RecoverReport RecoverSession(const fs::path& dir) {
   RecoverReport report;
+  const FolderLock lock = FolderLock::Acquire(dir, "session recover");
   std::vector<BracketRecord> brackets;
   std::vector<FrameRecord> frames;
   {
@@ -106,22 +170,29 @@ RecoverReport RecoverSession(const fs::path& dir) {
     frames = reader.Frames();
     brackets = reader.Brackets();
   }
-  for (const fs::path& path : UnlistedFiles(dir, ListedFiles(frames))) {
-    const std::string relative = fs::relative(path, dir).generic_string();
+  const Unlisted unlisted = UnlistedEntries(dir, ListedFiles(frames));
+  for (const fs::path& path : unlisted.files) {
+    const std::string relative = Relative(path, dir);
     if (IsTemp(path)) {
       fs::remove(path);
       ++report.temp_files_removed;
       report.actions.push_back("removed " + relative + " (an interrupted write; never acknowledged)");
     } else {
-      const fs::path target = dir / "orphans" / fs::relative(path, dir / "frames");
+      const fs::path target = FreeOrphanPath(dir, path);
       CreateDirectoryDurably(target.parent_path());
       fs::rename(path, target);
       SyncDirectory(target.parent_path());
       SyncDirectory(path.parent_path());
       ++report.orphans_kept;
-      report.actions.push_back("moved " + relative + " to " + fs::relative(target, dir).generic_string() +
+      report.actions.push_back("moved " + relative + " to " + Relative(target, dir) +
                                " (written but never acknowledged)");
     }
+  }
+  for (const fs::path& path : unlisted.foreign) {
+    ++report.foreign_left;
+    report.actions.push_back("left " + Relative(path, dir) +
+                             " alone: it is not a regular file (a link, FIFO or device relume never writes); "
+                             "remove it by hand");
   }
   auto writer = SessionWriter::Append(dir);
   for (const BracketRecord& bracket : brackets) {
@@ -159,7 +230,7 @@ std::string DescribeSession(const fs::path& dir) {
     min_elevation = std::min(min_elevation, f.sun_elevation_deg);
     max_elevation = std::max(max_elevation, f.sun_elevation_deg);
     std::error_code error;
-    bytes += fs::file_size(dir / f.file_path, error);
+    if (!SessionPathProblem(dir, f.file_path)) bytes += fs::file_size(dir / f.file_path, error);
   }
   out << "frames        " << frames.size();
   if (!frames.empty()) {

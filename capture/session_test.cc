@@ -339,7 +339,7 @@ TEST_F(SessionTest, RefusesExistingSessionsAndNewerSchemas) {
   EXPECT_THROW(SessionWriter::Create(dir_, Info()), IoError);
   EXPECT_THROW(SessionReader(dir_ / "nowhere"), IoError);
   {
-    Database db((dir_ / kSessionDatabaseName).string(), false);
+    Database db((dir_ / kSessionDatabaseName).string(), Database::Mode::kReadWrite);
     db.Exec("UPDATE meta SET value = '99' WHERE key = 'schema_version'");
   }
   try {

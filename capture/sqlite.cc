@@ -1,19 +1,71 @@
 #include "capture/sqlite.h"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <optional>
 
 #include "core/error.h"
 
 namespace relume::capture {
 
-Database::Database(const std::string& path, bool create) : path_(path) {
-  const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
-  if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
-    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
+namespace {
+
+// Opens with `flags`; returns SQLite's message on failure (db is then null).
+std::optional<std::string> Open(const std::string& name, int flags, sqlite3** db) {
+  if (sqlite3_open_v2(name.c_str(), db, flags, nullptr) == SQLITE_OK) return std::nullopt;
+  std::string message = *db ? sqlite3_errmsg(*db) : "out of memory";
+  sqlite3_close(*db);
+  *db = nullptr;
+  return message;
+}
+
+// A read-only connection to a WAL database needs its -shm file; in a read-only folder without
+// one the first read fails. True when a read works.
+bool CanRead(sqlite3* db) {
+  return sqlite3_exec(db, "SELECT count(*) FROM sqlite_master", nullptr, nullptr, nullptr) == SQLITE_OK;
+}
+
+bool FolderWritable(const std::string& path) {
+  const std::filesystem::path folder = std::filesystem::absolute(path).parent_path();
+  return ::access(folder.c_str(), W_OK) == 0;
+}
+
+// SQLite URI of a path (file:...), with the characters URIs reserve escaped.
+std::string FileUri(const std::string& path) {
+  std::string uri = "file:";
+  for (char c : path) {
+    if (c == '%' || c == '?' || c == '#') {
+      static const char kHex[] = "0123456789ABCDEF";
+      uri += '%';
+      uri += kHex[(static_cast<unsigned char>(c) >> 4) & 15];
+      uri += kHex[static_cast<unsigned char>(c) & 15];
+    } else {
+      uri += c;
+    }
+  }
+  return uri;
+}
+
+}  // namespace
+
+Database::Database(const std::string& path, Mode mode) : path_(path) {
+  int flags = SQLITE_OPEN_FULLMUTEX;
+  if (mode == Mode::kReadOnly) {
+    flags |= SQLITE_OPEN_READONLY;
+  } else {
+    flags |= SQLITE_OPEN_READWRITE | (mode == Mode::kCreate ? SQLITE_OPEN_CREATE : 0);
+  }
+  std::optional<std::string> failure = Open(path, flags, &db_);
+  if (!failure) sqlite3_busy_timeout(db_, 5000);
+  if (!failure && mode == Mode::kReadOnly && !FolderWritable(path) && !CanRead(db_)) {
+    // A read-only folder: nothing can change the file while we read it, so immutable is exact.
     sqlite3_close(db_);
     db_ = nullptr;
-    throw IoError(path, "cannot open the session database: " + message);
+    failure = Open(FileUri(path) + "?immutable=1", flags | SQLITE_OPEN_URI, &db_);
   }
+  if (failure) throw IoError(path, "cannot open the session database: " + *failure);
   sqlite3_busy_timeout(db_, 5000);
   sqlite3_extended_result_codes(db_, 1);
 }

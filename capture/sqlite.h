@@ -14,8 +14,13 @@ class Statement;
 
 class Database {
  public:
-  // Opens (creating when `create`) the database at `path`.
-  Database(const std::string& path, bool create);
+  enum class Mode {
+    kReadWrite,  // an existing database
+    kCreate,     // created when missing
+    kReadOnly,   // never written: falls back to SQLite's immutable mode when the folder is
+                 // read-only and the WAL's shared-memory file cannot be created
+  };
+  Database(const std::string& path, Mode mode);
   ~Database();
   Database(const Database&) = delete;
   Database& operator=(const Database&) = delete;

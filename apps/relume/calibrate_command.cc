@@ -14,6 +14,7 @@
 #include "calibration/image_file.h"
 #include "calibration/report_plots.h"
 #include "calibration/response.h"
+#include "capture/path_policy.h"
 #include "capture/session.h"
 #include "core/error.h"
 #include "core/yaml_file.h"
@@ -80,22 +81,48 @@ std::int64_t StoreInSession(const std::string& session, const std::string& kind,
   return capture::SessionWriter::Append(session)->AddCalibration(record);
 }
 
+// The --store-in sessions, each checked before anything is stored anywhere: a session holding
+// the calibrated device, not the source session again. A bad one stores nothing at all, so a
+// corrected retry does not duplicate rows.
+std::vector<std::string> CheckStoreIn(const SessionSource& source, const std::string& device_id) {
+  std::vector<std::string> targets;
+  for (const std::string& other : source.store_in) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(other, source.session, ec)) continue;  // stored there anyway
+    const capture::SessionReader reader(other);                            // IoError naming it when it is not a session
+    const auto devices = reader.Devices();
+    if (std::none_of(devices.begin(), devices.end(),
+                     [&](const drivers::DeviceInfo& d) { return d.FullId() == device_id; })) {
+      throw InvalidArgumentError("--store-in " + other + ": that session has no device " + device_id +
+                                 "; nothing was stored");
+    }
+    targets.push_back(other);
+  }
+  return targets;
+}
+
 // Stores the calibration in the source session and every --store-in session, and says so.
 void StoreEverywhere(const SessionSource& source, const std::string& kind, const CalibrationProfile& profile,
                      const std::vector<capture::FrameRecord>& frames, std::ostream& out) {
+  const std::vector<std::string> others = CheckStoreIn(source, frames.front().device_id);
   const std::int64_t id = StoreInSession(source.session, kind, profile, frames);
   out << "stored in " << source.session << " as calibration " << id << " (" << kind << " of " << profile.camera
       << ", from " << frames.size() << " frames; applied when its frames are processed)\n";
-  for (const std::string& other : source.store_in) {
-    const capture::SessionReader reader(other);  // IoError naming it when it is not a session
-    const auto devices = reader.Devices();
-    if (std::none_of(devices.begin(), devices.end(),
-                     [&](const drivers::DeviceInfo& d) { return d.FullId() == frames.front().device_id; })) {
-      throw InvalidArgumentError("--store-in " + other + ": that session has no device " + frames.front().device_id);
-    }
+  for (const std::string& other : others) {
     const std::int64_t other_id = StoreInSession(other, kind, profile, frames, /*own_frames=*/false);
     out << "stored in " << other << " as calibration " << other_id << "\n";
   }
+}
+
+// Refuses outputs that would overwrite an input or land in a session's recorded data, before
+// any work (capture/path_policy.h).
+void CheckOutputs(const std::vector<std::pair<std::string, std::string>>& outputs,
+                  const std::vector<std::string>& inputs) {
+  std::vector<std::filesystem::path> input_paths;
+  for (const std::string& input : inputs) {
+    if (!input.empty()) input_paths.emplace_back(input);
+  }
+  for (const auto& [flag, output] : outputs) capture::CheckOutputFile(output, input_paths, flag);
 }
 
 }  // namespace
@@ -131,6 +158,16 @@ std::vector<double> ResolveExposures(const ExposureArgs& args, std::size_t count
 
 void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& out) {
   CalibrateResponseArgs args = args_in;
+  {
+    std::vector<std::string> inputs = args.files;
+    inputs.push_back(args.source.session.empty()
+                         ? ""
+                         : (std::filesystem::path(args.source.session) / capture::kSessionDatabaseName).string());
+    CheckOutputs({{"--out", args.out},
+                  {"--plot", args.plot.empty() ? WithoutJson(args.out) + ".png" : args.plot},
+                  {"--out (its report)", WithoutJson(args.out) + "_report.json"}},
+                 inputs);
+  }
   std::vector<CameraImage> frames;
   std::vector<capture::FrameRecord> records;
   if (!args.source.session.empty()) {
@@ -215,6 +252,18 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& ou
 void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   if (!args.corners.empty() && args.corners.size() != 8) {
     throw InvalidArgumentError("--corners: give 8 numbers x0,y0,x1,y1,x2,y2,x3,y3");
+  }
+  {
+    const std::string dir = args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
+    const std::string session_db =
+        args.source.session.empty()
+            ? ""
+            : (std::filesystem::path(args.source.session) / capture::kSessionDatabaseName).string();
+    CheckOutputs({{"--out", args.out},
+                  {"--report-dir", dir + "/chart_detected.png"},
+                  {"--report-dir", dir + "/swatches.png"},
+                  {"--report-dir", dir + "/chart_report.json"}},
+                 {args.image, args.profile, args.reference, args.corners_file, session_db});
   }
   const ColorCheckerReference reference = LoadColorCheckerReference(args.reference);
   std::optional<CalibrationProfile> base;

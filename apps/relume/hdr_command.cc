@@ -12,6 +12,7 @@
 #include "calibration/calibration_profile.h"
 #include "calibration/hdr_merge.h"
 #include "calibration/image_file.h"
+#include "capture/path_policy.h"
 #include "core/error.h"
 
 namespace relume::app {
@@ -20,6 +21,18 @@ using namespace relume::calibration;
 
 void RunHdrMerge(const HdrMergeArgs& args, std::ostream& out) {
   if (args.files.empty()) throw InvalidArgumentError("hdr merge: give the bracket's image files");
+  {
+    // Every file the merge writes is checked against every input before anything is read.
+    std::filesystem::path base(args.out);
+    base.replace_extension();
+    std::vector<std::filesystem::path> inputs(args.files.begin(), args.files.end());
+    if (!args.profile.empty()) inputs.emplace_back(args.profile);
+    for (const std::string& output :
+         {args.out, base.string() + "_contributors.png", base.string() + "_contributor_bits.png",
+          base.string() + "_status.png", base.string() + "_report.json"}) {
+      capture::CheckOutputFile(output, inputs, "--out");
+    }
+  }
   std::vector<CameraImage> frames;
   std::vector<double> metadata_times;
   for (const auto& f : args.files) {

@@ -8,6 +8,7 @@
 
 #include "apps/relume/process/pipeline.h"
 #include "apps/relume/process/report.h"
+#include "capture/folder_lock.h"
 #include "core/error.h"
 
 namespace relume::app {
@@ -74,6 +75,8 @@ void Run(const ProcessArgs& args) {
   }
   request.explain = args.explain;
   request.reuse = !args.force;
+  process::PrepareOutputFolder(request.out_dir);
+  const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process");
 
   std::vector<process::PipelineReport> reports;
   if (!all) {

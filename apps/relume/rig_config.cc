@@ -395,7 +395,15 @@ std::shared_ptr<RigConfig> LoadSessionRig(const std::filesystem::path& session_d
   const std::filesystem::path folder = session_dir / kRigFolder;
   if (!std::filesystem::exists(folder / "rig.yaml")) return nullptr;
   std::optional<std::string> scene;
-  if (std::filesystem::exists(folder / "scene.yaml")) scene = (folder / "scene.yaml").string();
+  if (std::filesystem::exists(folder / "scene.yaml")) {
+    scene = (folder / "scene.yaml").string();
+  } else if (YamlFile((folder / "rig.yaml").string()).root()["scene"]) {
+    // The rig's own `scene:` path is relative to where it was recorded from; resolved here it
+    // would read whatever lies there now, outside the session.
+    throw IoError((folder / "scene.yaml").string(),
+                  "is missing, although the session's rig names a scene: the session is incomplete (capture stores "
+                  "the scene it recorded there). Restore the file from a copy of the session");
+  }
   return std::make_shared<RigConfig>(LoadRigConfig((folder / "rig.yaml").string(), scene));
 }
 

@@ -9,6 +9,8 @@
 #include <span>
 
 #include "capture/durable_file.h"
+#include "capture/folder_lock.h"
+#include "capture/path_policy.h"
 #include "core/error.h"
 
 namespace relume::app::process {
@@ -185,6 +187,34 @@ const sim::SimDeviceSpec* FindDeviceSpec(const RigConfig* rig, const std::string
   return nullptr;
 }
 
+void PrepareOutputFolder(const fs::path& folder) {
+  capture::CheckOutputFolder(folder, "--out");
+  std::error_code ec;
+  if (fs::is_directory(folder, ec) && !fs::exists(folder / kOutputMarker, ec)) {
+    // Output folders of relume releases before the marker hold these; anything else is the
+    // user's, and a run would overwrite same-named files in it.
+    for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name == "stages" || name == "summary.json" || name == "report.html" || name == capture::kLockFileName) {
+        continue;
+      }
+      if (entry.is_directory() && (fs::exists(entry.path() / "summary.json") || fs::exists(entry.path() / "stages") ||
+                                   fs::exists(entry.path() / kOutputMarker))) {
+        continue;  // a pipeline's folder
+      }
+      throw InvalidArgumentError("--out " + folder.string() + ": the folder exists and holds files relume did not " +
+                                 "write (e.g. " + name + "); name a new or empty folder");
+    }
+  }
+  fs::create_directories(folder, ec);
+  if (ec) throw IoError(folder.string(), "cannot create the output folder: " + ec.message());
+  if (!fs::exists(folder / kOutputMarker)) {
+    static constexpr std::string_view kText = "relume process writes this folder; it may replace any file in it\n";
+    capture::WriteFileDurably(folder / kOutputMarker,
+                              std::span(reinterpret_cast<const std::uint8_t*>(kText.data()), kText.size()));
+  }
+}
+
 nlohmann::json RunPipeline(const PipelineRequest& request) {
   const PipelineEntry* entry = nullptr;
   std::string names;
@@ -203,9 +233,9 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
   }
   const capture::SessionReader session(request.session_dir);
   std::shared_ptr<const RigConfig> rig = LoadSessionRig(request.session_dir);
-  std::error_code ec;
-  fs::create_directories(request.out_dir, ec);
-  if (ec) throw IoError(request.out_dir.string(), "cannot create the output folder: " + ec.message());
+  PrepareOutputFolder(request.out_dir);
+  // One writer per output folder: a second `relume process` into it is refused, not interleaved.
+  const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process " + request.pipeline);
 
   PipelineRun run(request, session, rig);
   if (!rig) run.Decide("session", "note", "the session has no stored rig (rig/rig.yaml): no scene geometry or truth");

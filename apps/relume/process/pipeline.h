@@ -111,8 +111,18 @@ std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& ses
 // ("sim:dslr" or "dslr"), or null when the rig has no such simulated device.
 const sim::SimDeviceSpec* FindDeviceSpec(const RigConfig* rig, const std::string& device_id);
 
-// Runs one pipeline end to end: opens the session, loads its rig, runs, writes summary.json
-// into out_dir and returns the summary.
+// The file that marks a folder as relume's output: `relume process` writes only into a new or
+// empty folder, one it marked, or one an older relume wrote (stages/, summary.json).
+inline constexpr const char* kOutputMarker = ".relume-output";
+
+// Checks and creates an output folder: refused inside a session's recorded data or when it is a
+// session (capture/path_policy.h), or when it holds files relume did not write
+// (InvalidArgumentError naming one); marked as relume's when it is not yet.
+void PrepareOutputFolder(const std::filesystem::path& folder);
+
+// Runs one pipeline end to end: opens the session, loads its rig, prepares and locks out_dir
+// (a second run into the same folder at once is refused: capture/folder_lock.h), runs, writes
+// summary.json into out_dir and returns the summary.
 nlohmann::json RunPipeline(const PipelineRequest& request);
 
 }  // namespace relume::app::process
