@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -134,6 +135,32 @@ ColorLayout ParseLayout(const std::string& text) {
     if (text == ToString(layout)) return layout;
   }
   throw IoError(text, "unknown colour layout in the session database");
+}
+
+// A JSON column of a session row, as type T; IoError naming the column when the database holds
+// something else (edited or damaged).
+template <typename T>
+T ParseColumn(const Database& db, const std::string& text, const std::string& column) {
+  try {
+    return nlohmann::json::parse(text).get<T>();
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(db.path(), column + " is not what relume wrote (" + e.what() + "): the database is damaged");
+  }
+}
+
+// An image file's pixels through OpenCV; IoError naming the file when it cannot be decoded
+// (OpenCV reports some damaged headers by returning nothing, others by throwing).
+cv::Mat DecodeWithOpenCv(std::span<const std::uint8_t> bytes, const std::string& name) {
+  cv::Mat pixels;
+  if (!bytes.empty() && bytes.size() <= static_cast<std::size_t>(std::numeric_limits<int>::max())) {
+    try {
+      pixels = cv::imdecode(cv::_InputArray(bytes.data(), static_cast<int>(bytes.size())), cv::IMREAD_UNCHANGED);
+    } catch (const cv::Exception& e) {
+      throw IoError(name, std::string("cannot decode the image file: ") + e.what());
+    }
+  }
+  if (pixels.empty()) throw IoError(name, "cannot decode the image file (empty, truncated or damaged)");
+  return pixels;
 }
 
 SampleEncoding ParseEncoding(const std::string& text) {
@@ -548,12 +575,18 @@ std::vector<drivers::DeviceInfo> SessionReader::Devices() const {
   while (s.Step()) {
     drivers::DeviceInfo d;
     d.backend = s.Text(0);
-    d.id = s.Text(1).substr(d.backend.size() + 1);
+    const std::string full_id = s.Text(1);
+    if (!full_id.starts_with(d.backend + ":")) {
+      throw IoError(db_->path(), "devices row '" + full_id + "' does not start with its backend '" + d.backend +
+                                     ":': the database is damaged");
+    }
+    d.id = full_id.substr(d.backend.size() + 1);
     d.kind = s.Text(2) == "rgbd_sensor" ? drivers::DeviceKind::kRgbdSensor : drivers::DeviceKind::kStillCamera;
     d.model = s.Text(3);
     d.serial = s.Text(4);
     d.address = s.Text(5);
-    d.details = nlohmann::json::parse(s.Text(6)).get<std::map<std::string, std::string>>();
+    d.details =
+        ParseColumn<std::map<std::string, std::string>>(*db_, s.Text(6), "devices.details_json of " + d.FullId());
     devices.push_back(d);
   }
   return devices;
@@ -633,7 +666,8 @@ std::vector<CalibrationRecord> SessionReader::Calibrations() const {
     c.kind = s.Text(2);
     c.device_id = s.Text(3);
     c.json = s.Text(4);
-    c.source_frame_ids = nlohmann::json::parse(s.Text(5)).get<std::vector<std::int64_t>>();
+    c.source_frame_ids = ParseColumn<std::vector<std::int64_t>>(
+        *db_, s.Text(5), "calibrations.source_frame_ids of calibration " + std::to_string(c.id));
     calibrations.push_back(std::move(c));
   }
   return calibrations;
@@ -664,8 +698,7 @@ cv::Mat DecodeVerified(const SessionReader& reader, const FrameRecord& frame, bo
                                "' files are camera raw; decode them with the calibration layer's raw loader");
   }
   if (frame.file_format == "exr") AllowOpenExr();
-  cv::Mat pixels = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-  if (pixels.empty()) throw IoError(path.string(), "cannot decode the image file");
+  cv::Mat pixels = DecodeWithOpenCv(bytes, path.string());
   if (pixels.channels() == 3) cv::cvtColor(pixels, pixels, cv::COLOR_BGR2RGB);
   return pixels;
 }
@@ -689,8 +722,7 @@ CameraImage DecodeFrameImage(std::span<const std::uint8_t> bytes, const FrameRec
     throw IoError(name, "'" + format + "' files cannot be decoded by relume (the file itself is kept intact)");
   }
   CameraImage image;
-  image.pixels = cv::imdecode(cv::_InputArray(bytes.data(), static_cast<int>(bytes.size())), cv::IMREAD_UNCHANGED);
-  if (image.pixels.empty()) throw IoError(name, "cannot decode the " + format + " file");
+  image.pixels = DecodeWithOpenCv(bytes, name);
   if (image.pixels.channels() == 4) cv::cvtColor(image.pixels, image.pixels, cv::COLOR_BGRA2RGB);
   if (image.pixels.channels() == 3) cv::cvtColor(image.pixels, image.pixels, cv::COLOR_BGR2RGB);
   image.layout = frame.layout;

@@ -23,6 +23,15 @@ if(RELUME_SANITIZE)
   target_link_options(relume_compile_options INTERFACE -fsanitize=address,undefined)
 endif()
 
+if(RELUME_LIBFUZZER)
+  # Coverage for libFuzzer in every library the harnesses link (fuzz/CMakeLists.txt); the
+  # harnesses themselves link the engine with -fsanitize=fuzzer. Needs clang.
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "RELUME_LIBFUZZER needs clang (scripts/fuzz.sh sets CXX=clang++)")
+  endif()
+  target_compile_options(relume_compile_options INTERFACE -fsanitize=fuzzer-no-link)
+endif()
+
 # Precompiled headers (RELUME_PCH): the third-party headers almost every translation unit
 # parses (Eigen, OpenCV core, nlohmann/json, the standard library; GoogleTest for tests; 1-2 s
 # each). Measured on the 2-core machine, clean Release build at -j2 without ccache: 13.2 min

@@ -71,7 +71,11 @@ Eigen::Vector3d UtmGridFrame::GridFromGeodetic(const Site& point) const {
   int zone = 0;
   bool northern = true;
   double x = 0.0, y = 0.0;
-  GeographicLib::UTMUPS::Forward(point.latitude_deg(), point.longitude_deg(), zone, northern, x, y, zone_);
+  try {
+    GeographicLib::UTMUPS::Forward(point.latitude_deg(), point.longitude_deg(), zone, northern, x, y, zone_);
+  } catch (const GeographicLib::GeographicErr& e) {
+    throw InvalidArgumentError(std::string("UTM grid: ") + e.what());
+  }
   if (northern != northern_) {
     // Keep one hemisphere's northing convention across the equator.
     y += northern_ ? -10'000'000.0 : 10'000'000.0;
@@ -81,7 +85,13 @@ Eigen::Vector3d UtmGridFrame::GridFromGeodetic(const Site& point) const {
 
 Site UtmGridFrame::GeodeticFromGrid(const Eigen::Vector3d& p) const {
   double lat_deg = 0.0, lon_deg = 0.0;
-  GeographicLib::UTMUPS::Reverse(zone_, northern_, p.x(), p.y(), lat_deg, lon_deg);
+  try {
+    GeographicLib::UTMUPS::Reverse(zone_, northern_, p.x(), p.y(), lat_deg, lon_deg);
+  } catch (const GeographicLib::GeographicErr& e) {
+    // An easting or northing outside the zone: a mesh or offset that is not in this grid.
+    throw InvalidArgumentError(std::string("UTM grid: zone ") + std::to_string(zone_) + (northern_ ? "N" : "S") + ": " +
+                               e.what());
+  }
   return Site{DegToRad(lat_deg), DegToRad(lon_deg), p.z()};
 }
 

@@ -63,7 +63,8 @@ class UtmGridFrame {
   Eigen::Vector3d GridFromEnuDirection(const Eigen::Vector3d& direction_in_enu) const;
   Eigen::Vector3d EnuFromGridDirection(const Eigen::Vector3d& direction_in_grid) const;
 
-  // Positions: easting, northing, height, and back.
+  // Positions: easting, northing, height, and back. InvalidArgumentError for a point the grid
+  // cannot hold (a northing or easting outside the zone, a latitude outside UTM).
   Eigen::Vector3d GridFromGeodetic(const Site& point) const;
   Site GeodeticFromGrid(const Eigen::Vector3d& point_in_grid) const;
 

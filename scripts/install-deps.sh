@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every package relume needs to build, test and run, by Debian 12 package name.
 # Idempotent: does nothing when everything is already installed.
+#   scripts/install-deps.sh [--fuzz]
 set -euo pipefail
 
 PACKAGES=(
@@ -17,6 +18,12 @@ PACKAGES=(
   # device backends and their simulated devices
   libgphoto2-dev libusb-1.0-0-dev libopenni2-dev libaravis-dev aravis-tools umockdev libumockdev-dev
 )
+
+# `install-deps.sh --fuzz`: also clang and its libFuzzer runtime, for scripts/fuzz.sh only (the
+# tests build with GCC and fuzz through relume's own driver).
+if [ "${1:-}" = "--fuzz" ]; then
+  PACKAGES+=(clang libclang-rt-14-dev)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
