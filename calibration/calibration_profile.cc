@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace relume::calibration {
 namespace {
@@ -95,11 +96,7 @@ void SaveProfile(const CalibrationProfile& profile, const std::string& path) {
 }
 
 CalibrationProfile LoadProfile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path, "cannot be read");
-  std::stringstream text;
-  text << in.rdbuf();
-  return ProfileFromJson(text.str(), path);
+  return ProfileFromJson(ReadInputFile(path), path);
 }
 
 CalibrationProfile ProfileFromJson(const std::string& text, const std::string& path) {

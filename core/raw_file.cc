@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace relume {
 namespace {
@@ -78,8 +79,7 @@ RawFile DecodeRawFile(std::span<const std::uint8_t> bytes, const std::string& na
 }
 
 RawFile LoadRawFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path, "cannot open the file; check the path");
+  std::ifstream in = OpenInputFile(path, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) throw IoError(path, "read error");
   return DecodeRawFile(bytes, path);

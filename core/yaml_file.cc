@@ -4,12 +4,12 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace relume {
 
 YamlFile::YamlFile(std::string path) : path_(std::move(path)) {
-  std::ifstream stream(path_);
-  if (!stream) throw IoError(path_, "cannot open the file for reading (does it exist?)");
+  std::ifstream stream = OpenInputFile(path_);
   try {
     root_ = YAML::Load(stream);
   } catch (const YAML::ParserException& e) {

@@ -9,10 +9,12 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string_view>
 #include <tuple>
 #include <vector>
 
 #include "core/error.h"
+#include "core/input_file.h"
 #include "core/sun/sun_track.h"
 #include "core/yaml_file.h"
 
@@ -344,8 +346,7 @@ void AddSunCommand(CLI::App& app) {
       RunSunCsv(*query, std::cin, "<stdin>", std::cout);
       return;
     }
-    std::ifstream file(*query->csv_path);
-    if (!file) throw IoError(*query->csv_path, "cannot open the CSV file for reading");
+    std::ifstream file = OpenInputFile(*query->csv_path);
     RunSunCsv(*query, file, *query->csv_path, std::cout);
   });
 }

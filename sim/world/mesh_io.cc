@@ -10,6 +10,7 @@
 
 #include "core/color.h"
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace relume::sim {
 
@@ -36,9 +37,7 @@ bool ParseInt(const std::string& text, long long* value) {
 }
 
 std::ifstream OpenOrThrow(const std::string& path) {
-  std::ifstream stream(path);
-  if (!stream) throw IoError(path, "cannot open the mesh file for reading (does it exist?)");
-  return stream;
+  return OpenInputFile(path);
 }
 
 }  // namespace

@@ -42,5 +42,63 @@ TEST(CliHardening, ParseErrorsExitTwoAndHelpExitsZero) {
   EXPECT_EQ(RunRelume("sun --help").exit_code, 0);
 }
 
+void WriteFile(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+const char* kStillCamera =
+    "  - id: cam\n"
+    "    kind: still_camera\n"
+    "    camera: {width: 32, height: 24, horizontal_fov_deg: 70, position_m: [-6, -34, 1.7], look_at_m: [-2, 0, 5]}\n"
+    "    output: raw\n";
+
+// A bracket of three 8-bit images of a horizontal gradient, `brighten`ed by their exposure
+// index (all identical when false).
+std::vector<std::string> WriteGradientBracket(const fs::path& dir, bool brighten) {
+  std::vector<std::string> paths;
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat image(48, 64, CV_8UC3);
+    for (int y = 0; y < image.rows; ++y) {
+      for (int x = 0; x < image.cols; ++x) {
+        const int code = std::min(255, (2 + 3 * x) * (brighten ? 1 << (2 * k) : 1) / 4);
+        image.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<std::uint8_t>(code), static_cast<std::uint8_t>(code),
+                                              static_cast<std::uint8_t>(code));
+      }
+    }
+    paths.push_back((dir / ("frame" + std::to_string(k) + ".png")).string());
+    cv::imwrite(paths.back(), image);
+  }
+  return paths;
+}
+
+TEST(CliHardening, DirectoryAsRigFileIsAClearError) {
+  const fs::path dir = FreshTempDir("hardening", "dir_rig");
+  ExpectUserError(RunRelume("capture --rig " + dir.string() + " --out " + (dir / "s").string()),
+                  dir.string() + ": is a directory, not a file");
+  EXPECT_FALSE(fs::exists(dir / "s"));
+  ExpectUserError(RunRelume("devices --rig " + dir.string()), "is a directory, not a file");
+}
+
+TEST(CliHardening, DirectoryAsSceneSiteCornersReferenceIsAClearError) {
+  const fs::path dir = FreshTempDir("hardening", "dir_inputs");
+  const fs::path scene_dir = dir / "scene.yaml";
+  fs::create_directories(scene_dir);
+  WriteFile(dir / "rig.yaml", std::string("name: r\nscene: scene.yaml\ndevices:\n").append(kStillCamera));
+  ExpectUserError(RunRelume("capture --rig " + (dir / "rig.yaml").string() + " --out " + (dir / "s").string()),
+                  scene_dir.string() + ": is a directory, not a file");
+  ExpectUserError(RunRelume("sun --site " + dir.string() + " --time 2026-06-21T12:00:00Z"),
+                  dir.string() + ": is a directory, not a file");
+  ExpectUserError(RunRelume("sim render " + dir.string() + " --camera c --out " + (dir / "out").string()),
+                  dir.string() + ": is a directory, not a file");
+  const std::vector<std::string> frames = WriteGradientBracket(dir, true);
+  ExpectUserError(
+      RunRelume("calibrate chart " + frames[0] + " --reference " + dir.string() + " --out " + (dir / "chart").string()),
+      dir.string() + ": is a directory, not a file");
+  ExpectUserError(RunRelume("calibrate chart " + frames[0] + " --corners-file " + dir.string() + " --out " +
+                            (dir / "chart").string()),
+                  dir.string() + ": is a directory, not a file");
+}
+
 }  // namespace
 }  // namespace relume

@@ -15,6 +15,7 @@
 #include "capture/rgbd_geometry.h"
 #include "core/color.h"
 #include "core/error.h"
+#include "core/input_file.h"
 #include "processing/depth_filter.h"
 #include "processing/normals.h"
 #include "processing/relight.h"
@@ -218,8 +219,7 @@ void WriteJson(const fs::path& path, const nlohmann::json& json) {
 }
 
 nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path.string(), "cannot be read");
+  std::ifstream in = OpenInputFile(path);
   try {
     return nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
