@@ -34,6 +34,16 @@ double YamlFile::RequireDouble(const YAML::Node& map, const std::string& key) co
   return number;
 }
 
+int YamlFile::RequireInt(const YAML::Node& map, const std::string& key, int min, int max) const {
+  const double number = RequireDouble(map, key);
+  if (number != std::floor(number) || number < min || number > max) {
+    Fail(map[key], key,
+         "'" + map[key].Scalar() + "' is not a whole number in [" + std::to_string(min) + ", " + std::to_string(max) +
+             "]");
+  }
+  return static_cast<int>(number);
+}
+
 std::string YamlFile::RequireString(const YAML::Node& map, const std::string& key) const {
   const YAML::Node value = map[key];
   if (!value.IsDefined() || value.IsNull()) Fail(map, key, "missing; expected text");

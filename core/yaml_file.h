@@ -14,8 +14,8 @@ namespace relume {
 // A parsed YAML file that remembers its path for error messages.
 class YamlFile {
  public:
-  // Throws IoError when the file cannot be read, ConfigError when it is not valid YAML or
-  // its top level is not a mapping.
+  // Throws IoError when the file cannot be read (missing, a directory), ConfigError when it is
+  // not valid YAML or its top level is not a mapping.
   explicit YamlFile(std::string path);
 
   const std::string& path() const { return path_; }
@@ -23,6 +23,9 @@ class YamlFile {
 
   // A required finite number; ConfigError names the key when missing or not a number.
   double RequireDouble(const YAML::Node& map, const std::string& key) const;
+  // A required whole number within [min, max], checked as a double before it is narrowed to an
+  // int (so 1e12 reads as out of range, not as an overflowed negative count).
+  int RequireInt(const YAML::Node& map, const std::string& key, int min, int max) const;
   std::string RequireString(const YAML::Node& map, const std::string& key) const;
   // Rejects keys not in `allowed` (catches typos such as "lattitude").
   void RejectUnknownKeys(const YAML::Node& map, std::initializer_list<const char*> allowed) const;

@@ -187,6 +187,12 @@ OpenedDevice OpenRigDevice(const std::shared_ptr<drivers::DeviceRegistry>& regis
 
 int RunCapture(const CaptureRequest& request) {
   RigConfig rig = LoadRigConfig(request.rig_path);
+  // Checked before the narrowing to int64 nanoseconds (292 years) below.
+  if (!(request.duration_minutes >= 0.0 && request.duration_minutes <= 100.0 * 365.25 * 1440.0)) {
+    throw InvalidArgumentError("--duration must be within [0, 100 years] in minutes");
+  }
+  if (!(request.speedup >= 0.0 && request.speedup <= 1e6))
+    throw InvalidArgumentError("--speedup must be within (0, 1e6]");
   if (request.duration_minutes > 0.0) {
     rig.recorder.duration = std::chrono::duration_cast<Nanoseconds>(
         std::chrono::duration<double, std::ratio<60>>(request.duration_minutes));

@@ -5,11 +5,14 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <set>
 #include <sstream>
 
 #include "capture/durable_file.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "core/input_file.h"
 #include "core/yaml_file.h"
 #include "sim/world/scene_yaml.h"
 
@@ -17,32 +20,30 @@ namespace relume::app {
 
 namespace {
 
-// A device's `scene_camera: NAME` becomes the `camera:` mapping of that scene camera.
-YAML::Node ExpandSceneCamera(const YamlFile& file, const YAML::Node& device, const sim::World& world) {
-  YAML::Node expanded = YAML::Clone(device);
-  const YAML::Node name = device["scene_camera"];
-  if (!name) return expanded;
-  if (device["camera"]) file.Fail(device, "scene_camera", "give either scene_camera or camera, not both");
-  PinholeCamera camera;
-  try {
-    camera = world.Camera(name.as<std::string>());
-  } catch (const Error& e) {
-    file.Fail(name, "scene_camera", e.what());
+// A duration given in units of `seconds_per_unit` (minutes: 60), checked before it is narrowed
+// to int64 nanoseconds: at most 100 years, well inside their 292. Zero and negative values are
+// left to the options' IsValid, which knows whether they mean anything.
+Nanoseconds RequireDuration(const YamlFile& file, const YAML::Node& map, const char* key, double seconds_per_unit) {
+  constexpr double kMaxSeconds = 100.0 * 365.25 * 86400.0;
+  const double seconds = file.RequireDouble(map, key) * seconds_per_unit;
+  if (std::abs(seconds) > kMaxSeconds) file.Fail(map[key], key, "must be at most 100 years");
+  return std::chrono::duration_cast<Nanoseconds>(std::chrono::duration<double>(seconds));
+}
+
+// A simulated clock without `clock: {start}` starts where the schedule does (not at the scene's
+// time, which may lie after the schedule's end: a capture of 0 frames that exits 0). A clock
+// that starts after the schedule's end is an error.
+void MatchClockToSchedule(const YamlFile& file, const YAML::Node& root, RigConfig& rig) {
+  const capture::ScheduleOptions& schedule = rig.recorder.schedule;
+  const bool clock_start_given = root["clock"] && root["clock"]["start"];
+  if (!clock_start_given && schedule.start) rig.clock_start = *schedule.start;
+  if (schedule.end && *schedule.end < rig.clock_start) {
+    file.Fail(root["schedule"]["end"], "schedule.end",
+              "the schedule ends (" + FormatIso8601(*schedule.end, std::chrono::seconds{0}, 0) +
+                  ") before the simulated clock starts (" + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0) +
+                  (clock_start_given ? ", clock.start" : ", the scene's time") +
+                  "): nothing would be recorded. Give the schedule a start, or set clock.start");
   }
-  YAML::Node node;
-  node["width"] = camera.intrinsics.width;
-  node["height"] = camera.intrinsics.height;
-  node["fx"] = camera.intrinsics.fx;
-  node["fy"] = camera.intrinsics.fy;
-  node["cx"] = camera.intrinsics.cx;
-  node["cy"] = camera.intrinsics.cy;
-  const Eigen::Vector3d p = camera.world_from_camera.translation();
-  node["position_m"] = std::vector<double>{p.x(), p.y(), p.z()};
-  const Eigen::Quaterniond q(camera.world_from_camera.linear());
-  node["rotation_wxyz"] = std::vector<double>{q.w(), q.x(), q.y(), q.z()};
-  expanded.remove("scene_camera");
-  expanded["camera"] = node;
-  return expanded;
 }
 
 // stream.KEY: "640x480" -> {640, 480}.
@@ -104,8 +105,10 @@ RegistryDeviceSpec ParseRegistryDevice(const YamlFile& file, const YAML::Node& d
       file.Fail(settings, "settings", "expected a map of camera settings, e.g. {imageformat: RAW}");
     }
     for (const auto& entry : settings) {
-      if (!entry.second.IsScalar()) file.Fail(entry.second, "settings", "expected a value for each setting");
-      spec.camera_settings.emplace_back(entry.first.as<std::string>(), entry.second.as<std::string>());
+      if (!entry.first.IsScalar() || !entry.second.IsScalar()) {
+        file.Fail(entry.second, "settings", "expected a name and a value for each setting");
+      }
+      spec.camera_settings.emplace_back(entry.first.Scalar(), entry.second.Scalar());
     }
   }
   if (const YAML::Node stream = device["stream"]) {
@@ -171,20 +174,20 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   RigConfig rig;
   rig.path = path;
   rig.name = file.RequireString(root, "name");
-  {
-    std::ifstream stream(path);
-    std::stringstream text;
-    text << stream.rdbuf();
-    rig.yaml_text = text.str();
-  }
+  rig.yaml_text = ReadInputFile(path);
   // Devices: simulated ones (no `backend:` or `backend: sim`) and registry ones.
   const YAML::Node devices = root["devices"];
   if (!devices || !devices.IsSequence() || devices.size() == 0) {
     file.Fail(root, "devices", "expected a list of devices");
   }
-  YAML::Node sim_devices(YAML::NodeType::Sequence);
+  std::vector<YAML::Node> sim_devices;
   for (const YAML::Node& device : devices) {
-    if (device.IsMap() && device["backend"] && device["backend"].as<std::string>() != "sim") {
+    if (!device.IsMap()) {
+      file.Fail(device, "devices",
+                "each device is a mapping (a simulated device with id, kind and camera, or "
+                "backend: gphoto2 | aravis | openni2 | playback with keys that find it)");
+    }
+    if (device["backend"] && file.RequireString(device, "backend") != "sim") {
       rig.registry_devices.push_back(ParseRegistryDevice(file, device));
     } else {
       sim_devices.push_back(device);
@@ -271,11 +274,8 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     };
     schedule.start = time_of("start");
     schedule.end = time_of("end");
-    if (s["every_minutes"]) {
-      schedule.interval = std::chrono::duration_cast<Nanoseconds>(
-          std::chrono::duration<double, std::ratio<60>>(file.RequireDouble(s, "every_minutes")));
-    }
-    if (s["count"]) schedule.count = static_cast<int>(file.RequireDouble(s, "count"));
+    if (s["every_minutes"]) schedule.interval = RequireDuration(file, s, "every_minutes", 60.0);
+    if (s["count"]) schedule.count = file.RequireInt(s, "count", 0, std::numeric_limits<int>::max());
     if (s["sun_elevation_step_deg"]) {
       schedule.kind = capture::ScheduleOptions::Kind::kSunElevationStep;
       schedule.elevation_step_deg = file.RequireDouble(s, "sun_elevation_step_deg");
@@ -284,10 +284,10 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     }
     std::string why;
     if (!schedule.IsValid(&why)) file.Fail(s, "schedule", why);
+    if (!rig.host_clock) MatchClockToSchedule(file, root, rig);
   }
   if (root["duration_minutes"]) {
-    rig.recorder.duration = std::chrono::duration_cast<Nanoseconds>(
-        std::chrono::duration<double, std::ratio<60>>(file.RequireDouble(root, "duration_minutes")));
+    rig.recorder.duration = RequireDuration(file, root, "duration_minutes", 60.0);
   }
   if (const YAML::Node b = root["bracket"]) {
     file.RejectUnknownKeys(
@@ -296,24 +296,22 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     if (b["saturation_fraction"]) o.saturation_fraction = file.RequireDouble(b, "saturation_fraction");
     if (b["min_signal_fraction"]) o.min_signal_fraction = file.RequireDouble(b, "min_signal_fraction");
     if (b["overlap_stops"]) o.overlap_stops = file.RequireDouble(b, "overlap_stops");
-    if (b["max_exposures"]) o.max_exposures = static_cast<int>(file.RequireDouble(b, "max_exposures"));
+    if (b["max_exposures"]) o.max_exposures = file.RequireInt(b, "max_exposures", 1, 64);
     if (b["unequal_steps"]) o.unequal_steps = file.RequireDouble(b, "unequal_steps");
     std::string why;
     if (!o.IsValid(&why)) file.Fail(b, "bracket", why);
   }
   if (const YAML::Node r = root["retry"]) {
     file.RejectUnknownKeys(r, {"max_attempts", "initial_backoff_ms"});
-    if (r["max_attempts"]) rig.recorder.retry.max_attempts = static_cast<int>(file.RequireDouble(r, "max_attempts"));
+    if (r["max_attempts"]) rig.recorder.retry.max_attempts = file.RequireInt(r, "max_attempts", 1, 1000);
     if (r["initial_backoff_ms"]) {
-      rig.recorder.retry.initial_backoff = std::chrono::duration_cast<Nanoseconds>(
-          std::chrono::duration<double, std::milli>(file.RequireDouble(r, "initial_backoff_ms")));
+      rig.recorder.retry.initial_backoff = RequireDuration(file, r, "initial_backoff_ms", 1e-3);
     }
     std::string why;
     if (!rig.recorder.retry.IsValid(&why)) file.Fail(r, "retry", why);
   }
   if (root["rgbd_burst_frames"]) {
-    rig.rgbd_burst_frames = static_cast<int>(file.RequireDouble(root, "rgbd_burst_frames"));
-    if (rig.rgbd_burst_frames < 0) file.Fail(root["rgbd_burst_frames"], "rgbd_burst_frames", "must be >= 0");
+    rig.rgbd_burst_frames = file.RequireInt(root, "rgbd_burst_frames", 0, 1'000'000);
   }
   if (root["rgbd_format"]) {
     try {
@@ -329,25 +327,19 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
       file.Fail(root["rgbd_depth"], "rgbd_depth", e.what());
     }
   }
-  YAML::Node expanded(YAML::NodeType::Sequence);
-  for (const YAML::Node& device : sim_devices) expanded.push_back(ExpandSceneCamera(file, device, *rig.world));
-  YAML::Node wrapper;
-  wrapper["devices"] = expanded;
-  if (expanded.size() > 0) rig.devices = sim::ParseSimDeviceSpecs(file, wrapper);
+  // Parsed from the file's own nodes, so that every error names the device's own line.
+  const sim::SceneCameraLookup scene_camera = [&rig](const std::string& name) { return rig.world->Camera(name); };
+  std::set<std::string> sim_ids;
+  for (const YAML::Node& device : sim_devices) {
+    rig.devices.push_back(sim::ParseSimDevice(file, device, scene_camera));
+    if (!sim_ids.insert(rig.devices.back().id).second) file.Fail(device["id"], "id", "device id used twice");
+  }
   std::string why;
   if (!rig.recorder.IsValid(&why)) throw ConfigError(path, 0, "", why);
   return rig;
 }
 
 namespace {
-
-std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream stream(path, std::ios::binary);
-  if (!stream) throw IoError(path.string(), "cannot be read");
-  std::stringstream text;
-  text << stream.rdbuf();
-  return text.str();
-}
 
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   capture::WriteFileDurably(path, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
@@ -373,7 +365,7 @@ void StoreRigWithSession(const RigConfig& rig, const std::filesystem::path& sess
     const std::string relative = holder[key] ? holder[key].as<std::string>() : fallback;
     const std::string name = "files/" + std::to_string(copied++) + "-" + fs::path(relative).filename().string();
     if (copied == 1) capture::CreateDirectoryDurably(folder / "files");
-    WriteText(folder / name, ReadText(scene_folder / relative));
+    WriteText(folder / name, ReadInputFile(scene_folder / relative));
     holder[key] = name;
   };
   if (YAML::Node objects = root["objects"]; objects && objects.IsSequence()) {

@@ -210,7 +210,7 @@ CameraModelOptions ParseSensor(const YamlFile& file, const YAML::Node& node, Cam
   model.shot_noise = OptionalBool(file, node, "shot_noise", model.shot_noise);
   model.noise_seed =
       static_cast<std::uint64_t>(Optional(file, node, "noise_seed", static_cast<double>(model.noise_seed)));
-  model.raw_bits = static_cast<int>(Optional(file, node, "raw_bits", model.raw_bits));
+  if (node["raw_bits"]) model.raw_bits = file.RequireInt(node, "raw_bits", 8, 16);
   model.black_level_fraction = Optional(file, node, "black_level_fraction", model.black_level_fraction);
   model.raw_layout = Choose<ColorLayout>(
       file, node, "layout", {{"rgb", ColorLayout::kRgb}, {"bayer_rggb", ColorLayout::kBayerRggb}}, model.raw_layout);
@@ -255,7 +255,7 @@ void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgb
       file, node, "registration", {{"nearest", Registration::kNearest}, {"interpolated", Registration::kInterpolated}},
       rgbd.registration);
   rgbd.frame_jitter_s = Optional(file, node, "frame_jitter_s", rgbd.frame_jitter_s);
-  rgbd.queue_capacity = static_cast<int>(Optional(file, node, "queue_capacity", rgbd.queue_capacity));
+  if (node["queue_capacity"]) rgbd.queue_capacity = file.RequireInt(node, "queue_capacity", 1, 1000);
   rgbd.queue_full = Choose<SimRgbdOptions::QueueFull>(
       file, node, "queue_full",
       {{"drop_oldest", SimRgbdOptions::QueueFull::kDropOldest}, {"wait", SimRgbdOptions::QueueFull::kWait}},
@@ -267,11 +267,24 @@ void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgb
   rgbd.seed = static_cast<std::uint64_t>(Optional(file, node, "seed", static_cast<double>(rgbd.seed)));
 }
 
-SimDeviceSpec ParseDevice(const YamlFile& file, const YAML::Node& node) {
+PinholeCamera ParseDeviceCamera(const YamlFile& file, const YAML::Node& node, const SceneCameraLookup& scene_camera) {
+  const YAML::Node name = node["scene_camera"];
+  if (!name) return ParseCamera(file, node["camera"]);
+  if (!scene_camera) file.Fail(name, "scene_camera", "scene cameras are for rig files (with a scene); give camera:");
+  if (node["camera"]) file.Fail(node, "scene_camera", "give either scene_camera or camera, not both");
+  const std::string text = file.RequireString(node, "scene_camera");
+  try {
+    return scene_camera(text);
+  } catch (const Error& e) {
+    file.Fail(name, "scene_camera", e.what());
+  }
+}
+
+SimDeviceSpec ParseDevice(const YamlFile& file, const YAML::Node& node, const SceneCameraLookup& scene_camera = {}) {
   if (!node.IsMap()) file.Fail(node, "devices", "each device is a mapping with at least id, kind and camera");
-  file.RejectUnknownKeys(
-      node, {"id", "model", "serial", "kind", "camera", "exposure_control", "output", "add_noise", "readout_time_s",
-             "sensor_temperature_c", "initial_exposure", "sensor", "metering", "device_clock", "rgbd", "faults"});
+  file.RejectUnknownKeys(node, {"id", "model", "serial", "kind", "camera", "scene_camera", "exposure_control", "output",
+                                "add_noise", "readout_time_s", "sensor_temperature_c", "initial_exposure", "sensor",
+                                "metering", "device_clock", "rgbd", "faults"});
   SimDeviceSpec spec;
   spec.id = file.RequireString(node, "id");
   if (node["model"]) spec.model = file.RequireString(node, "model");
@@ -279,7 +292,7 @@ SimDeviceSpec ParseDevice(const YamlFile& file, const YAML::Node& node) {
   spec.kind = Choose<DeviceKind>(file, node, "kind",
                                  {{"still_camera", DeviceKind::kStillCamera}, {"rgbd_sensor", DeviceKind::kRgbdSensor}},
                                  DeviceKind::kStillCamera);
-  spec.camera = ParseCamera(file, node["camera"]);
+  spec.camera = ParseDeviceCamera(file, node, scene_camera);
   const auto control = Choose<drivers::ExposureControl>(file, node, "exposure_control",
                                                         {{"shutter_list", drivers::ExposureControl::kShutterList},
                                                          {"continuous", drivers::ExposureControl::kContinuous},
@@ -352,6 +365,10 @@ std::vector<SimDeviceSpec> ParseSimDeviceSpecs(const YamlFile& file, const YAML:
     if (!ids.insert(spec.id).second) file.Fail(node, spec.id, "device id used twice");
   }
   return specs;
+}
+
+SimDeviceSpec ParseSimDevice(const YamlFile& file, const YAML::Node& device, const SceneCameraLookup& scene_camera) {
+  return ParseDevice(file, device, scene_camera);
 }
 
 std::vector<SimDeviceSpec> LoadSimDeviceSpecs(const std::string& path) {

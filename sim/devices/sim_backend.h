@@ -4,6 +4,7 @@
 // injected disconnect takes it out of Enumerate() until it reconnects.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -77,5 +78,13 @@ class SimBackend : public drivers::Backend {
 // Throws ConfigError naming file, line and key.
 std::vector<SimDeviceSpec> LoadSimDeviceSpecs(const std::string& path);
 std::vector<SimDeviceSpec> ParseSimDeviceSpecs(const YamlFile& file, const YAML::Node& devices_or_device);
+
+// Resolves a device's `scene_camera: NAME` (rig files: the pose, size and field of view of a
+// camera of the simulated world); throws relume::Error for a name the world does not have.
+using SceneCameraLookup = std::function<PinholeCamera(const std::string& name)>;
+// One device mapping, as above; with `scene_camera` given, `scene_camera: NAME` may replace
+// `camera:`. Errors point at the device's own lines in `file`.
+SimDeviceSpec ParseSimDevice(const YamlFile& file, const YAML::Node& device,
+                             const SceneCameraLookup& scene_camera = {});
 
 }  // namespace relume::sim

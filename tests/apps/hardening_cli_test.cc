@@ -100,5 +100,87 @@ TEST(CliHardening, DirectoryAsSceneSiteCornersReferenceIsAClearError) {
                   dir.string() + ": is a directory, not a file");
 }
 
+// A simulated rig of one still camera looking at the outdoor building scene; `device` replaces
+// the device entry, `extra` adds top-level keys.
+std::string TinyRig(const std::string& device, const std::string& extra = "") {
+  return "name: tiny\n"
+         "scene: " +
+         kSource + "/config/scenes/outdoor-building.yaml\n" +
+         "clock: {start: \"2026-06-21T09:00:00+03:00\", mode: event}\n"
+         "schedule: {every_minutes: 60, count: 1}\n" +
+         extra + "devices:\n" + device;
+}
+
+TEST(CliHardening, RigTypeErrorsNameTheKeyAndLine) {
+  const fs::path dir = FreshTempDir("hardening", "rig_types");
+  const fs::path rig = dir / "rig.yaml";
+  auto run = [&](const std::string& text) {
+    WriteFile(rig, text);
+    return RunRelume("capture --rig " + rig.string() + " --out " + (dir / "s").string());
+  };
+  // Line 6 is the first device entry in TinyRig.
+  ExpectUserError(run(TinyRig("  - backend: {a: 1}\n")), rig.string() + ":6: backend: expected text");
+  ExpectUserError(run(TinyRig("  - 42\n")), rig.string() + ":6: devices: each device is a mapping");
+  ExpectUserError(run(TinyRig("  - id: cam\n    scene_camera: {a: 1}\n")),
+                  rig.string() + ":7: scene_camera: expected text");
+  EXPECT_FALSE(fs::exists(dir / "s"));
+  WriteFile(rig, TinyRig("  - 42\n"));
+  ExpectUserError(RunRelume("devices --rig " + rig.string()), rig.string() + ":6: devices: each device is a mapping");
+}
+
+TEST(CliHardening, ErrorsInsideADeviceEntryReportItsOwnLine) {
+  const fs::path dir = FreshTempDir("hardening", "rig_lines");
+  const fs::path rig = dir / "rig.yaml";
+  // The second device's sensor (line 12) holds an unknown key.
+  WriteFile(rig, TinyRig(std::string(kStillCamera) +
+                         "  - id: cam2\n"
+                         "    kind: still_camera\n"
+                         "    camera: {width: 32, height: 24, horizontal_fov_deg: 70, position_m: [0, 0, 1], "
+                         "look_at_m: [1, 0, 1]}\n"
+                         "    sensor: {nosuchkey: 1}\n"));
+  ExpectUserError(RunRelume("capture --rig " + rig.string() + " --out " + (dir / "s").string()),
+                  rig.string() + ":13: nosuchkey: unknown key");
+}
+
+TEST(CliHardening, HugeCountsAreOutOfRangeNotNegative) {
+  const fs::path dir = FreshTempDir("hardening", "counts");
+  const fs::path rig = dir / "rig.yaml";
+  WriteFile(rig, "name: tiny\nscene: " + kSource +
+                     "/config/scenes/outdoor-building.yaml\n"
+                     "schedule: {every_minutes: 60, count: 1e12}\n"
+                     "devices:\n" +
+                     kStillCamera);
+  ExpectUserError(RunRelume("capture --rig " + rig.string() + " --out " + (dir / "s").string()),
+                  "count: '1e12' is not a whole number in [0, 2147483647]");
+  WriteFile(rig, TinyRig(kStillCamera, "rgbd_burst_frames: 1e12\n"));
+  ExpectUserError(RunRelume("capture --rig " + rig.string() + " --out " + (dir / "s").string()),
+                  "rgbd_burst_frames: '1e12' is not a whole number");
+  WriteFile(rig, TinyRig(kStillCamera, "duration_minutes: 1e300\n"));
+  ExpectUserError(RunRelume("capture --rig " + rig.string() + " --out " + (dir / "s").string()),
+                  "duration_minutes: must be at most 100 years");
+  EXPECT_FALSE(fs::exists(dir / "s"));
+}
+
+TEST(CliHardening, CaptureWithoutClockStartsAtTheSchedule) {
+  const fs::path dir = FreshTempDir("hardening", "no_clock");
+  // The scene's time is 18:30; the schedule ends at 10:00.
+  const std::string rig = "name: tiny\nscene: " + kSource +
+                          "/config/scenes/outdoor-building.yaml\n"
+                          "schedule: {every_minutes: 60, start: \"2026-06-21T09:00:00+03:00\", "
+                          "end: \"2026-06-21T10:00:00+03:00\"}\n"
+                          "devices:\n" +
+                          kStillCamera;
+  WriteFile(dir / "rig.yaml", rig);
+  const CliResult result =
+      RunRelume("capture --no-progress --rig " + (dir / "rig.yaml").string() + " --out " + (dir / "session").string());
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("in 2 brackets"), std::string::npos) << result.output;
+  // A clock that starts after the schedule's end records nothing: an error, not an empty session.
+  WriteFile(dir / "late.yaml", "clock: {start: \"2026-06-21T18:30:00+03:00\"}\n" + rig);
+  ExpectUserError(RunRelume("capture --rig " + (dir / "late.yaml").string() + " --out " + (dir / "late").string()),
+                  "schedule.end: the schedule ends (2026-06-21T07:00:00Z) before the simulated clock starts");
+  EXPECT_FALSE(fs::exists(dir / "late"));
+}
+
 }  // namespace
 }  // namespace relume
