@@ -22,6 +22,13 @@ bool PinholeIntrinsics::IsValid(std::string* why) const {
     return false;
   };
   if (width <= 0 || height <= 0) return fail("image size must be positive");
+  if (std::int64_t{width} * height > kMaxPixels) {
+    if (why) {
+      *why = "image size " + std::to_string(width) + "x" + std::to_string(height) +
+             " is more than relume's maximum of 2^28 (268 million) pixels";
+    }
+    return false;
+  }
   if (!(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0)) return fail("focal lengths must be positive");
   if (!(std::isfinite(cx) && std::isfinite(cy))) return fail("principal point must be finite");
   return true;

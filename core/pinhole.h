@@ -12,11 +12,18 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <string>
 
 namespace relume {
 
 struct PinholeIntrinsics {
+  // The largest image relume accepts: 2^28 pixels (16384 x 16384). Images are cv::Mats of up
+  // to 4 float channels whose element counts and offsets are ints in OpenCV and in relume's
+  // loops; 2^28 x 4 stays below 2^31, and at 16 bytes a pixel the image is 4 GiB. Sizes are
+  // checked against it before anything is allocated.
+  static constexpr std::int64_t kMaxPixels = std::int64_t{1} << 28;
+
   int width = 0;
   int height = 0;
   double fx = 0.0;  // focal length in pixels

@@ -1,6 +1,7 @@
 #include "sim/world/scene_yaml.h"
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <filesystem>
 #include <optional>
 
@@ -389,6 +390,8 @@ SceneCamera SceneReader::ReadCamera(const YAML::Node& node) {
   if (!(hfov_deg > 0.0 && hfov_deg < 180.0)) Fail(node["hfov_deg"], "hfov_deg", "expected a value in (0, 180)");
   camera.horizontal_fov_rad = DegToRad(hfov_deg);
   const PinholeIntrinsics intrinsics = PinholeIntrinsics::FromHorizontalFov(width, height, camera.horizontal_fov_rad);
+  std::string why;
+  if (!intrinsics.IsValid(&why)) Fail(node, "width", why);
   if (node["eye"]) {
     const Eigen::Vector3d eye = frame_->Point(Vec3(node, "eye"));
     const Eigen::Vector3d target = frame_->Point(Vec3(node, "target"));

@@ -241,6 +241,11 @@ PinholeCamera World::Camera(const std::string& name, int width, int height) cons
   for (const SceneCamera& c : impl_->scene.cameras) {
     if (c.name == name) camera.intrinsics = PinholeIntrinsics::FromHorizontalFov(width, height, c.horizontal_fov_rad);
   }
+  std::string why;
+  if (!camera.intrinsics.IsValid(&why)) {
+    throw InvalidArgumentError("camera '" + name + "' at " + std::to_string(width) + "x" + std::to_string(height) +
+                               ": " + why);
+  }
   return camera;
 }
 

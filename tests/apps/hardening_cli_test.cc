@@ -182,5 +182,19 @@ TEST(CliHardening, CaptureWithoutClockStartsAtTheSchedule) {
   EXPECT_FALSE(fs::exists(dir / "late"));
 }
 
+TEST(CliHardening, HugeImageSizeIsRefusedBeforeAllocating) {
+  const fs::path dir = FreshTempDir("hardening", "huge");
+  ExpectUserError(RunRelume("sim render " + kSource + "/config/scenes/outdoor-building.yaml --camera street " +
+                            "--width 2000000000 --height 1 --out " + (dir / "render").string()),
+                  "2000000000x1 is more than relume's maximum of 2^28 (268 million) pixels");
+  const fs::path rig = dir / "rig.yaml";
+  WriteFile(rig, TinyRig("  - id: cam\n"
+                         "    camera: {width: 100000, height: 100000, horizontal_fov_deg: 70, position_m: [0, 0, 1], "
+                         "look_at_m: [1, 0, 1]}\n"));
+  ExpectUserError(RunRelume("capture --rig " + rig.string() + " --out " + (dir / "s").string()),
+                  "camera: image size 100000x100000 is more than relume's maximum");
+  EXPECT_FALSE(fs::exists(dir / "s")) << "an invalid rig must leave no session behind";
+}
+
 }  // namespace
 }  // namespace relume
