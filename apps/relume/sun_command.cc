@@ -149,6 +149,17 @@ struct SiteKey {
   }
 };
 
+constexpr std::string_view kUtf8Bom = "\xEF\xBB\xBF";
+
+// A NUL byte is never text: it would silently cut a column name or a value short.
+void RejectNul(const std::string& line, const std::string& source_name, int line_number) {
+  const std::size_t at = line.find('\0');
+  if (at != std::string::npos) {
+    throw ConfigError(source_name, line_number, "",
+                      "a NUL byte at column " + std::to_string(at + 1) + " (is this a text CSV file?)");
+  }
+}
+
 constexpr const char* kCsvHeader =
     "time,latitude_deg,longitude_deg,height_m,elevation_deg,azimuth_deg,zenith_deg,elevation_geometric_deg,"
     "declination_deg,hour_angle_deg,distance_au,delta_t_s\n";
@@ -180,19 +191,25 @@ std::size_t RunSunSeries(const SunQuery& query, std::ostream& out) {
   }
   if (end < start) throw InvalidArgumentError("relume sun: --until is before --time");
   const auto step = std::chrono::duration_cast<Nanoseconds>(std::chrono::duration<double>(query.step_s));
-  const std::int64_t count = (end - start) / step + 1;
-  constexpr std::int64_t kMaxRows = 100'000'000;
-  if (count > kMaxRows) {
-    throw InvalidArgumentError("relume sun: the series would have " + std::to_string(count) +
+  // UtcTime spans 585 years of int64 nanoseconds, so `end - start` overflows for series longer
+  // than 292 years: the span is taken as unsigned, where every difference end >= start fits.
+  const std::uint64_t span_ns = static_cast<std::uint64_t>(end.time_since_epoch().count()) -
+                                static_cast<std::uint64_t>(start.time_since_epoch().count());
+  const std::uint64_t rows = span_ns / static_cast<std::uint64_t>(step.count()) + 1;
+  constexpr std::uint64_t kMaxRows = 100'000'000;
+  if (rows > kMaxRows) {
+    throw InvalidArgumentError("relume sun: the series would have " + std::to_string(rows) +
                                " rows (more than 100 million); use a larger --step");
   }
+  const auto count = static_cast<std::int64_t>(rows);
   SunTrackOptions options;
   options.sun = query.options;
   SunTrack track(site, options);
   out << kCsvHeader;
   std::string buffer;
+  UtcTime t = start;
   for (std::int64_t i = 0; i < count; ++i) {
-    const UtcTime t = start + step * i;
+    if (i > 0) t += step;  // stepped, not start + step * i: that product overflows like the span
     buffer.clear();
     AppendCsvRow(buffer, t, site, track.At(t));
     out << buffer;
@@ -212,6 +229,8 @@ std::size_t RunSunCsv(const SunQuery& query, std::istream& in, const std::string
     throw ConfigError(source_name, line_number, "",
                       "empty CSV: expected a header line naming the columns (time, lat, lon, ...)");
   }
+  if (line.rfind(kUtf8Bom, 0) == 0) line.erase(0, kUtf8Bom.size());  // spreadsheets write one
+  RejectNul(line, source_name, line_number);
   const std::vector<std::string> header = SplitCsvLine(line);
   int index[kColumnCount];
   for (int c = 0; c < kColumnCount; ++c) {
@@ -239,7 +258,14 @@ std::size_t RunSunCsv(const SunQuery& query, std::istream& in, const std::string
   while (std::getline(in, line)) {
     ++line_number;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    RejectNul(line, source_name, line_number);
     const std::vector<std::string> cells = SplitCsvLine(line);
+    if (cells.size() < header.size()) {
+      // A short row would otherwise take the flags' values for its missing cells, silently.
+      throw ConfigError(source_name, line_number, "",
+                        "the row has " + std::to_string(cells.size()) + " cells, the header " +
+                            std::to_string(header.size()) + " (leave a cell empty to take the flag's value)");
+    }
     auto cell = [&](Column c) -> const std::string* {
       if (index[c] < 0 || static_cast<std::size_t>(index[c]) >= cells.size() ||
           cells[static_cast<std::size_t>(index[c])].empty()) {

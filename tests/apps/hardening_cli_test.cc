@@ -196,5 +196,35 @@ TEST(CliHardening, HugeImageSizeIsRefusedBeforeAllocating) {
   EXPECT_FALSE(fs::exists(dir / "s")) << "an invalid rig must leave no session behind";
 }
 
+TEST(CliHardening, SunSeriesLongerThan292YearsIsComplete) {
+  // 1700 .. 2200 in steps of 365 days: 500 years, beyond int64 nanoseconds' 292.
+  const CliResult result =
+      RunRelume("sun --lat 37.97 --lon 23.72 --time 1700-01-01T00:00:00Z --until 2200-01-01T00:00:00Z --step 31536000");
+  ASSERT_EQ(result.exit_code, 0) << result.output.substr(0, 2000);
+  std::istringstream lines(result.output);
+  std::string line, last;
+  int rows = -1;  // the header
+  while (std::getline(lines, line)) {
+    ++rows;
+    last = line;
+  }
+  EXPECT_EQ(rows, 501);  // 182621 days / 365 = 500.3: steps 0..500
+  EXPECT_EQ(last.substr(0, 4), "2199") << last;
+}
+
+TEST(CliHardening, SunCsvShortRowNulAndBom) {
+  const fs::path dir = FreshTempDir("hardening", "csv");
+  const fs::path csv = dir / "in.csv";
+  const std::string flags = "sun --lat 10 --lon 20 --csv " + csv.string();
+  WriteFile(csv, "time,lat,lon\n2026-06-21T12:00:00Z,37.9,23.7\n2026-06-21T13:00:00Z,37.9\n");
+  ExpectUserError(RunRelume(flags), csv.string() + ":3: the row has 2 cells, the header 3");
+  WriteFile(csv, std::string("time,la\0t,lon\n2026-06-21T12:00:00Z,37.9,23.7\n", 44));
+  ExpectUserError(RunRelume(flags), csv.string() + ":1: a NUL byte at column 8");
+  WriteFile(csv, "\xEF\xBB\xBFtime,lat,lon\n2026-06-21T12:00:00Z,37.9,23.7\n");
+  const CliResult bom = RunRelume(flags);
+  EXPECT_EQ(bom.exit_code, 0) << bom.output;
+  EXPECT_NE(bom.output.find("2026-06-21T12:00:00.000Z,37.900000,23.700000"), std::string::npos) << bom.output;
+}
+
 }  // namespace
 }  // namespace relume
