@@ -2,12 +2,22 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <string>
 
 #include "core/error.h"
 
 namespace relume::calibration {
+
+void CheckExposureTime(double t, const std::string& what) {
+  if (std::isfinite(t) && t >= kMinExposureTimeS && t <= kMaxExposureTimeS) return;
+  char text[160];
+  std::snprintf(text, sizeof(text), ": exposure time %g s is %s [%g, %g] s", t,
+                std::isfinite(t) && t > 0.0 ? "outside the usable range" : "not a positive number in",
+                kMinExposureTimeS, kMaxExposureTimeS);
+  throw InvalidArgumentError(what + text);
+}
 
 void CheckBracket(const std::vector<CameraImage>& frames, const std::vector<double>& exposure_times_s) {
   if (frames.empty()) throw InvalidArgumentError("bracket: no frames given");
@@ -29,10 +39,7 @@ void CheckBracket(const std::vector<CameraImage>& frames, const std::vector<doub
     if (f.encoding != first.encoding || f.black_level != first.black_level || f.white_level != first.white_level) {
       throw InvalidArgumentError(name + ": encoding or black/white level differs from frame 0");
     }
-    const double t = exposure_times_s[i];
-    if (!std::isfinite(t) || t <= 0.0) {
-      throw InvalidArgumentError(name + ": exposure time " + std::to_string(t) + " s is not a positive number");
-    }
+    CheckExposureTime(exposure_times_s[i], name);
   }
 }
 

@@ -55,7 +55,17 @@ RadianceImage LoadRadianceExr(const std::string& path) {
   return out;
 }
 
+void CheckRadianceFileName(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext != ".exr" && ext != ".tif" && ext != ".tiff" && ext != ".pfm") {
+    throw InvalidArgumentError(path + ": radiance is floating point; write it as .exr (or .tiff, .pfm), not as '" +
+                               ext + "', which would round it to integers");
+  }
+}
+
 void SaveRadianceExr(const RadianceImage& radiance, const std::string& path) {
+  CheckRadianceFileName(path);
   cv::Mat bgr;
   if (radiance.pixels.channels() == 3) {
     cv::cvtColor(radiance.pixels, bgr, cv::COLOR_RGB2BGR);

@@ -20,9 +20,13 @@ struct LoadedFrame {
 // raw file. Throws IoError naming the file when it cannot be read.
 LoadedFrame LoadFrame(const std::string& path);
 
-// OpenEXR (float RGB) read/write. Throws IoError.
+// OpenEXR (float RGB) read/write. Throws IoError. Saving also takes .tif/.tiff and .pfm, the
+// other formats that keep float radiance; any other extension is refused up front (PNG or
+// JPEG would round radiance to 8-bit integers): see CheckRadianceFileName.
 RadianceImage LoadRadianceExr(const std::string& path);
 void SaveRadianceExr(const RadianceImage& radiance, const std::string& path);
+// Throws InvalidArgumentError unless `path` names a float image format (.exr, .tif, .tiff, .pfm).
+void CheckRadianceFileName(const std::string& path);
 
 // Writes an RGB 8-bit image (PNG) or a CV_16UC1 / CV_8UC1 image. Throws IoError.
 void SaveImage(const cv::Mat& image_rgb_or_gray, const std::string& path);

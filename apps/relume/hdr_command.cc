@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "calibration/bracket.h"
 #include "calibration/calibration_profile.h"
 #include "calibration/hdr_merge.h"
 #include "calibration/image_file.h"
@@ -33,6 +34,7 @@ void RunHdrMerge(const HdrMergeArgs& args, std::ostream& out) {
       capture::CheckOutputFile(output, inputs, "--out");
     }
   }
+  CheckRadianceFileName(args.out);  // before the work, not after it
   std::vector<CameraImage> frames;
   std::vector<double> metadata_times;
   for (const auto& f : args.files) {
@@ -41,6 +43,7 @@ void RunHdrMerge(const HdrMergeArgs& args, std::ostream& out) {
     metadata_times.push_back(loaded.exposure_time_s);
   }
   const std::vector<double> times = ResolveExposures(args.exposure, frames.size(), metadata_times);
+  for (std::size_t i = 0; i < times.size(); ++i) CheckExposureTime(times[i], "hdr merge: " + args.files[i]);
   std::optional<CalibrationProfile> profile;
   if (!args.profile.empty()) profile = LoadProfile(args.profile);
   CameraResponse response;

@@ -226,5 +226,18 @@ TEST(CliHardening, SunCsvShortRowNulAndBom) {
   EXPECT_NE(bom.output.find("2026-06-21T12:00:00.000Z,37.900000,23.700000"), std::string::npos) << bom.output;
 }
 
+TEST(CliHardening, HdrMergeRefusesAbsurdExposuresAndIntegerOutput) {
+  const fs::path dir = FreshTempDir("hardening", "hdr");
+  const std::vector<std::string> frames = WriteGradientBracket(dir, true);
+  const std::string files = frames[0] + " " + frames[1] + " " + frames[2];
+  ExpectUserError(RunRelume("hdr merge " + files + " --exposures 1e-320,1,4 --out " + (dir / "m.exr").string()),
+                  "frame0.png: exposure time 9.99989e-321 s is outside the usable range [1e-09, 100000] s");
+  ExpectUserError(RunRelume("hdr merge " + files + " --exposures 0.25,1,1e308 --out " + (dir / "m.exr").string()),
+                  "exposure time 1e+308 s is outside the usable range");
+  ExpectUserError(RunRelume("hdr merge " + files + " --exposures 0.25,1,4 --out " + (dir / "x.png").string()),
+                  "radiance is floating point; write it as .exr");
+  EXPECT_FALSE(fs::exists(dir / "x.png"));
+}
+
 }  // namespace
 }  // namespace relume
