@@ -144,6 +144,18 @@ std::vector<int> InformativeSamples(const Samples& samples, int channel, const s
   return useful;
 }
 
+// Of the informative samples, the fraction that are brighter in the longest exposure than in the
+// shortest. A real bracket brightens nearly every one (a sample clipped at both ends is not
+// informative); identical frames give 0, and frames with shuffled exposure labels far less
+// than one half. The solvers would fit a curve to either (a step, with a small residual).
+double BrighteningFraction(const Samples& samples, int channel, const std::vector<int>& informative) {
+  if (informative.empty()) return 1.0;
+  int brighter = 0;
+  for (const int s : informative) brighter += samples.at(s, samples.frames - 1, channel) > samples.at(s, 0, channel);
+  return static_cast<double>(brighter) / static_cast<double>(informative.size());
+}
+constexpr double kMinBrighteningFraction = 0.5;
+
 // Debevec & Malik 1997: unknowns g(z) = ln X(z) and ln E_i per sample; equations
 // w(z_ij) [g(z_ij) - ln E_i - ln t_j] = 0, lambda w(z) D g(z) = 0 (D: the smoothness operator),
 // g(mid) = 0. The sample unknowns are eliminated (Schur complement: each ln E_i couples only to
@@ -572,7 +584,8 @@ ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std
     // scene, or every frame clipped to the same value) cannot define it, however many there are.
     std::vector<bool> seen(256, false);
     int distinct = 0;
-    for (const int sample : InformativeSamples(samples, c, weight)) {
+    const std::vector<int> informative = InformativeSamples(samples, c, weight);
+    for (const int sample : informative) {
       for (int f = 0; f < samples.frames; ++f) {
         const int z = samples.at(sample, f, c);
         if (weight[z] > 0.0 && !seen[z]) {
@@ -587,6 +600,18 @@ ResponseResult RecoverResponse(const std::vector<CameraImage>& frames, const std
       summary.reason = "channel " + std::to_string(c) + ": the well-exposed samples (" + std::to_string(samples.count) +
                        " drawn) cover only " + std::to_string(distinct) +
                        " distinct code(s), too few to define a response (a flat scene?)";
+      result.response.inverse.clear();
+      return result;
+    }
+    if (const double brighter = BrighteningFraction(samples, c, informative); brighter < kMinBrighteningFraction) {
+      std::ostringstream why;
+      why.precision(3);
+      why << "channel " << c << ": the frames do not change with exposure: only " << 100.0 * brighter << " % of "
+          << informative.size() << " well-exposed samples are brighter at " << t.back() << " s than at " << t.front()
+          << " s (the same image given several times, or wrong exposure times?)";
+      summary.usable = false;
+      summary.converged = false;
+      summary.reason = why.str();
       result.response.inverse.clear();
       return result;
     }

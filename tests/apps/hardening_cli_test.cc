@@ -239,5 +239,13 @@ TEST(CliHardening, HdrMergeRefusesAbsurdExposuresAndIntegerOutput) {
   EXPECT_FALSE(fs::exists(dir / "x.png"));
 }
 
+TEST(CliHardening, CalibrateResponseOnIdenticalImagesIsRefused) {
+  const fs::path dir = FreshTempDir("hardening", "identical");
+  const std::vector<std::string> frames = WriteGradientBracket(dir, false);
+  ExpectUserError(RunRelume("calibrate response " + frames[0] + " " + frames[1] + " " + frames[2] +
+                            " --exposures 0.25,1,4 --out " + (dir / "response").string()),
+                  "the frames do not change with exposure");
+}
+
 }  // namespace
 }  // namespace relume
