@@ -247,5 +247,32 @@ TEST(CliHardening, CalibrateResponseOnIdenticalImagesIsRefused) {
                   "the frames do not change with exposure");
 }
 
+// Records a session with `rig_text` into `dir`/session and returns its folder (fails the test
+// when the capture does not exit 0).
+fs::path Capture(const fs::path& dir, const std::string& rig_text) {
+  WriteFile(dir / "rig.yaml", rig_text);
+  const fs::path session = dir / "session";
+  const CliResult result =
+      RunRelume("capture --no-progress --rig " + (dir / "rig.yaml").string() + " --out " + session.string());
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  return session;
+}
+
+TEST(CliHardening, SessionFrameWithBadExposureIsNamed) {
+  const fs::path dir = FreshTempDir("hardening", "bad_exposure");
+  const fs::path session = Capture(dir, TinyRig(kStillCamera));
+  const std::string db = (session / "session.sqlite").string();
+  for (const char* value : {"-1", "NULL"}) {
+    const CliResult update =
+        testing::RunCommand("sqlite3 " + db + " \"UPDATE frames SET exposure_time_s = " + value +
+                            " WHERE id = (SELECT MAX(id) FROM frames WHERE bracket_id IS NOT NULL)\"");
+    ASSERT_EQ(update.exit_code, 0) << update.output;
+    const CliResult result =
+        RunRelume("process " + session.string() + " --pipeline radiance --out " + (dir / "out").string());
+    ExpectUserError(result, std::string(value) == "NULL" ? "has no exposure time" : "has exposure time -1.000000 s");
+    EXPECT_NE(result.output.find(": frame "), std::string::npos) << result.output;
+  }
+}
+
 }  // namespace
 }  // namespace relume

@@ -52,6 +52,28 @@ bool IsEvOnly(const std::vector<capture::FrameRecord>& bracket) {
                      [](const capture::FrameRecord& f) { return !std::isfinite(f.exposure.exposure_time_s); });
 }
 
+// The relative exposures of a bracket's frames. Every frame needs its exposure: a time (finite,
+// positive) or, in a bracket without times (EV-only cameras), a finite EV. A damaged row (time
+// -1, NULL) would otherwise be merged at 2^EV = 1, a wrong scale with no word about it.
+std::vector<double> RelativeExposures(const std::vector<capture::FrameRecord>& bracket, const std::string& name) {
+  const bool ev_only = IsEvOnly(bracket);
+  std::vector<double> times;
+  for (const capture::FrameRecord& f : bracket) {
+    const double t = f.exposure.exposure_time_s;
+    const bool known = ev_only ? std::isfinite(f.exposure.ev_compensation) : std::isfinite(t) && t > 0.0;
+    if (!known) {
+      const std::string what = ev_only         ? "has no EV"
+                               : std::isnan(t) ? "has no exposure time"
+                                               : "has exposure time " + std::to_string(t) + " s";
+      throw InvalidArgumentError(name + ": frame " + std::to_string(f.id) + " (" + f.file_path + ") " + what +
+                                 "; a merge needs every frame's exposure (is the session damaged? `relume session "
+                                 "verify` checks it)");
+    }
+    times.push_back(RelativeExposure(f.exposure));
+  }
+  return times;
+}
+
 CameraImage AsRgb(CameraImage image) {
   if (image.layout == ColorLayout::kRgb) return image;
   if (image.layout == ColorLayout::kMono) {
@@ -87,12 +109,9 @@ LinearisedBracket LineariseBracket(const capture::SessionReader& session,
   RELUME_CHECK(!bracket.empty());
   const std::string name = bracket.front().bracket_id ? "bracket " + std::to_string(*bracket.front().bracket_id)
                                                       : "frame " + std::to_string(bracket.front().id);
+  std::vector<double> times = RelativeExposures(bracket, name);
   std::vector<CameraImage> frames;
-  std::vector<double> times;
-  for (const capture::FrameRecord& f : bracket) {
-    frames.push_back(AsRgb(session.LoadImage(f)));
-    times.push_back(RelativeExposure(f.exposure));
-  }
+  for (const capture::FrameRecord& f : bracket) frames.push_back(AsRgb(session.LoadImage(f)));
   LinearisedBracket out;
   calibration::CameraResponse response;
   if (bracket.front().encoding == SampleEncoding::kSensorLinear) {
@@ -174,8 +193,8 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
 
   StageKey& key = out.key;
   key.Add("stage", "radiance-v1");
-  for (const capture::FrameRecord& f : bracket)
-    key.Add("frame", f.sha256).Add("exposure", RelativeExposure(f.exposure));
+  const std::vector<double> times = RelativeExposures(bracket, name);
+  for (std::size_t i = 0; i < bracket.size(); ++i) key.Add("frame", bracket[i].sha256).Add("exposure", times[i]);
   key.Add("black_margin", merge.black_margin).Add("saturation_margin", merge.saturation_margin);
   key.Add("response_samples", response_options.sample_count)
       .Add("response_lambda", response_options.lambda)
