@@ -88,9 +88,14 @@ class SceneReader {
     }
     return a;
   }
+  // Light (irradiance, radiance, intensity): non-negative and at most 1e9 per channel, a million
+  // times the sun's 1361 W/m^2. Larger finite values reach Inf in the float images.
   Eigen::Vector3d NonNegative(const YAML::Node& map, const std::string& key) const {
+    constexpr double kMaxLight = 1e9;
     const Eigen::Vector3d v = Vec3(map, key);
-    if (v.minCoeff() < 0.0) Fail(map[key], key, "must be non-negative per channel");
+    if (v.minCoeff() < 0.0 || v.maxCoeff() > kMaxLight) {
+      Fail(map[key], key, "must be non-negative and at most 1e9 per channel");
+    }
     return v;
   }
   Eigen::Vector3d UnitDirection(const YAML::Node& map, const std::string& key,
@@ -154,7 +159,9 @@ void SceneReader::ReadSun(Scene& scene) {
   const YAML::Node sun = Map(root(), "sun");
   file_.RejectUnknownKeys(
       sun, {"enabled", "irradiance_w_m2", "angular_diameter_deg", "direction", "pressure_hpa", "temperature_c"});
-  if (sun["enabled"]) scene.sun.enabled = sun["enabled"].as<bool>();
+  if (sun["enabled"] && !YAML::convert<bool>::decode(sun["enabled"], scene.sun.enabled)) {
+    Fail(sun["enabled"], "enabled", "expected true or false");
+  }
   if (sun["irradiance_w_m2"]) scene.sun.irradiance_w_m2 = NonNegative(sun, "irradiance_w_m2");
   scene.sun.angular_diameter_rad = DegToRad(Double(sun, "angular_diameter_deg", 0.53));
   if (scene.sun.angular_diameter_rad < 0.0 || scene.sun.angular_diameter_rad >= DegToRad(10.0)) {
@@ -255,8 +262,11 @@ SceneObject SceneReader::ReadObject(const YAML::Node& node, const Scene& scene) 
       const Eigen::Vector3d center = Vec3(plane, "center");
       const YAML::Node size = plane["size"];
       if (!size.IsSequence() || size.size() != 2) Fail(plane, "size", "expected [east_m, north_m]");
-      const double sx = size[0].as<double>(), sy = size[1].as<double>();
-      if (!(sx > 0.0 && sy > 0.0)) Fail(size, "size", "must be positive");
+      double sx = 0.0, sy = 0.0;
+      if (!YAML::convert<double>::decode(size[0], sx) || !YAML::convert<double>::decode(size[1], sy) ||
+          !(sx > 0.0 && sy > 0.0 && std::isfinite(sx) && std::isfinite(sy))) {
+        Fail(size, "size", "must be two positive numbers");
+      }
       mesh = MakeQuad(center - Eigen::Vector3d(0.5 * sx, 0.5 * sy, 0.0), Eigen::Vector3d(sx, 0, 0),
                       Eigen::Vector3d(0, sy, 0));
     }

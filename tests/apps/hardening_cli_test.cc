@@ -274,5 +274,30 @@ TEST(CliHardening, SessionFrameWithBadExposureIsNamed) {
   }
 }
 
+TEST(CliHardening, ExtremeLightIsRefused) {
+  EXPECT_THROW(
+      {
+        try {
+          app::process::ShLightFromJson(nlohmann::json{{"coefficients", {{1e308, 1.0, 1.0}}}}, "light.json");
+        } catch (const InvalidArgumentError& e) {
+          EXPECT_NE(std::string(e.what()).find("light.json: row 0 holds"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      InvalidArgumentError);
+  const fs::path dir = FreshTempDir("hardening", "irradiance");
+  std::ifstream in(kSource + "/config/scenes/outdoor-building.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string scene = text.str();
+  const std::size_t at = scene.find("irradiance_w_m2:");
+  ASSERT_NE(at, std::string::npos);
+  scene.replace(at, scene.find('\n', at) - at, "irradiance_w_m2: [1e308, 1e308, 1e308]");
+  WriteFile(dir / "scene.yaml", scene);
+  const CliResult result =
+      RunRelume("sim render " + (dir / "scene.yaml").string() + " --camera street --out " + (dir / "r").string());
+  ExpectUserError(result, "irradiance_w_m2: must be non-negative and at most 1e9 per channel");
+}
+
 }  // namespace
 }  // namespace relume

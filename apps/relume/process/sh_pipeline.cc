@@ -39,6 +39,8 @@ nlohmann::json ShLightToJson(const ShRgb& light, int order) {
           {"coefficients", coefficients}};
 }
 
+constexpr double kMaxLightCoefficient = 1e12;
+
 ShRgb ShLightFromJson(const nlohmann::json& json, const std::string& what) {
   const auto fail = [&](const std::string& why) {
     throw InvalidArgumentError(what + ": " + why +
@@ -55,7 +57,12 @@ ShRgb ShLightFromJson(const nlohmann::json& json, const std::string& what) {
     for (int ch = 0; ch < 3; ++ch) {
       if (!c[k][ch].is_number()) fail("row " + std::to_string(k) + " holds a non-number");
       light(static_cast<int>(k), ch) = c[k][ch].get<double>();
-      if (!std::isfinite(light(static_cast<int>(k), ch))) fail("row " + std::to_string(k) + " is not finite");
+      // Finite is not enough: relighting multiplies and sums these in float, where 1e308 is
+      // Inf. 1e12 is 10^5 times the sun's disk radiance (about 2e7 W/(m^2 sr)).
+      const double value = light(static_cast<int>(k), ch);
+      if (!std::isfinite(value) || std::abs(value) > kMaxLightCoefficient) {
+        fail("row " + std::to_string(k) + " holds " + std::to_string(value) + ", not a finite number within +-1e12");
+      }
     }
   }
   return light;
