@@ -99,7 +99,29 @@ SimRgbdSensor::SimRgbdSensor(drivers::DeviceInfo info, SimRgbdOptions options, P
     throw DeviceError(DeviceErrorKind::kAccessDenied, info_.FullId(),
                       "already opened by another handle; close it first");
   generation_ = link_->generation();
+  OfferNativeSize();
   config_ = options_.configs.front();
+}
+
+// The sensor also offers its depth camera's own size (a rig's `camera:`), after the standard
+// streams, so a capture can record what the rig asks for instead of 640x480.
+void SimRgbdSensor::OfferNativeSize() {
+  const int width = native_depth_camera_.intrinsics.width, height = native_depth_camera_.intrinsics.height;
+  const bool offered = std::any_of(options_.configs.begin(), options_.configs.end(), [&](const RgbdStreamConfig& c) {
+    return c.depth_width == width && c.depth_height == height;
+  });
+  if (offered) return;
+  const RgbdStreamConfig model = options_.configs.front();
+  for (bool registered : {true, false}) {
+    for (bool sync : {true, false}) {
+      RgbdStreamConfig config = model;
+      config.depth_width = config.color_width = width;
+      config.depth_height = config.color_height = height;
+      config.register_depth_to_color = registered;
+      config.sync_depth_and_color = sync;
+      options_.configs.push_back(config);
+    }
+  }
 }
 
 SimRgbdSensor::~SimRgbdSensor() {

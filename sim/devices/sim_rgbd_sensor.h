@@ -102,6 +102,7 @@ class SimRgbdSensor : public drivers::RgbdSensor {
   drivers::RgbdFrame MakeFrame(std::uint64_t frame_number, MonotonicTime exposure_monotonic);
   void Push(Item item);
   void ThrowIfGone() const;
+  void OfferNativeSize();
 
   drivers::DeviceInfo info_;
   SimRgbdOptions options_;

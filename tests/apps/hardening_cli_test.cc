@@ -299,5 +299,23 @@ TEST(CliHardening, ExtremeLightIsRefused) {
   ExpectUserError(result, "irradiance_w_m2: must be non-negative and at most 1e9 per channel");
 }
 
+TEST(CliHardening, SimRgbdSensorRecordsTheRigCameraSize) {
+  const fs::path dir = FreshTempDir("hardening", "rgbd_size");
+  const fs::path session = Capture(dir, TinyRig("  - id: rgbd\n"
+                                                "    kind: rgbd_sensor\n"
+                                                "    camera: {width: 160, height: 120, horizontal_fov_deg: 70, "
+                                                "position_m: [-6, -34, 1.7], look_at_m: [-2, 0, 5]}\n",
+                                                "rgbd_burst_frames: 1\n"));
+  const capture::SessionReader reader(session);
+  int depth_frames = 0;
+  for (const capture::FrameRecord& f : reader.Frames()) {
+    if (f.stream != "depth") continue;
+    ++depth_frames;
+    EXPECT_EQ(f.width, 160);
+    EXPECT_EQ(f.height, 120);
+  }
+  EXPECT_EQ(depth_frames, 1);
+}
+
 }  // namespace
 }  // namespace relume
