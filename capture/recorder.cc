@@ -20,6 +20,7 @@ struct Recorder::StillDevice {
   double metering_ev = 0.0;       // EV-only cameras
   // A played-back session's camera: its recorded brackets replace metering and planning.
   std::shared_ptr<RecordedBrackets> recorded;
+  bool played_out = false;  // `recorded` has no more brackets
 };
 
 struct Recorder::RgbdDevice {
@@ -182,7 +183,8 @@ void Recorder::AddRgbdSensor(std::unique_ptr<drivers::RgbdSensor> sensor, RgbdSe
 std::optional<BracketPlan> Recorder::RecordedPlan(StillDevice& device, std::string* recorded_partial) {
   const std::optional<RecordedBracket> recorded = device.recorded->Next();
   if (!recorded) {
-    RecordEvent(device.info.FullId(), "skip", "the played session has no more brackets");
+    if (!device.played_out) RecordEvent(device.info.FullId(), "skip", "the played session has no more brackets");
+    device.played_out = true;
     return std::nullopt;
   }
   BracketPlan plan;
@@ -422,6 +424,13 @@ void Recorder::RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop) {
   device.queue_ready.notify_all();
 }
 
+// A rig of played-back still cameras only ends with the played session, whatever its
+// schedule says (without one it would trigger, and log "no more brackets", forever).
+bool Recorder::PlayedOut() const {
+  return !stills_.empty() && rgbds_.empty() &&
+         std::all_of(stills_.begin(), stills_.end(), [](const auto& d) { return d->recorded && d->played_out; });
+}
+
 RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
                               const std::function<void(const RecorderStatus&)>& progress) {
   progress_ = progress;
@@ -508,6 +517,10 @@ RecorderSummary Recorder::Run(const std::atomic<bool>& stop,
       if (device->burst_frames > 0) RecordBurst(*device);
     }
     if (progress) progress(Snapshot());
+    if (PlayedOut()) {
+      summary.stop_reason = "the played session has no more brackets";
+      break;
+    }
   }
   if (stop && summary.stop_reason.empty()) {
     summary.stopped_by_user = true;

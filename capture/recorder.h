@@ -113,6 +113,7 @@ class Recorder {
   void RgbdLoop(RgbdDevice& device, const std::atomic<bool>& stop);
   void RecordBurst(RgbdDevice& device);
   void StorageFailed(const std::string& message);
+  bool PlayedOut() const;
   RecorderStatus Snapshot();
 
   SessionWriter& writer_;

@@ -317,5 +317,30 @@ TEST(CliHardening, SimRgbdSensorRecordsTheRigCameraSize) {
   EXPECT_EQ(depth_frames, 1);
 }
 
+TEST(CliHardening, PlaybackRigWithoutScheduleStopsWhenTheSessionEnds) {
+  const fs::path dir = FreshTempDir("hardening", "playback");
+  const fs::path recorded = Capture(dir, TinyRig(kStillCamera));
+  WriteFile(dir / "replay.yaml",
+            "name: replay\n"
+            "devices:\n"
+            "  - backend: playback\n"
+            "    session: " +
+                recorded.string() +
+                "\n"
+                "    device: sim:cam\n");
+  const CliResult result =
+      testing::RunCommand("timeout 120 " + std::string(RELUME_BINARY) + " capture --no-progress --rig " +
+                          (dir / "replay.yaml").string() + " --out " + (dir / "replayed").string());
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("in 1 brackets"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("stopped: the played session has no more brackets"), std::string::npos) << result.output;
+  const capture::SessionReader reader(dir / "replayed");
+  int no_more = 0;
+  for (const capture::EventRecord& e : reader.Events()) {
+    no_more += e.type == "skip" && e.message == "the played session has no more brackets";
+  }
+  EXPECT_EQ(no_more, 1);
+}
+
 }  // namespace
 }  // namespace relume
