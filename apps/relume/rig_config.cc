@@ -41,8 +41,9 @@ void MatchClockToSchedule(const YamlFile& file, const YAML::Node& root, RigConfi
     file.Fail(root["schedule"]["end"], "schedule.end",
               "the schedule ends (" + FormatIso8601(*schedule.end, std::chrono::seconds{0}, 0) +
                   ") before the simulated clock starts (" + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0) +
-                  (clock_start_given ? ", clock.start" : ", the scene's time") +
-                  "): nothing would be recorded. Give the schedule a start, or set clock.start");
+                  (clock_start_given ? ", clock.start" : ", the scene's time") + "): nothing would be recorded. " +
+                  (clock_start_given ? "Set clock.start before the schedule's end"
+                                     : "Give the schedule a start, or set clock.start"));
   }
 }
 
