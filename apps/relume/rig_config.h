@@ -4,7 +4,8 @@
 //   name: sim-outdoor
 //   scene: ../scenes/outdoor-building.yaml   # simulated rigs: the world (relative to this file)
 //   clock: {start: 2026-06-21T07:00:00+03:00, mode: event}   # simulated clock: `event` (time
-//          passes only while devices expose and the recorder waits) or `speedup: N` (N x real time)
+//          passes only while devices expose and the recorder waits) or `speedup: N` (N x real time);
+//          without `start`, the clock starts at the schedule's start, else at the scene's time
 //   schedule: {every_minutes: 120, start: ISO, end: ISO, count: N, sun_elevation_step_deg: X}
 //   duration_minutes: 600                    # simulated minutes (optional)
 //   bracket: {saturation_fraction, min_signal_fraction, overlap_stops, max_exposures}

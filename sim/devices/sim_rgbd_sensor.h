@@ -54,7 +54,8 @@ struct SimRgbdOptions {
   double color_horizontal_fov_rad = 1.09;  // about 62.5 degrees
   Eigen::Isometry3d color_from_depth = Eigen::Isometry3d(Eigen::Translation3d(-0.025, 0.0, 0.0));
   Registration registration = Registration::kNearest;  // as hardware registration; see depth_model.h
-  std::vector<drivers::RgbdStreamConfig> configs;      // empty: 640x480 and 320x240 at 30 fps
+  // 640x480 and 320x240 at 30 fps; the sensor adds its depth camera's size when it is neither.
+  std::vector<drivers::RgbdStreamConfig> configs;
   double frame_jitter_s = 0.0005;
   double transfer_latency_s = 0.004;  // kClockSleep only
   double unsynced_color_delay_s = 0.008;
