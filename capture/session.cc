@@ -1,6 +1,8 @@
 #include "capture/session.h"
 
 #include <charconv>
+#include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
@@ -10,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "capture/durable_file.h"
 #include "capture/folder_lock.h"
@@ -190,6 +193,18 @@ std::vector<std::uint8_t> Encode(const cv::Mat& pixels_rgb_or_mono, const std::s
 
 }  // namespace
 
+bool StorageFaultPlan::IsValid(std::string* why) const {
+  if (!(slow_write_ms >= 0.0 && slow_write_ms <= 60000.0)) {
+    *why = "slow_write_ms must be within 0 .. 60000";
+    return false;
+  }
+  if (!(full_after_mb >= 0.0 && std::isfinite(full_after_mb))) {
+    *why = "full_after_mb must be 0 (never) or a positive size in MiB";
+    return false;
+  }
+  return true;
+}
+
 RgbdFileFormat ParseRgbdFileFormat(const std::string& text) {
   if (text == "tiff") return RgbdFileFormat::kTiffZstd;
   if (text == "png") return RgbdFileFormat::kPng;
@@ -287,6 +302,20 @@ void SessionWriter::EndBracket(std::int64_t bracket_id, const std::string& statu
       .Run();
 }
 
+void SessionWriter::InjectStorageFaults(const fs::path& path, std::size_t size) const {
+  const StorageFaultPlan& faults = options_.storage_faults;
+  if (faults.slow_write_ms > 0.0) {
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(faults.slow_write_ms));
+  }
+  if (faults.full_after_mb > 0.0 && static_cast<double>(bytes_written_ + size) > faults.full_after_mb * 1048576.0) {
+    // Worded as WriteFileDurably words a real ENOSPC, so that callers and users see one message.
+    throw IoError(path.string(),
+                  "cannot write: No space left on device (simulated by the rig's storage_faults) (the "
+                  "disk is full: free space or choose another --out folder; frames already "
+                  "acknowledged are safe)");
+  }
+}
+
 FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder) {
   const fs::path folder = dir_ / "frames" / Slug(record.device_id);
   if (!fs::exists(folder)) CreateDirectoryDurably(folder);
@@ -298,6 +327,7 @@ FrameRecord SessionWriter::StoreFile(FrameRecord record, std::span<const std::ui
                   record.file_format.c_str());
     relative = fs::path("frames") / Slug(record.device_id) / name;
   } while (fs::exists(dir_ / relative));
+  InjectStorageFaults(dir_ / relative, bytes.size());
   WriteFileDurably(dir_ / relative, bytes, sync_folder);
   bytes_written_ += bytes.size();
   record.file_path = relative.generic_string();

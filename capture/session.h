@@ -113,9 +113,19 @@ enum class DepthUnits {
   kMillimetres,  // 16-bit unsigned, 0 = no depth: a .tiff or .png
   kMetres,       // 32-bit float: a .tiff (zstd, floating-point predictor), or .exr beside PNG colour
 };
+// Storage faults for simulated rigs (the rig key `storage_faults:`), so that a soak meets slow
+// and full disks as the field does. Real storage has none.
+struct StorageFaultPlan {
+  double slow_write_ms = 0.0;  // real time added before every frame file is written
+  double full_after_mb = 0.0;  // the disk is full once the session holds this much (0: never)
+  bool IsValid(std::string* why) const;
+  bool Any() const { return slow_write_ms > 0.0 || full_after_mb > 0.0; }
+};
+
 struct SessionWriterOptions {
   RgbdFileFormat rgbd_format = RgbdFileFormat::kTiffZstd;
   DepthUnits depth_units = DepthUnits::kMillimetres;
+  StorageFaultPlan storage_faults;
 };
 // "tiff" or "png" (the rig key `rgbd_format`); throws InvalidArgumentError otherwise.
 RgbdFileFormat ParseRgbdFileFormat(const std::string& text);
@@ -167,6 +177,8 @@ class SessionWriter {
   SessionWriter(std::filesystem::path dir, std::unique_ptr<Database> db, Site site, SessionWriterOptions options,
                 FolderLock lock);
   FrameRecord StoreFile(FrameRecord record, std::span<const std::uint8_t> bytes, bool sync_folder = true);
+  // Sleeps or throws the disk-full IoError as options_.storage_faults says (simulated rigs).
+  void InjectStorageFaults(const std::filesystem::path& path, std::size_t size) const;
   void InsertFrame(FrameRecord& record);
 
   std::filesystem::path dir_;

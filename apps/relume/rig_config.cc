@@ -171,7 +171,7 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   const YamlFile file(path);
   const YAML::Node& root = file.root();
   file.RejectUnknownKeys(root, {"name", "scene", "site", "clock", "schedule", "duration_minutes", "bracket", "retry",
-                                "rgbd_burst_frames", "rgbd_format", "rgbd_depth", "devices"});
+                                "rgbd_burst_frames", "rgbd_format", "rgbd_depth", "storage_faults", "devices"});
   RigConfig rig;
   rig.path = path;
   rig.name = file.RequireString(root, "name");
@@ -327,6 +327,16 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     } catch (const InvalidArgumentError& e) {
       file.Fail(root["rgbd_depth"], "rgbd_depth", e.what());
     }
+  }
+  if (const YAML::Node f = root["storage_faults"]) {
+    // Slow and full disks for soaks of simulated rigs (capture/session.h StorageFaultPlan).
+    if (rig.host_clock) file.Fail(f, "storage_faults", "only simulated rigs take injected storage faults");
+    file.RejectUnknownKeys(f, {"slow_write_ms", "full_after_mb"});
+    capture::StorageFaultPlan& plan = rig.storage.storage_faults;
+    if (f["slow_write_ms"]) plan.slow_write_ms = file.RequireDouble(f, "slow_write_ms");
+    if (f["full_after_mb"]) plan.full_after_mb = file.RequireDouble(f, "full_after_mb");
+    std::string why;
+    if (!plan.IsValid(&why)) file.Fail(f, "storage_faults", why);
   }
   // Parsed from the file's own nodes, so that every error names the device's own line.
   const sim::SceneCameraLookup scene_camera = [&rig](const std::string& name) { return rig.world->Camera(name); };
