@@ -14,6 +14,7 @@
 //   NAME [--seconds S] [--seed N] [--max-len BYTES] [--timeout S] [--artifacts DIR] CORPUS...
 //
 // CORPUS entries are files or folders (read recursively). With --seconds 0 only the seeds run.
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -65,21 +66,33 @@ std::uint64_t Fnv1a(const Bytes& bytes) {
   return hash;
 }
 
-// Writes the current input beside the artifacts and says how to replay it. Only write(2) and
-// open(2): this runs from a signal handler too.
+// Writes the current input beside the artifacts and says how to replay it. open(2) and write(2)
+// only (snprintf into stack buffers aside): this also runs from a signal handler.
 void SaveCurrentInput(const char* why) {
-  if (g_current == nullptr) return;
-  char name[64];
-  std::snprintf(name, sizeof(name), "/crash-%016llx", static_cast<unsigned long long>(Fnv1a(*g_current)));
-  const std::string path = g_artifacts + name;
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (file) {
-    std::fwrite(g_current->data(), 1, g_current->size(), file);
-    std::fclose(file);
-  }
-  std::fprintf(stderr, "\nfuzz: %s on an input of %zu bytes, saved as %s\nfuzz: replay with: %s --seconds 0 %s\n", why,
-               g_current->size(), path.c_str(), g_program.c_str(), path.c_str());
+  const Bytes* input = g_current;
+  if (input == nullptr) return;
   g_current = nullptr;
+  char path[4096];
+  std::snprintf(path, sizeof(path), "%s/crash-%016llx", g_artifacts.c_str(),
+                static_cast<unsigned long long>(Fnv1a(*input)));
+  const int fd = ::open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd >= 0) {
+    for (std::size_t done = 0; done < input->size();) {
+      const ssize_t n = ::write(fd, input->data() + done, input->size() - done);
+      if (n <= 0) break;
+      done += static_cast<std::size_t>(n);
+    }
+    ::close(fd);
+  }
+  char message[8192];
+  const int length = std::snprintf(message, sizeof(message),
+                                   "\nfuzz: %s on an input of %zu bytes, saved as %s\nfuzz: replay with: %s "
+                                   "--seconds 0 %s\n",
+                                   why, input->size(), path, g_program.c_str(), path);
+  if (length > 0) {
+    [[maybe_unused]] const ssize_t written =
+        ::write(STDERR_FILENO, message, std::min(static_cast<std::size_t>(length), sizeof(message) - 1));
+  }
 }
 
 void OnTerminate() {
@@ -296,9 +309,12 @@ int main(int argc, char** argv) {
   g_program = argv[0];
   const Args args = Parse(argc, argv);
   std::set_terminate(OnTerminate);
-  for (int s : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGALRM}) std::signal(s, OnSignal);
+  std::signal(SIGALRM, OnSignal);  // the per-input time-out
 #ifdef RELUME_HAVE_SANITIZER_CALLBACK
+  // The sanitizer handles fatal signals itself (its report has the stack) and calls back first.
   __sanitizer_set_death_callback(OnSanitizerDeath);
+#else
+  for (int s : {SIGSEGV, SIGBUS, SIGFPE, SIGILL}) std::signal(s, OnSignal);
 #endif
   const std::vector<Bytes> seeds = LoadCorpus(args.corpus);
   const auto start = std::chrono::steady_clock::now();
