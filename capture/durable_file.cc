@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "capture/file_descriptor.h"
 #include "capture/path_policy.h"
 #include "core/error.h"
 
@@ -27,27 +28,10 @@ namespace {
   throw IoError(path.string(), message);
 }
 
-class Fd {
- public:
-  explicit Fd(int fd) : fd_(fd) {}
-  ~Fd() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int get() const { return fd_; }
-  int release() {
-    const int fd = fd_;
-    fd_ = -1;
-    return fd;
-  }
-
- private:
-  int fd_;
-};
-
 }  // namespace
 
 void SyncDirectory(const std::filesystem::path& dir) {
-  Fd fd(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  FileDescriptor fd(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
   if (fd.get() < 0) ThrowErrno(dir, "cannot open folder to sync it", errno);
   if (::fsync(fd.get()) != 0) ThrowErrno(dir, "cannot sync folder", errno);
 }
@@ -62,7 +46,7 @@ void CreateDirectoryDurably(const std::filesystem::path& dir) {
 
 void WriteFileDurably(const std::filesystem::path& path, std::span<const std::uint8_t> bytes, bool sync_folder) {
   const std::filesystem::path temp = path.string() + kTempSuffix;
-  Fd fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+  FileDescriptor fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
   if (fd.get() < 0) ThrowErrno(temp, "cannot create file", errno);
   std::size_t written = 0;
   while (written < bytes.size()) {

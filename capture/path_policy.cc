@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "capture/file_descriptor.h"
 #include "capture/session.h"
 #include "core/error.h"
 
@@ -27,28 +28,22 @@ std::string KindOf(mode_t mode) {
   return "not a regular file";
 }
 
-// Closes a file descriptor when it goes out of scope.
-struct Fd {
-  int fd = -1;
-  ~Fd() {
-    if (fd >= 0) ::close(fd);
-  }
-};
-
-int OpenRegularFile(const fs::path& path, Fd& file) {
-  file.fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
-  if (file.fd < 0) {
+// Opens a regular file for reading, never through a final link, never blocking on a FIFO.
+FileDescriptor OpenRegularFile(const fs::path& path) {
+  FileDescriptor file(::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC));
+  if (file.get() < 0) {
     const int error = errno;
     if (error == ENOENT) throw IoError(path.string(), "is missing");
     if (error == ELOOP) throw IoError(path.string(), "is a symbolic link; relume reads only regular files here");
     throw IoError(path.string(), std::string("cannot open: ") + std::strerror(error));
   }
   struct stat status {};
-  if (::fstat(file.fd, &status) != 0) throw IoError(path.string(), std::string("cannot stat: ") + std::strerror(errno));
+  if (::fstat(file.get(), &status) != 0)
+    throw IoError(path.string(), std::string("cannot stat: ") + std::strerror(errno));
   if (!S_ISREG(status.st_mode)) {
     throw IoError(path.string(), "is " + KindOf(status.st_mode) + ", not a regular file; relume reads only files here");
   }
-  return file.fd;
+  return file;
 }
 
 // The files and folders of a session that hold what it recorded.
@@ -108,11 +103,10 @@ std::vector<std::uint8_t> ReadRegularFile(const fs::path& path) {
 }
 
 void ReadRegularFileBlocks(const fs::path& path, const std::function<void(std::span<const std::uint8_t>)>& consume) {
-  Fd file;
-  OpenRegularFile(path, file);
+  const FileDescriptor file = OpenRegularFile(path);
   std::vector<std::uint8_t> buffer(1 << 20);
   for (;;) {
-    const ssize_t n = ::read(file.fd, buffer.data(), buffer.size());
+    const ssize_t n = ::read(file.get(), buffer.data(), buffer.size());
     if (n < 0) {
       if (errno == EINTR) continue;
       throw IoError(path.string(), std::string("read error: ") + std::strerror(errno));

@@ -709,8 +709,8 @@ std::vector<std::uint8_t> SessionReader::ReadFrameFile(const FrameRecord& frame,
   try {
     bytes = ReadRegularFile(path);
   } catch (const IoError& e) {
-    const std::string reason = std::string(e.what()).substr(e.path().size() + 2);  // without "path: "
-    throw IoError(path.string(), "frame " + std::to_string(frame.id) + " " + reason + " (run `relume session verify`)");
+    throw IoError(path.string(),
+                  "frame " + std::to_string(frame.id) + " " + e.reason() + " (run `relume session verify`)");
   }
   if (verify_checksum && Sha256Hex(bytes) != frame.sha256) {
     throw IoError(path.string(), "checksum mismatch: the file changed after it was recorded");

@@ -18,7 +18,8 @@ std::string ConfigMessage(const std::string& file, int line, const std::string& 
 ConfigError::ConfigError(std::string file, int line, std::string key, const std::string& what)
     : Error(ConfigMessage(file, line, key, what)), file_(std::move(file)), line_(line), key_(std::move(key)) {}
 
-IoError::IoError(std::string path, const std::string& what) : Error(path + ": " + what), path_(std::move(path)) {}
+IoError::IoError(std::string path, const std::string& what)
+    : Error(path + ": " + what), path_(std::move(path)), reason_(what) {}
 
 namespace internal {
 void CheckFailed(const char* file, int line, const char* expression, const std::string& message) {

@@ -48,9 +48,11 @@ class IoError : public Error {
  public:
   IoError(std::string path, const std::string& what);
   const std::string& path() const { return path_; }
+  const std::string& reason() const { return reason_; }  // what() without the leading "path: "
 
  private:
   std::string path_;
+  std::string reason_;
 };
 
 // Throws InvalidArgumentError("<what>: <why>") when options.IsValid(&why) is false.

@@ -3,6 +3,7 @@
 // loading a page in headless Chromium.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -48,6 +49,13 @@ inline std::filesystem::path FreshTempDir(const std::string& suite, const std::s
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+// A user error: exit code 2 and "relume: error: " followed by text containing `expected`.
+inline void ExpectUserError(const CliResult& result, const std::string& expected) {
+  EXPECT_EQ(result.exit_code, 2) << result.output;
+  EXPECT_NE(result.output.find("relume: error: "), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find(expected), std::string::npos) << "expected '" << expected << "' in:\n" << result.output;
 }
 
 // Parses a JSON file (throws nlohmann::json::parse_error when it is not JSON).

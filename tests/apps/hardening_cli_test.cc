@@ -19,17 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::CliResult;
+using testing::ExpectUserError;
 using testing::FreshTempDir;
 using testing::RunRelume;
 
 const std::string kSource = RELUME_SOURCE_DIR;
-
-// A user error: exit code 2 and "relume: error: " followed by text containing `expected`.
-void ExpectUserError(const CliResult& result, const std::string& expected) {
-  EXPECT_EQ(result.exit_code, 2) << result.output;
-  EXPECT_NE(result.output.find("relume: error: "), std::string::npos) << result.output;
-  EXPECT_NE(result.output.find(expected), std::string::npos) << "expected '" << expected << "' in:\n" << result.output;
-}
 
 TEST(CliHardening, ParseErrorsExitTwoAndHelpExitsZero) {
   ExpectUserError(RunRelume("nosuchcommand"), "");

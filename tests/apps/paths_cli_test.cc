@@ -18,6 +18,7 @@ namespace relume {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ExpectUserError;
 using testing::FreshTempDir;
 using testing::RunRelume;
 
@@ -78,6 +79,10 @@ class PathsCliTest : public ::testing::Test {
     root_ = FreshTempDir("paths", info->name());
     session_ = MakeSession(root_ / "session");
   }
+  // `relume process SESSION --pipeline radiance --out OUT`.
+  testing::CliResult ProcessInto(const fs::path& out) const {
+    return RunRelume("process " + session_.string() + " --pipeline radiance --out " + out.string());
+  }
   fs::path root_;
   fs::path session_;
 };
@@ -105,8 +110,7 @@ TEST_F(PathsCliTest, HdrMergeRefusesToOverwriteAnInput) {
   const std::string before = ReadText(root_ / "a.png");
   const auto r = RunRelume("hdr merge " + (root_ / "a.png").string() + " " + (root_ / "b.png").string() +
                            " --exposures 0.25,1 --out " + (root_ / "a.exr").string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "relume never overwrites its inputs")) << r.output;
+  ExpectUserError(r, "relume never overwrites its inputs");
   EXPECT_EQ(ReadText(root_ / "a.png"), before);
 }
 
@@ -117,8 +121,7 @@ TEST_F(PathsCliTest, CalibrateResponseRefusesToOverwriteAnInput) {
   const std::string before = ReadText(root_ / "0.png");
   const auto r = RunRelume("calibrate response " + (root_ / "0.png").string() + " " + (root_ / "1.png").string() + " " +
                            (root_ / "2.png").string() + " --exposures 0.25,1,4 --out " + (root_ / "0.png").string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "relume never overwrites its inputs")) << r.output;
+  ExpectUserError(r, "relume never overwrites its inputs");
   EXPECT_EQ(ReadText(root_ / "0.png"), before);
 }
 
@@ -126,9 +129,8 @@ TEST_F(PathsCliTest, CalibrateResponseRefusesToOverwriteAnInput) {
 TEST_F(PathsCliTest, ProcessRefusesAnUnrelatedFolder) {
   fs::create_directories(root_ / "mine");
   std::ofstream(root_ / "mine" / "summary.txt") << "my notes";
-  const auto r = RunRelume("process " + session_.string() + " --pipeline radiance --out " + (root_ / "mine").string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "holds files relume did not write (e.g. summary.txt)")) << r.output;
+  const auto r = ProcessInto(root_ / "mine");
+  ExpectUserError(r, "holds files relume did not write (e.g. summary.txt)");
   EXPECT_EQ(ReadText(root_ / "mine" / "summary.txt"), "my notes");
   EXPECT_FALSE(fs::exists(root_ / "mine" / "stages"));
 }
@@ -136,9 +138,8 @@ TEST_F(PathsCliTest, ProcessRefusesAnUnrelatedFolder) {
 // Issue case 3: --out inside the session's frames/.
 TEST_F(PathsCliTest, ProcessRefusesAnOutputInsideFrames) {
   const fs::path out = session_ / "frames" / "results";
-  const auto r = RunRelume("process " + session_.string() + " --pipeline radiance --out " + out.string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "lies inside the recorded data of the session")) << r.output;
+  const auto r = ProcessInto(out);
+  ExpectUserError(r, "lies inside the recorded data of the session");
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -147,10 +148,8 @@ TEST_F(PathsCliTest, ProcessRefusesAFolderInUse) {
   const fs::path out = root_ / "out";
   fs::create_directories(out);
   const capture::FolderLock held = capture::FolderLock::Acquire(out, "process (the test)");
-  const auto r = RunRelume("process " + session_.string() + " --pipeline radiance --out " + out.string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "is in use by pid " + std::to_string(::getpid()) + " (relume process (the test))"))
-      << r.output;
+  const auto r = ProcessInto(out);
+  ExpectUserError(r, "is in use by pid " + std::to_string(::getpid()) + " (relume process (the test))");
 }
 
 // Issue case 5: a bad --store-in stores nothing, in the source session either.
@@ -158,8 +157,7 @@ TEST_F(PathsCliTest, CalibrateStoreInANonSessionStoresNothing) {
   fs::create_directories(root_ / "not-a-session");
   const auto r = RunRelume("calibrate response --session " + session_.string() + " --frames bracket:1 --store-in " +
                            (root_ / "not-a-session").string() + " --out " + (root_ / "profile.json").string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "no session here")) << r.output;
+  ExpectUserError(r, "no session here");
   EXPECT_TRUE(capture::SessionReader(session_).Calibrations().empty());
   // Corrected, the retry stores exactly one row.
   const auto retry = RunRelume("calibrate response --session " + session_.string() + " --frames bracket:1 --out " +
@@ -175,8 +173,7 @@ TEST_F(PathsCliTest, InfoOnAnEmptyDatabaseWritesNothing) {
   std::ofstream(dir / capture::kSessionDatabaseName).flush();
   for (const char* command : {"session info ", "session verify "}) {
     const auto r = RunRelume(command + dir.string());
-    EXPECT_EQ(r.exit_code, 2) << r.output;
-    EXPECT_TRUE(Contains(r.output, "is not a relume session database")) << r.output;
+    ExpectUserError(r, "is not a relume session database");
     EXPECT_EQ(fs::file_size(dir / capture::kSessionDatabaseName), 0u);
   }
 }
@@ -185,9 +182,8 @@ TEST_F(PathsCliTest, InfoOnAnEmptyDatabaseWritesNothing) {
 TEST_F(PathsCliTest, ProcessRefusesAStoredRigWhoseSceneIsMissing) {
   fs::create_directories(session_ / "rig");
   std::ofstream(session_ / "rig" / "rig.yaml") << "name: lost\nscene: ../../elsewhere/scene.yaml\n";
-  const auto r = RunRelume("process " + session_.string() + " --pipeline radiance --out " + (root_ / "out").string());
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Contains(r.output, "rig/scene.yaml: is missing, although the session's rig names a scene")) << r.output;
+  const auto r = ProcessInto(root_ / "out");
+  ExpectUserError(r, "rig/scene.yaml: is missing, although the session's rig names a scene");
 }
 
 // "A read-only session cannot even be verified": a session in a folder nobody may write, with
@@ -219,8 +215,7 @@ TEST_F(PathsCliTest, AReadOnlySessionIsVerifiedInspectedAndProcessed) {
   EXPECT_EQ(process.exit_code, 0) << process.output;
   EXPECT_TRUE(fs::exists(root_ / "out" / "r" / "summary.json"));
   const auto recover = testing::RunCommand(relume + "session recover " + (ro / "session").string());
-  EXPECT_EQ(recover.exit_code, 2) << recover.output;
-  EXPECT_TRUE(Contains(recover.output, "is read-only, so relume cannot write here")) << recover.output;
+  ExpectUserError(recover, "is read-only, so relume cannot write here");
   testing::RunCommand("chmod -R u+w " + ro.string());  // so the next run can remove it
 }
 
