@@ -7,7 +7,6 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "apps/relume/process/radiance.h"
 #include "calibration/calibration_profile.h"
 #include "calibration/colorchecker_detect.h"
 #include "calibration/colorchecker_fit.h"
@@ -18,6 +17,7 @@
 #include "capture/session.h"
 #include "core/error.h"
 #include "core/yaml_file.h"
+#include "pipeline/radiance.h"
 
 namespace relume::app {
 namespace {
@@ -52,7 +52,7 @@ std::vector<cv::Point2f> CornersFromYaml(const std::string& path) {
 std::vector<capture::FrameRecord> SessionFrames(const capture::SessionReader& reader, const SessionSource& source) {
   if (source.frames.empty()) throw InvalidArgumentError("--session needs --frames (e.g. --frames bracket:1)");
   std::vector<capture::FrameRecord> frames;
-  for (const capture::FrameRecord& f : process::SelectFrames(reader, source.frames)) {
+  for (const capture::FrameRecord& f : pipeline::SelectFrames(reader, source.frames)) {
     if (f.stream == "still") frames.push_back(f);
   }
   if (frames.empty()) throw InvalidArgumentError("--frames " + source.frames + ": no still-camera frames selected");
@@ -281,11 +281,11 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
     std::optional<CameraResponse> response;
     if (base && base->response) {
       response = base->response;
-    } else if (const auto recorded = process::SessionCalibration(reader, records.front().device_id, "response")) {
+    } else if (const auto recorded = pipeline::SessionCalibration(reader, records.front().device_id, "response")) {
       response = recorded->first.response;
     }
-    const process::LinearisedBracket linear =
-        process::LineariseBracket(reader, records, response, std::nullopt, HdrMergeOptions{}, ResponseOptions{});
+    const pipeline::LinearisedBracket linear =
+        pipeline::LineariseBracket(reader, records, response, std::nullopt, HdrMergeOptions{}, ResponseOptions{});
     out << "chart image: " << records.size() << " frame(s) of " << records.front().device_id << " merged ("
         << linear.response_source << " response)\n";
     chart.values = linear.radiance.pixels;

@@ -13,12 +13,12 @@
 #include <iostream>
 
 #include "apps/relume/device_backends.h"
-#include "apps/relume/rig_config.h"
 #include "capture/playback.h"
 #include "capture/session.h"
 #include "core/clock.h"
 #include "core/error.h"
 #include "drivers/device_error.h"
+#include "rig/rig_config.h"
 
 namespace relume::app {
 
@@ -41,7 +41,8 @@ std::string HumanBytes(std::uint64_t bytes) {
 
 // Every backend the rig's devices need, and no other (no discovery on networks the rig does
 // not use).
-std::shared_ptr<drivers::DeviceRegistry> BuildRigRegistry(const RigConfig& rig, const std::shared_ptr<Clock>& clock) {
+std::shared_ptr<drivers::DeviceRegistry> BuildRigRegistry(const rig::RigConfig& rig,
+                                                          const std::shared_ptr<Clock>& clock) {
   DeviceBackendOptions options;
   if (!rig.devices.empty()) {
     options.sim_devices = rig.devices;
@@ -50,13 +51,13 @@ std::shared_ptr<drivers::DeviceRegistry> BuildRigRegistry(const RigConfig& rig, 
   }
   auto uses = [&](const char* backend) {
     return std::any_of(rig.registry_devices.begin(), rig.registry_devices.end(),
-                       [&](const RegistryDeviceSpec& d) { return d.backend == backend; });
+                       [&](const rig::RegistryDeviceSpec& d) { return d.backend == backend; });
   };
   options.gphoto2 = uses("gphoto2");
   options.openni2 = uses("openni2");
   options.aravis = uses("aravis");
   options.usb = false;
-  for (const RegistryDeviceSpec& d : rig.registry_devices) {
+  for (const rig::RegistryDeviceSpec& d : rig.registry_devices) {
     // Ports libgphoto2 cannot autodetect (PTP/IP, disk) are opened by model and port.
     if (d.backend == "gphoto2" && !d.model.empty() && !d.port.empty() && d.port.rfind("usb:", 0) != 0) {
       options.gphoto2_cameras.push_back(d.model + "@" + d.port);
@@ -65,7 +66,7 @@ std::shared_ptr<drivers::DeviceRegistry> BuildRigRegistry(const RigConfig& rig, 
   std::vector<std::string> problems;
   auto registry = BuildDeviceRegistry(options, &problems);
   for (const std::string& problem : problems) std::cerr << "relume capture: " << problem << "\n";
-  for (const RegistryDeviceSpec& d : rig.registry_devices) {
+  for (const rig::RegistryDeviceSpec& d : rig.registry_devices) {
     if (d.backend != "playback") continue;
     registry->Add(std::make_shared<capture::PlaybackBackend>(d.session));
     break;  // one session per rig (LoadRigConfig checks)
@@ -75,7 +76,7 @@ std::shared_ptr<drivers::DeviceRegistry> BuildRigRegistry(const RigConfig& rig, 
 
 }  // namespace
 
-drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, const RegistryDeviceSpec& spec) {
+drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, const rig::RegistryDeviceSpec& spec) {
   drivers::Backend* backend = nullptr;
   for (const auto& b : registry.backends()) {
     if (b->name() == spec.backend) backend = b.get();
@@ -129,8 +130,8 @@ struct OpenedDevice {
 // The stream to record from an RGB-D sensor: the one the rig asks for; for a simulated sensor
 // the one at its rig camera's size (registered, synchronised) when offered, so a rig's
 // `camera:` size is what gets recorded; otherwise the sensor's first stream.
-drivers::RgbdStreamConfig ChooseRgbdStream(const drivers::RgbdSensor& sensor, const RigConfig& rig,
-                                           const RegistryDeviceSpec* spec) {
+drivers::RgbdStreamConfig ChooseRgbdStream(const drivers::RgbdSensor& sensor, const rig::RigConfig& rig,
+                                           const rig::RegistryDeviceSpec* spec) {
   const std::vector<drivers::RgbdStreamConfig> configs = sensor.SupportedConfigs();
   if (configs.empty()) {
     throw drivers::DeviceError(drivers::DeviceErrorKind::kUnsupportedSetting, sensor.info().FullId(),
@@ -161,8 +162,8 @@ drivers::RgbdStreamConfig ChooseRgbdStream(const drivers::RgbdSensor& sensor, co
 // Opens a rig device; `spec` is null for simulated devices. The rig's camera settings are set
 // again on every reconnect.
 OpenedDevice OpenRigDevice(const std::shared_ptr<drivers::DeviceRegistry>& registry, const drivers::DeviceInfo& device,
-                           std::function<drivers::DeviceInfo()> find_again, const RegistryDeviceSpec* spec,
-                           const RigConfig& rig) {
+                           std::function<drivers::DeviceInfo()> find_again, const rig::RegistryDeviceSpec* spec,
+                           const rig::RigConfig& rig) {
   OpenedDevice out;
   if (device.kind == drivers::DeviceKind::kStillCamera) {
     if (spec && spec->stream) {
@@ -186,7 +187,7 @@ OpenedDevice OpenRigDevice(const std::shared_ptr<drivers::DeviceRegistry>& regis
 }  // namespace
 
 int RunCapture(const CaptureRequest& request) {
-  RigConfig rig = LoadRigConfig(request.rig_path);
+  rig::RigConfig rig = rig::LoadRigConfig(request.rig_path);
   // Checked before the narrowing to int64 nanoseconds (292 years) below.
   if (!(request.duration_minutes >= 0.0 && request.duration_minutes <= 100.0 * 365.25 * 1440.0)) {
     throw InvalidArgumentError("--duration must be within [0, 100 years] in minutes");
@@ -221,7 +222,7 @@ int RunCapture(const CaptureRequest& request) {
       }
     }
   }
-  for (const RegistryDeviceSpec& spec : rig.registry_devices) {
+  for (const rig::RegistryDeviceSpec& spec : rig.registry_devices) {
     opened.push_back(OpenRigDevice(
         registry, ResolveRigDevice(*registry, spec), [registry, spec]() { return ResolveRigDevice(*registry, spec); },
         &spec, rig));
@@ -234,7 +235,7 @@ int RunCapture(const CaptureRequest& request) {
   info.clock_name = clock->name();
   info.created_utc = clock->NowUtc();
   std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info, rig.storage);
-  StoreRigWithSession(rig, request.out_dir);  // processing finds the geometry and cameras here
+  rig::StoreRigWithSession(rig, request.out_dir);  // processing finds the geometry and cameras here
 
   capture::Recorder recorder(*writer, *clock, rig.recorder);
   for (OpenedDevice& device : opened) {

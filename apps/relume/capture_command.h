@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "apps/relume/rig_config.h"
 #include "drivers/backend.h"
+#include "rig/rig_config.h"
 
 namespace CLI {
 class App;
@@ -22,7 +22,7 @@ struct CaptureRequest {
 
 // The enumerated device a rig entry names (every key given must match). Throws
 // DeviceError(kNotFound) naming the entry, what its backend sees and what to check.
-drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, const RegistryDeviceSpec& spec);
+drivers::DeviceInfo ResolveRigDevice(const drivers::DeviceRegistry& registry, const rig::RegistryDeviceSpec& spec);
 
 // Returns the process exit code: 0 done, 3 storage failed (acknowledged frames are safe).
 int RunCapture(const CaptureRequest& request);

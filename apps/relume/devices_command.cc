@@ -9,9 +9,9 @@
 #include <sstream>
 
 #include "apps/relume/device_backends.h"
-#include "apps/relume/rig_config.h"
 #include "core/error.h"
 #include "drivers/device_error.h"
+#include "rig/rig_config.h"
 
 namespace relume::app {
 
@@ -95,9 +95,9 @@ void PrintDevice(const drivers::DeviceRegistry& registry, const drivers::DeviceI
   }
 }
 
-DeviceBackendOptions OptionsFor(const DevicesRequest& request, std::shared_ptr<RigConfig>* rig) {
+DeviceBackendOptions OptionsFor(const DevicesRequest& request, std::shared_ptr<rig::RigConfig>* rig) {
   DeviceBackendOptions options;
-  if (!request.rig_path.empty()) *rig = std::make_shared<RigConfig>(LoadRigConfig(request.rig_path));
+  if (!request.rig_path.empty()) *rig = std::make_shared<rig::RigConfig>(rig::LoadRigConfig(request.rig_path));
   if (*rig && !(*rig)->devices.empty()) {
     options.sim_devices = (*rig)->devices;
     options.sim_truth = (*rig)->world;
@@ -265,7 +265,7 @@ void CheckDevice(const drivers::DeviceRegistry& registry, const DevicesRequest& 
 }  // namespace
 
 int RunDevices(const DevicesRequest& request, std::ostream& out) {
-  std::shared_ptr<RigConfig> rig;
+  std::shared_ptr<rig::RigConfig> rig;
   const DeviceBackendOptions options = OptionsFor(request, &rig);
   std::vector<std::string> problems;
   const std::shared_ptr<drivers::DeviceRegistry> registry = BuildDeviceRegistry(options, &problems);

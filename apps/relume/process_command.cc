@@ -6,10 +6,10 @@
 #include <map>
 #include <memory>
 
-#include "apps/relume/process/pipeline.h"
-#include "apps/relume/process/report.h"
 #include "capture/folder_lock.h"
 #include "core/error.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/report.h"
 
 namespace relume::app {
 
@@ -49,14 +49,14 @@ void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
 
 void Run(const ProcessArgs& args) {
   if (args.list) {
-    for (const process::PipelineEntry& entry : process::Pipelines()) {
+    for (const pipeline::PipelineEntry& entry : pipeline::Pipelines()) {
       std::cout << std::left << std::setw(12) << entry.name << " " << entry.description << "\n";
     }
     return;
   }
   if (args.session.empty()) throw InvalidArgumentError("relume process: give the session folder");
   const bool all = args.pipeline.empty() || args.pipeline == "all";
-  process::PipelineRequest request;
+  pipeline::PipelineRequest request;
   request.session_dir = args.session;
   request.out_dir = args.out.empty()
                         ? std::filesystem::path(args.session) / "processed" / (all ? std::string() : args.pipeline)
@@ -75,24 +75,24 @@ void Run(const ProcessArgs& args) {
   }
   request.explain = args.explain;
   request.reuse = !args.force;
-  process::PrepareOutputFolder(request.out_dir);
+  pipeline::PrepareOutputFolder(request.out_dir);
   const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process");
 
-  std::vector<process::PipelineReport> reports;
+  std::vector<pipeline::PipelineReport> reports;
   if (!all) {
-    nlohmann::json summary = process::RunPipeline(request);
+    nlohmann::json summary = pipeline::RunPipeline(request);
     PrintSummary(summary, request.out_dir.string());
     reports.push_back({request.pipeline, request.out_dir, std::move(summary), ""});
   } else {
     // Every pipeline of this build, each into its own folder; one that cannot run on this
     // session says why and the others go on.
     std::string failed;
-    for (const process::PipelineEntry& entry : process::Pipelines()) {
-      process::PipelineRequest one = request;
+    for (const pipeline::PipelineEntry& entry : pipeline::Pipelines()) {
+      pipeline::PipelineRequest one = request;
       one.pipeline = entry.name;
       one.out_dir = request.out_dir / entry.name;
       try {
-        nlohmann::json summary = process::RunPipeline(one);
+        nlohmann::json summary = pipeline::RunPipeline(one);
         PrintSummary(summary, one.out_dir.string());
         reports.push_back({entry.name, one.out_dir, std::move(summary), ""});
       } catch (const InvalidArgumentError& e) {
@@ -107,7 +107,7 @@ void Run(const ProcessArgs& args) {
     }
     if (!args.explain) {
       const std::filesystem::path page =
-          process::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
+          pipeline::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
       std::cout << "report: " << page.string() << "\n";
     }
     if (!failed.empty()) throw Error("pipeline(s) " + failed + " failed (see above); the others' results are kept");
@@ -115,7 +115,7 @@ void Run(const ProcessArgs& args) {
   }
   if (args.explain) return;
   const std::filesystem::path page =
-      process::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
+      pipeline::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
   std::cout << "report: " << page.string() << "\n";
 }
 

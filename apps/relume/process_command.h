@@ -1,5 +1,5 @@
 // `relume process SESSION --pipeline NAME --out DIR`: reprocesses a recorded session through
-// one pipeline (apps/relume/process/), reusing every stage whose inputs and settings did not
+// one pipeline (pipeline/), reusing every stage whose inputs and settings did not
 // change since the last run into the same folder. `--explain` prints the plan without running
 // expensive stages; `--list` names the pipelines of this build.
 #pragma once

@@ -9,9 +9,9 @@
 #include <sstream>
 #include <string>
 
-#include "apps/relume/process/sh_pipeline.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "pipeline/sh_pipeline.h"
 #include "tests/apps/cli_runner.h"
 
 namespace relume {
@@ -272,7 +272,7 @@ TEST(CliHardening, ExtremeLightIsRefused) {
   EXPECT_THROW(
       {
         try {
-          app::process::ShLightFromJson(nlohmann::json{{"coefficients", {{1e308, 1.0, 1.0}}}}, "light.json");
+          pipeline::ShLightFromJson(nlohmann::json{{"coefficients", {{1e308, 1.0, 1.0}}}}, "light.json");
         } catch (const InvalidArgumentError& e) {
           EXPECT_NE(std::string(e.what()).find("light.json: row 0 holds"), std::string::npos) << e.what();
           throw;

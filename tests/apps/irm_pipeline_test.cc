@@ -1,7 +1,7 @@
 // The IRM pipeline of `relume process`: the scene geometry it builds (from the simulated world,
 // from an OBJ in UTM), its accuracy against the world's truth on noise-free input, and the
 // command end to end on a small captured session (outputs, truth, stage reuse, errors).
-#include "apps/relume/process/irm_pipeline.h"
+#include "pipeline/irm_pipeline.h"
 
 #include <gtest/gtest.h>
 
@@ -11,18 +11,18 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "apps/relume/process/irm_scene.h"
-#include "apps/relume/process/radiance.h"
-#include "apps/relume/rig_config.h"
 #include "calibration/image_file.h"
 #include "core/error.h"
 #include "core/frames.h"
 #include "core/time.h"
+#include "pipeline/irm_scene.h"
+#include "pipeline/radiance.h"
 #include "processing/irm/relight.h"
 #include "processing/irm/testing_reference.h"
+#include "rig/rig_config.h"
 #include "tests/apps/cli_runner.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace {
 namespace fs = std::filesystem;
 using relume::testing::ReadJsonFile;
@@ -60,7 +60,7 @@ TEST(IrmSceneTest, SplitTrianglesKeepTheSurfaceAndTheirFlatNormals) {
 }
 
 TEST(IrmSceneTest, UtmMeshLandsOnTheEnuSceneWithTheMeridianConvergence) {
-  const RigConfig rig = LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
+  const rig::RigConfig rig = rig::LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
   IrmMeshOptions options;
   options.spacing_m = 50.0;  // geometry only: no need for dense vertices
   const LoadedSceneMesh utm =
@@ -133,7 +133,7 @@ struct NoiseFreeCase {
 };
 
 NoiseFreeCase RunNoiseFree(bool penumbra, bool sky_gradient = true, int width = 320, int height = 240) {
-  const RigConfig rig = LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
+  const rig::RigConfig rig = rig::LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
   const PinholeCamera& device = rig.devices.front().camera;
   PinholeCamera camera = device;
   camera.intrinsics = PinholeIntrinsics::FromHorizontalFov(width, height, DegToRad(70.0));
@@ -168,8 +168,8 @@ NoiseFreeCase RunNoiseFree(bool penumbra, bool sky_gradient = true, int width = 
       CompareRegions(result.relit, target.radiance, source.sun_visibility, target.sun_visibility, use, &error_image);
   if (const char* dump = std::getenv("RELUME_IRM_TEST_DUMP")) {
     calibration::SaveImage(error_image, std::string(dump) + "/noise_free_error.png");
-    calibration::SaveImage(process::RadiancePreview(result.relit, 0.0), std::string(dump) + "/noise_free_relit.png");
-    calibration::SaveImage(process::RadiancePreview(target.radiance, 0.0),
+    calibration::SaveImage(pipeline::RadiancePreview(result.relit, 0.0), std::string(dump) + "/noise_free_relit.png");
+    calibration::SaveImage(pipeline::RadiancePreview(target.radiance, 0.0),
                            std::string(dump) + "/noise_free_target.png");
   }
   c.baseline = CompareRegions(source.radiance, target.radiance, source.sun_visibility, target.sun_visibility, use);
@@ -212,7 +212,7 @@ TEST(IrmAccuracyTest, NoiseFreeRelightingBeatsTheBaselineInEveryRegion) {
 // the simulated world's noise-free renders: the dome's smooth vertex normals take the
 // per-pixel path, the flat walls and ground the per-triangle one.
 TEST(IrmAccuracyTest, RelightPixelsMatchesItsDefinitionOnTheWorld) {
-  const RigConfig rig = LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
+  const rig::RigConfig rig = rig::LoadRigConfig(kSource + "/tests/data/rigs/sim-tiny-irm.yaml");
   PinholeCamera camera = rig.devices.front().camera;
   camera.intrinsics = PinholeIntrinsics::FromHorizontalFov(320, 240, DegToRad(70.0));
   const UtcTime morning = ParseIso8601("2026-06-21T09:00:00+03:00").utc;
@@ -366,4 +366,4 @@ TEST(IrmCliTest, AUtmMeshRelightsAsWellAsTheRecordedWorld) {
 }
 
 }  // namespace
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -6,12 +6,12 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "apps/relume/process/stage_cache.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "pipeline/stage_cache.h"
 #include "tests/apps/cli_runner.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace {
 namespace fs = std::filesystem;
 using relume::testing::ReadJsonFile;
@@ -257,4 +257,4 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
 }
 
 }  // namespace
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

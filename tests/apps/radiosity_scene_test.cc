@@ -1,13 +1,13 @@
-// The radiosity pipeline's view of a sim world (apps/relume/process/radiosity_scene.h): patch
+// The radiosity pipeline's view of a sim world (pipeline/radiosity_scene.h): patch
 // orientation, the pixel -> patch map against the renderer's object ids, and lamps over time.
-#include "apps/relume/process/radiosity_scene.h"
+#include "pipeline/radiosity_scene.h"
 
 #include <gtest/gtest.h>
 
 #include "core/error.h"
 #include "sim/world/scene_yaml.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace {
 
 sim::Scene Room() {
@@ -101,4 +101,4 @@ TEST(RadiositySceneTest, LampsMoveAndSpotsKeepTheirCone) {
 }
 
 }  // namespace
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

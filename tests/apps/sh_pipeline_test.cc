@@ -15,7 +15,7 @@
 #include "core/image.h"
 #include "tests/apps/cli_runner.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace {
 namespace fs = std::filesystem;
 using relume::testing::ReadJsonFile;
@@ -196,4 +196,4 @@ TEST(ShPipelineCliTest, MovingObjectWithSensorNoiseRelitToAnShFile) {
 }
 
 }  // namespace
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

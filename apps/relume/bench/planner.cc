@@ -22,12 +22,12 @@
 #include "apps/relume/bench/irm.h"
 #include "apps/relume/bench/radiosity.h"
 #include "apps/relume/bench/sh.h"
-#include "apps/relume/process/stage_cache.h"
 #include "calibration/hdr_merge.h"
 #include "calibration/image_file.h"
 #include "calibration/testing/synthetic_bracket.h"
 #include "capture/bracket_planner.h"
 #include "core/error.h"
+#include "pipeline/stage_cache.h"
 #include "processing/depth_filter.h"
 
 namespace relume::app::bench {
@@ -35,8 +35,8 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace ct = calibration::testing;
-using process::StageCache;
-using process::StageKey;
+using pipeline::StageCache;
+using pipeline::StageKey;
 
 void AddPair(std::vector<Row>& rows, const std::string& skip, const std::string& scene, double skip_s, double forced_s,
              double skip_error, double forced_error, const std::string& metric, const std::string& skip_notes,

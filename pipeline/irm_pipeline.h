@@ -18,12 +18,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "apps/relume/process/pipeline.h"
 #include "core/image.h"
+#include "pipeline/pipeline.h"
 #include "processing/geometry/ray_caster.h"
 #include "processing/irm/irm.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 void RunIrmPipeline(PipelineRun& run);
 
@@ -67,4 +67,4 @@ struct SunCheck {
 cv::Mat ShadowAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& agree,
                         const std::vector<SunCheck>& suns, int sun_samples = 64, float tolerance = 0.1f);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -20,7 +20,7 @@
 #include <string_view>
 #include <vector>
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 // What a stage's output depends on, as named fields. Order matters (fields are hashed in the
 // order they are added). Hex() is the SHA-256 of the fields; Describe() lists them for logs.
@@ -80,4 +80,4 @@ class StageCache {
   std::string code_version_;
 };
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

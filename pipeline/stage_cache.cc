@@ -1,4 +1,4 @@
-#include "apps/relume/process/stage_cache.h"
+#include "pipeline/stage_cache.h"
 
 #include <cstdio>
 #include <fstream>
@@ -10,7 +10,7 @@
 #include "capture/durable_file.h"
 #include "core/error.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 
 namespace {
@@ -119,4 +119,4 @@ StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
   return result;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -8,7 +8,7 @@
 //   -> radiosity-observe (per bracket: mean radiance per patch) -> radiosity-scale (absolute
 //   scale of bracket 0) -> [planner: indirect share vs tolerance] -> radiosity-reflectance
 //   (iterations, albedo, solution, plots) -> radiosity-relight (new lamp).
-#include "apps/relume/process/radiosity_pipeline.h"
+#include "pipeline/radiosity_pipeline.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,15 +19,15 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "apps/relume/process/radiance.h"
-#include "apps/relume/process/radiosity_scene.h"
 #include "calibration/image_file.h"
 #include "calibration/response.h"
 #include "core/error.h"
+#include "pipeline/radiance.h"
+#include "pipeline/radiosity_scene.h"
 #include "processing/radiosity/direct_light.h"
 #include "processing/radiosity/reflectance.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 using radiosity::Rgb;
 
@@ -490,7 +490,7 @@ std::string Percent(double x) {
 
 void RunRadiosityPipeline(PipelineRun& run) {
   const Knobs knobs = ReadKnobs(run);
-  const RigConfig* rig = run.rig();
+  const rig::RigConfig* rig = run.rig();
   if (rig == nullptr || !rig->world) {
     throw InvalidArgumentError(
         "the radiosity pipeline needs the room's geometry and lamps: this session has no stored simulated world "
@@ -1033,4 +1033,4 @@ PipelineEntry RadiosityPipelineEntry() {
           RunRadiosityPipeline};
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -5,15 +5,15 @@
 #include <fstream>
 #include <opencv2/core.hpp>
 
-#include "apps/relume/process/irm_pipeline.h"
-#include "apps/relume/process/pipeline.h"
-#include "apps/relume/process/radiance.h"
-#include "apps/relume/process/radiosity_pipeline.h"
-#include "apps/relume/process/sh_pipeline.h"
 #include "calibration/image_file.h"
 #include "calibration/response.h"
+#include "pipeline/irm_pipeline.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/radiance.h"
+#include "pipeline/radiosity_pipeline.h"
+#include "pipeline/sh_pipeline.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 namespace {
 
@@ -105,4 +105,4 @@ const std::vector<PipelineEntry>& Pipelines() {
   return pipelines;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

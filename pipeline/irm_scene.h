@@ -20,7 +20,7 @@
 #include "core/site.h"
 #include "sim/world/scene.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 struct IrmMeshOptions {
   double spacing_m = 0.5;    // largest edge of the split triangles
@@ -46,4 +46,4 @@ struct LoadedSceneMesh {
 LoadedSceneMesh LoadSceneMesh(const std::string& path, MeshFrame frame, const Site& site, std::optional<int> utm_zone,
                               const IrmMeshOptions& options);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

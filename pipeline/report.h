@@ -14,7 +14,7 @@
 
 #include "capture/session.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 struct PipelineReport {
   std::string name;
@@ -27,4 +27,4 @@ struct PipelineReport {
 std::filesystem::path WriteReport(const capture::SessionReader& session, const std::filesystem::path& out_dir,
                                   const std::vector<PipelineReport>& pipelines);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

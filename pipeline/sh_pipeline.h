@@ -18,10 +18,10 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "apps/relume/process/pipeline.h"
+#include "pipeline/pipeline.h"
 #include "processing/sh.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 nlohmann::json ShLightToJson(const processing::ShRgb& light, int order);
 // Throws InvalidArgumentError naming `what` when the JSON is not an SH light.
@@ -29,4 +29,4 @@ processing::ShRgb ShLightFromJson(const nlohmann::json& json, const std::string&
 
 void RunShPipeline(PipelineRun& run);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

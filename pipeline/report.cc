@@ -1,4 +1,4 @@
-#include "apps/relume/process/report.h"
+#include "pipeline/report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,7 @@
 #include "capture/durable_file.h"
 #include "core/error.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 
 namespace {
@@ -299,4 +299,4 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
   return page;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

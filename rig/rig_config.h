@@ -45,7 +45,7 @@
 #include "sim/devices/sim_backend.h"
 #include "sim/world/world.h"
 
-namespace relume::app {
+namespace relume::rig {
 
 // Which of an RGB-D sensor's streams a rig asks for; unset keys match anything. The capture
 // records the first of the sensor's SupportedConfigs() that matches every key given.
@@ -107,4 +107,4 @@ void StoreRigWithSession(const RigConfig& rig, const std::filesystem::path& sess
 // were stored). Errors in the stored files are reported like LoadRigConfig's.
 std::shared_ptr<RigConfig> LoadSessionRig(const std::filesystem::path& session_dir);
 
-}  // namespace relume::app
+}  // namespace relume::rig

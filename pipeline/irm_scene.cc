@@ -1,4 +1,4 @@
-#include "apps/relume/process/irm_scene.h"
+#include "pipeline/irm_scene.h"
 
 #include <cmath>
 #include <numbers>
@@ -7,7 +7,7 @@
 #include "core/frames.h"
 #include "sim/world/mesh_io.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 bool IrmMeshOptions::IsValid(std::string* why) const {
   if (!(spacing_m >= 0.01 && spacing_m <= 100.0)) {
@@ -127,4 +127,4 @@ LoadedSceneMesh LoadSceneMesh(const std::string& path, MeshFrame frame, const Si
   return loaded;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

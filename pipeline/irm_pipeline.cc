@@ -1,4 +1,4 @@
-#include "apps/relume/process/irm_pipeline.h"
+#include "pipeline/irm_pipeline.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,15 +11,15 @@
 #include <optional>
 #include <utility>
 
-#include "apps/relume/process/irm_scene.h"
-#include "apps/relume/process/radiance.h"
 #include "calibration/image_file.h"
 #include "core/error.h"
 #include "core/frames.h"
+#include "pipeline/irm_scene.h"
+#include "pipeline/radiance.h"
 #include "processing/geometry/ray_caster.h"
 #include "processing/irm/relight.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 
 namespace {
@@ -845,4 +845,4 @@ void RunIrmPipeline(PipelineRun& run) {
   }
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -1,4 +1,4 @@
-#include "apps/relume/process/radiance.h"
+#include "pipeline/radiance.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include "core/color.h"
 #include "core/error.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 
 std::vector<std::vector<capture::FrameRecord>> StillBrackets(const capture::SessionReader& session,
@@ -266,4 +266,4 @@ cv::Mat RadiancePreview(const RadianceImage& radiance, double white) {
   return out;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

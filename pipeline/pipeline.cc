@@ -1,4 +1,4 @@
-#include "apps/relume/process/pipeline.h"
+#include "pipeline/pipeline.h"
 
 #include <spdlog/spdlog.h>
 #include <unistd.h>
@@ -13,11 +13,11 @@
 #include "capture/path_policy.h"
 #include "core/error.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 
 PipelineRun::PipelineRun(const PipelineRequest& request, const capture::SessionReader& session,
-                         std::shared_ptr<const RigConfig> rig)
+                         std::shared_ptr<const rig::RigConfig> rig)
     : request_(request), session_(session), rig_(std::move(rig)), cache_(request.out_dir / "stages", request.reuse) {
   for (const auto& [key, value] : request_.settings) settings_read_[key] = false;
 }
@@ -178,7 +178,7 @@ std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& ses
   return selected;
 }
 
-const sim::SimDeviceSpec* FindDeviceSpec(const RigConfig* rig, const std::string& device_id) {
+const sim::SimDeviceSpec* FindDeviceSpec(const rig::RigConfig* rig, const std::string& device_id) {
   if (rig == nullptr) return nullptr;
   const std::string id = device_id.starts_with("sim:") ? device_id.substr(4) : device_id;
   for (const sim::SimDeviceSpec& spec : rig->devices) {
@@ -232,7 +232,7 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
                                                     "); record one with `relume capture`");
   }
   const capture::SessionReader session(request.session_dir);
-  std::shared_ptr<const RigConfig> rig = LoadSessionRig(request.session_dir);
+  std::shared_ptr<const rig::RigConfig> rig = rig::LoadSessionRig(request.session_dir);
   PrepareOutputFolder(request.out_dir);
   // One writer per output folder: a second `relume process` into it is refused, not interleaved.
   const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process " + request.pipeline);
@@ -254,4 +254,4 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
   return summary;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

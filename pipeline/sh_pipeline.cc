@@ -1,4 +1,4 @@
-#include "apps/relume/process/sh_pipeline.h"
+#include "pipeline/sh_pipeline.h"
 
 #include <algorithm>
 #include <cctype>
@@ -10,12 +10,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 
-#include "apps/relume/process/radiance.h"
 #include "calibration/image_file.h"
 #include "capture/rgbd_geometry.h"
 #include "core/color.h"
 #include "core/error.h"
 #include "core/input_file.h"
+#include "pipeline/radiance.h"
 #include "processing/depth_filter.h"
 #include "processing/normals.h"
 #include "processing/relight.h"
@@ -24,7 +24,7 @@
 #include "processing/sh_fit.h"
 #include "sim/devices/camera_model.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 namespace fs = std::filesystem;
 using processing::ShRgb;
 
@@ -994,4 +994,4 @@ void RunShPipeline(PipelineRun& run) {
   }
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -22,14 +22,14 @@
 #include <string>
 #include <vector>
 
-#include "apps/relume/process/pipeline.h"
 #include "calibration/calibration_profile.h"
 #include "calibration/hdr_merge.h"
 #include "calibration/response.h"
 #include "core/image.h"
 #include "core/time.h"
+#include "pipeline/pipeline.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 struct BracketRadiance {
   std::string device_id;
@@ -81,4 +81,4 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
 // transfer. With white <= 0 the 99th percentile of the finite luminance is used.
 cv::Mat RadiancePreview(const RadianceImage& radiance, double white = 0.0);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

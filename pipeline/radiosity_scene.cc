@@ -1,4 +1,4 @@
-#include "apps/relume/process/radiosity_scene.h"
+#include "pipeline/radiosity_scene.h"
 
 #include <algorithm>
 #include <limits>
@@ -7,7 +7,7 @@
 
 #include "core/error.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 namespace {
 
@@ -175,4 +175,4 @@ cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity
   return ids;
 }
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

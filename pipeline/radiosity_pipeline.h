@@ -1,10 +1,10 @@
 // The `radiosity` pipeline of `relume process` (radiosity_pipeline.cc, docs/radiosity.md).
 #pragma once
 
-#include "apps/relume/process/pipeline.h"
+#include "pipeline/pipeline.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 PipelineEntry RadiosityPipelineEntry();
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

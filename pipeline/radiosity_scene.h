@@ -24,7 +24,7 @@
 #include "processing/radiosity/scene.h"
 #include "sim/world/world.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 struct RadiosityScene {
   radiosity::Mesh mesh;
@@ -49,4 +49,4 @@ int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eige
 cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity::RayCaster& caster,
                      const PinholeCamera& camera, cv::Mat* points_m = nullptr);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline

@@ -1,4 +1,4 @@
-#include "apps/relume/rig_config.h"
+#include "rig/rig_config.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -16,7 +16,7 @@
 #include "core/yaml_file.h"
 #include "sim/world/scene_yaml.h"
 
-namespace relume::app {
+namespace relume::rig {
 
 namespace {
 
@@ -410,4 +410,4 @@ std::shared_ptr<RigConfig> LoadSessionRig(const std::filesystem::path& session_d
   return std::make_shared<RigConfig>(LoadRigConfig((folder / "rig.yaml").string(), scene));
 }
 
-}  // namespace relume::app
+}  // namespace relume::rig

@@ -3,7 +3,7 @@
 // A pipeline is a function that reads a recorded session, runs its stages through the
 // StageCache (so unchanged stages are reused) and records what it decided and measured in a
 // PipelineRun. The command writes the run's summary (summary.json) and prints its decisions.
-// Each pipeline lives in its own file under apps/relume/process/ and is listed once in
+// Each pipeline lives in its own file under pipeline/ and is listed once in
 // Pipelines() (pipelines.cc).
 #pragma once
 
@@ -17,11 +17,11 @@
 #include <string>
 #include <vector>
 
-#include "apps/relume/process/stage_cache.h"
-#include "apps/relume/rig_config.h"
 #include "capture/session.h"
+#include "pipeline/stage_cache.h"
+#include "rig/rig_config.h"
 
-namespace relume::app::process {
+namespace relume::pipeline {
 
 struct PipelineRequest {
   std::filesystem::path session_dir;
@@ -46,13 +46,13 @@ struct Decision {
 class PipelineRun {
  public:
   PipelineRun(const PipelineRequest& request, const capture::SessionReader& session,
-              std::shared_ptr<const RigConfig> rig);
+              std::shared_ptr<const rig::RigConfig> rig);
 
   const PipelineRequest& request() const { return request_; }
   const capture::SessionReader& session() const { return session_; }
   // The rig the session was recorded with and, for simulated rigs, its world (scene, truth);
   // null when the session did not record one (sessions older than the world record).
-  const RigConfig* rig() const { return rig_.get(); }
+  const rig::RigConfig* rig() const { return rig_.get(); }
   StageCache& cache() { return cache_; }
   const std::filesystem::path& out_dir() const { return request_.out_dir; }
 
@@ -81,7 +81,7 @@ class PipelineRun {
  private:
   const PipelineRequest& request_;
   const capture::SessionReader& session_;
-  std::shared_ptr<const RigConfig> rig_;
+  std::shared_ptr<const rig::RigConfig> rig_;
   StageCache cache_;
   std::vector<Decision> decisions_;
   nlohmann::json metrics_ = nlohmann::json::object();
@@ -109,7 +109,7 @@ std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& ses
 
 // The simulated device spec (camera pose, intrinsics, sensor) of a session device
 // ("sim:dslr" or "dslr"), or null when the rig has no such simulated device.
-const sim::SimDeviceSpec* FindDeviceSpec(const RigConfig* rig, const std::string& device_id);
+const sim::SimDeviceSpec* FindDeviceSpec(const rig::RigConfig* rig, const std::string& device_id);
 
 // The file that marks a folder as relume's output: `relume process` writes only into a new or
 // empty folder, one it marked, or one an older relume wrote (stages/, summary.json).
@@ -125,4 +125,4 @@ void PrepareOutputFolder(const std::filesystem::path& folder);
 // summary.json into out_dir and returns the summary.
 nlohmann::json RunPipeline(const PipelineRequest& request);
 
-}  // namespace relume::app::process
+}  // namespace relume::pipeline
