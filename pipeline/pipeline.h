@@ -91,6 +91,23 @@ class PipelineRun {
   std::string progress_stage_;
 };
 
+// A stage output read from its file only when something asks for it: a rerun whose downstream
+// stages are all reused reads none of the images its upstream stages wrote. Not thread-safe.
+template <typename T>
+class Lazy {
+ public:
+  Lazy() = default;
+  explicit Lazy(std::function<T()> load) : load_(std::move(load)) {}
+  const T& get() const {
+    if (!value_) value_ = load_();
+    return *value_;
+  }
+
+ private:
+  std::function<T()> load_;
+  mutable std::optional<T> value_;
+};
+
 using PipelineFunction = std::function<void(PipelineRun&)>;
 
 struct PipelineEntry {

@@ -265,9 +265,13 @@ std::string Percent(double fraction) {
 // ---- radiance of one colour frame --------------------------------------------------------
 
 struct FrameRadiance {
-  RadianceImage radiance;
+  Lazy<RadianceImage> radiance;  // read from the stage's radiance.exr when first used
   StageKey key;
 };
+
+Lazy<RadianceImage> LazyExr(const fs::path& path) {
+  return Lazy<RadianceImage>([path] { return calibration::LoadRadianceExr(path.string()); });
+}
 
 bool HasResponse(const capture::SessionReader& session, const std::string& device_id) {
   for (const capture::CalibrationRecord& c : session.Calibrations()) {
@@ -307,7 +311,7 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f)
     }
     calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
   });
-  out.radiance = calibration::LoadRadianceExr((stage.dir / "radiance.exr").string());
+  out.radiance = LazyExr(stage.dir / "radiance.exr");
   return out;
 }
 
@@ -315,7 +319,7 @@ FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::S
                             const PinholeCamera& camera) {
   if (HasResponse(run.session(), pair.color.device_id)) {
     const BracketRadiance b = LinearRadiance(run, {pair.color});
-    return {b.radiance, b.key};
+    return {LazyExr(b.exr), b.key};
   }
   if (spec == nullptr) return SrgbColorRadiance(run, pair.color);
   FrameRadiance out;
@@ -338,7 +342,7 @@ FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::S
         sim::RadianceFromCameraImage(run.session().LoadImage(f), camera.intrinsics, exposure, spec->rgbd.color_model);
     calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
   });
-  out.radiance = calibration::LoadRadianceExr((stage.dir / "radiance.exr").string());
+  out.radiance = LazyExr(stage.dir / "radiance.exr");
   return out;
 }
 
@@ -347,8 +351,8 @@ FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::S
 struct FrameGeometry {
   fs::path dir;
   StageKey key;
-  cv::Mat normals;  // CV_32FC3, camera frame
-  cv::Mat mask;     // CV_8UC1: depth, a valid normal
+  Lazy<cv::Mat> normals;  // CV_32FC3, camera frame
+  Lazy<cv::Mat> mask;     // CV_8UC1: depth, a valid normal
   std::int64_t normals_from_frame = 0;
 };
 
@@ -467,8 +471,8 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   });
   g.dir = stage.dir;
   const nlohmann::json info = ReadJson(g.dir / "geometry.json");
-  g.normals = LoadFloat(g.dir / "normals.exr");
-  g.mask = LoadMask(g.dir / "mask.png");
+  g.normals = Lazy<cv::Mat>([path = g.dir / "normals.exr"] { return LoadFloat(path); });
+  g.mask = Lazy<cv::Mat>([path = g.dir / "mask.png"] { return LoadMask(path); });
   g.normals_from_frame = info["normals_from_frame"].get<std::int64_t>();
   if (info.contains("normals_from_truth")) {
     run.Decide("normals", "choose", "frame " + id + ": the world's true normals (diagnostic: --set true_normals=true)");
@@ -512,9 +516,9 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
   }
   const std::string id = std::to_string(pair.color.id);
   const StageCache::Result stage = run.RunStage("fit-" + id, f.key, [&](const fs::path& dir) {
-    cv::Mat allowed = geometry.mask.clone();
+    cv::Mat allowed = geometry.mask.get().clone();
     for (int y = 0; y < allowed.rows; ++y) {
-      const auto* p = radiance.radiance.pixels.ptr<cv::Vec3f>(y);
+      const auto* p = radiance.radiance.get().pixels.ptr<cv::Vec3f>(y);
       for (int x = 0; x < allowed.cols; ++x) {
         if (!(std::isfinite(p[x][0]) && std::isfinite(p[x][1]) && std::isfinite(p[x][2])))
           allowed.at<std::uint8_t>(y, x) = 0;
@@ -527,17 +531,19 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
       processing::SamplePointSelector selector(k.samples);
       const std::vector<cv::Point>& points = selector.Update(allowed);
       const processing::ShFitResult fit = processing::FitShKnownAlbedo(
-          processing::GatherObservations(radiance.radiance, geometry.normals, albedo, {}, points), k.fit.fit);
+          processing::GatherObservations(radiance.radiance.get(), geometry.normals.get(), albedo, {}, points),
+          k.fit.fit);
       f.light = fit.light;
       summary = fit.summary;
       extra["albedo"] = "known (the rig's world)";
     } else {
       const processing::Segmentation seg =
-          processing::SegmentByColor(radiance.radiance, allowed, geometry.normals, k.segmentation);
+          processing::SegmentByColor(radiance.radiance.get(), allowed, geometry.normals.get(), k.segmentation);
       processing::SamplePointSelector selector(k.samples);
       const std::vector<cv::Point>& points = selector.Update(seg.labels >= 0);
       const processing::ShAlbedoFitResult fit = processing::FitShUnknownAlbedo(
-          processing::GatherObservations(radiance.radiance, geometry.normals, {}, seg.labels, points), k.fit);
+          processing::GatherObservations(radiance.radiance.get(), geometry.normals.get(), {}, seg.labels, points),
+          k.fit);
       f.light = fit.light;
       summary = fit.summary;
       extra["albedo"] = "unknown (k-means segments, alternating fit; scale fixed by the largest segment = 0.5)";
@@ -786,6 +792,119 @@ cv::Mat DestinationTruth(PipelineRun& run, const Destination& dst, const std::ve
   return truth;
 }
 
+// ---- relighting and the errors against the world's truth, each a cached stage -------------
+
+struct Relit {
+  fs::path dir;
+  StageKey key;
+  nlohmann::json summary;  // relight.json
+};
+
+Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const FrameRadiance& radiance,
+              const FrameGeometry& geometry, const FrameFit& fit, const ShRgb& dst_light) {
+  const std::string id = std::to_string(pair.color.id);
+  Relit out;
+  out.key.Add("stage", "sh-relight-v2").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
+  out.key.AddKey("fit", fit.key).Add("min_irradiance_fraction", k.relight.min_irradiance_fraction);
+  for (int row = 0; row < processing::kShCount; ++row)
+    for (int c = 0; c < 3; ++c) out.key.Add("dst", dst_light(row, c));
+  const StageCache::Result stage = run.RunStage("relight-" + id, out.key, [&](const fs::path& dir) {
+    const RadianceImage& source = radiance.radiance.get();
+    const processing::RelightResult r =
+        processing::RelightSh(source, geometry.normals.get(), geometry.mask.get(), fit.light, dst_light, k.relight);
+    calibration::SaveRadianceExr(r.relit, (dir / "relit.exr").string());
+    calibration::SaveImage(r.valid, (dir / "valid.png").string());
+    const RadianceImage composite = processing::Composite(r.relit, r.valid, source);
+    calibration::SaveRadianceExr(composite, (dir / "composite.exr").string());
+    calibration::SaveImage(RadiancePreview(composite), (dir / "composite.png").string());
+    calibration::SaveImage(RadiancePreview(source), (dir / "source.png").string());
+    WriteJson(dir / "relight.json", {{"requested", r.summary.requested_pixel_count},
+                                     {"relit", r.summary.relit_pixel_count},
+                                     {"guarded", r.summary.guarded_pixel_count},
+                                     {"invalid_input", r.summary.invalid_input_count},
+                                     {"message", r.summary.message}});
+  });
+  out.dir = stage.dir;
+  out.summary = ReadJson(stage.dir / "relight.json");
+  if (out.summary["guarded"].get<int>() > 0) {
+    run.Decide("relight", "skip",
+               "frame " + id + ": " + std::to_string(out.summary["guarded"].get<int>()) +
+                   " pixel(s) not divided (source irradiance below " + Percent(k.relight.min_irradiance_fraction) +
+                   " of its mean over the object): masked, kept from the source in the composite");
+  }
+  run.AddOutput(stage.dir / "relit.exr", "frame " + id + " relit (linear radiance, NaN where not relit)");
+  run.AddOutput(stage.dir / "composite.png", "frame " + id + " relit over the source (preview)");
+  return out;
+}
+
+// What every frame's comparison with the world's truth shares.
+struct TruthInputs {
+  const std::vector<RgbdPair>* pairs;
+  const PinholeCamera* camera;
+  const Destination* dst;
+  std::optional<sim::GroundTruth>* dst_frame_truth;  // the destination frame's render, once per run
+  bool known_albedo;
+};
+
+// The errors of frame i against the world's truth: the fitted irradiance at the true normals
+// and, when the frame was relit, the relit image against the source geometry under the
+// destination light. A cached stage keyed by what it compares and by the stored world, so a
+// rerun does not render the world again (rendering was 85 % of an unchanged rerun).
+nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::size_t i, const FrameRadiance& radiance,
+                                const FrameGeometry& geometry, const FrameFit& fit, const Relit* relit) {
+  const RgbdPair& pair = (*in.pairs)[i];
+  const Destination& dst = *in.dst;
+  StageKey key;
+  key.Add("stage", "sh-truth-v1").AddKey("fit", fit.key).AddKey("geometry", geometry.key);
+  key.Add("known_albedo", in.known_albedo).Add("scene", run.rig()->yaml_text);
+  key.AddFileContent("scene_file", run.rig()->scene_path);
+  key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
+  if (relit != nullptr) {
+    key.AddKey("relit", relit->key).Add("destination", dst.kind).Add("destination_text", dst.description);
+    if (dst.kind == "frame") {
+      key.Add("destination_utc_ns",
+              static_cast<std::int64_t>((*in.pairs)[*dst.frame_index].color.utc.time_since_epoch().count()));
+    }
+    if (dst.kind == "envmap") key.AddFileContent("envmap", *run.request().target_light);
+  }
+  const StageCache::Result stage =
+      run.RunStage("truth-" + std::to_string(pair.color.id), key, [&](const fs::path& dir) {
+        const PinholeCamera& camera = *in.camera;
+        const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
+        const sim::GroundTruth truth = run.rig()->world->Render(camera, pair.color.utc);
+        const cv::Mat& mask = geometry.mask.get();
+        nlohmann::json t = IrradianceError(fit.light, truth, camera_from_world, mask, !in.known_albedo);
+        if (t["irradiance_pixels"].get<int>() == 0)
+          t.erase("irradiance_relative_rms");  // nothing to compare: no figure
+        if (relit != nullptr) {
+          std::string how;
+          const cv::Mat dst_truth = DestinationTruth(run, dst, *in.pairs, camera, truth, in.dst_frame_truth, &how);
+          t["truth_under_destination"] = how;
+          if (!dst_truth.empty()) {
+            std::vector<float> lum;
+            for (int y = 0; y < dst_truth.rows; ++y)
+              for (int x = 0; x < dst_truth.cols; ++x)
+                if (mask.at<std::uint8_t>(y, x) && std::isfinite(dst_truth.at<cv::Vec3f>(y, x)[1]))
+                  lum.push_back(dst_truth.at<cv::Vec3f>(y, x)[1]);
+            double white = 1.0;
+            if (!lum.empty()) {
+              std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(lum.size() * 99 / 100),
+                               lum.end());
+              white = std::max(1e-12, static_cast<double>(lum[lum.size() * 99 / 100]));
+            }
+            processing::RelightResult image;
+            image.relit = calibration::LoadRadianceExr((relit->dir / "relit.exr").string());
+            image.valid = LoadMask(relit->dir / "valid.png");
+            t.update(CompareFrame(image, radiance.radiance.get(), dst_truth, white));
+            if (t["compared_pixels"].get<int>() == 0)
+              t["truth_under_destination"] = how + "; no relit pixel to compare";
+          }
+        }
+        WriteJson(dir / "truth.json", t);
+      });
+  return ReadJson(stage.dir / "truth.json");
+}
+
 }  // namespace
 
 void RunShPipeline(PipelineRun& run) {
@@ -877,95 +996,35 @@ void RunShPipeline(PipelineRun& run) {
     run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
   }
 
-  const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
   nlohmann::json& frames_json = run.metrics()["frames"];
   frames_json = nlohmann::json::array();
   std::vector<double> relit_errors, baseline_errors, irradiance_errors, relit8, base8;
   std::optional<sim::GroundTruth> dst_frame_truth;
   std::int64_t guarded = 0;
   std::int64_t relit_pixels = 0;
+  const bool compare = k.compare_truth && has_world;
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const std::string id = std::to_string(pairs[i].color.id);
     nlohmann::json m = {{"color_frame", pairs[i].color.id},
                         {"depth_frame", pairs[i].depth.id},
                         {"fit", fits[i].summary},
                         {"normals_from_frame", geometry[i].normals_from_frame}};
-    sim::GroundTruth truth;
-    const bool compare = k.compare_truth && has_world;
-    if (compare) {
-      truth = run.rig()->world->Render(camera, pairs[i].color.utc);
-      m.update(IrradianceError(fits[i].light, truth, camera_from_world, geometry[i].mask, !known_albedo));
-      if (m["irradiance_pixels"].get<int>() > 0) {
-        irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
-      } else {
-        m.erase("irradiance_relative_rms");  // no pixel with truth to compare: no figure, not 0
-      }
-    }
-    if (!is_source[i]) {
-      frames_json.push_back(m);
-      continue;
-    }
-    if (dst.kind == "frame" && *dst.frame_index == i) {
+    const bool is_destination = dst.kind == "frame" && *dst.frame_index == i;
+    if (is_source[i] && is_destination)
       run.Decide("relight", "skip", "frame " + id + " is the destination light's own frame");
-      frames_json.push_back(m);
-      continue;
+    std::optional<Relit> relit;
+    if (is_source[i] && !is_destination) {
+      relit = Relight(run, k, pairs[i], radiance[i], geometry[i], fits[i], dst_light);
+      m["relight"] = relit->summary;
+      guarded += relit->summary["guarded"].get<std::int64_t>();
+      relit_pixels += relit->summary["relit"].get<std::int64_t>();
     }
-    StageKey key;
-    key.Add("stage", "sh-relight-v2").AddKey("radiance", radiance[i].key).AddKey("geometry", geometry[i].key);
-    key.AddKey("fit", fits[i].key).Add("min_irradiance_fraction", k.relight.min_irradiance_fraction);
-    for (int row = 0; row < processing::kShCount; ++row)
-      for (int c = 0; c < 3; ++c) key.Add("dst", dst_light(row, c));
-    processing::RelightResult relit;
-    const StageCache::Result stage = run.RunStage("relight-" + id, key, [&](const fs::path& dir) {
-      const processing::RelightResult r = processing::RelightSh(radiance[i].radiance, geometry[i].normals,
-                                                                geometry[i].mask, fits[i].light, dst_light, k.relight);
-      calibration::SaveRadianceExr(r.relit, (dir / "relit.exr").string());
-      calibration::SaveImage(r.valid, (dir / "valid.png").string());
-      const RadianceImage composite = processing::Composite(r.relit, r.valid, radiance[i].radiance);
-      calibration::SaveRadianceExr(composite, (dir / "composite.exr").string());
-      calibration::SaveImage(RadiancePreview(composite), (dir / "composite.png").string());
-      calibration::SaveImage(RadiancePreview(radiance[i].radiance), (dir / "source.png").string());
-      WriteJson(dir / "relight.json", {{"requested", r.summary.requested_pixel_count},
-                                       {"relit", r.summary.relit_pixel_count},
-                                       {"guarded", r.summary.guarded_pixel_count},
-                                       {"invalid_input", r.summary.invalid_input_count},
-                                       {"message", r.summary.message}});
-    });
-    relit.relit = calibration::LoadRadianceExr((stage.dir / "relit.exr").string());
-    relit.valid = LoadMask(stage.dir / "valid.png");
-    const nlohmann::json rj = ReadJson(stage.dir / "relight.json");
-    m["relight"] = rj;
-    guarded += rj["guarded"].get<std::int64_t>();
-    relit_pixels += rj["relit"].get<std::int64_t>();
-    if (rj["guarded"].get<int>() > 0) {
-      run.Decide("relight", "skip",
-                 "frame " + id + ": " + std::to_string(rj["guarded"].get<int>()) +
-                     " pixel(s) not divided (source irradiance below " + Percent(k.relight.min_irradiance_fraction) +
-                     " of its mean over the object): masked, kept from the source in the composite");
-    }
-    run.AddOutput(stage.dir / "relit.exr", "frame " + id + " relit (linear radiance, NaN where not relit)");
-    run.AddOutput(stage.dir / "composite.png", "frame " + id + " relit over the source (preview)");
     if (compare) {
-      std::string how;
-      const cv::Mat dst_truth = DestinationTruth(run, dst, pairs, camera, truth, &dst_frame_truth, &how);
-      m["truth_under_destination"] = how;
-      if (!dst_truth.empty()) {
-        std::vector<float> lum;
-        for (int y = 0; y < dst_truth.rows; ++y)
-          for (int x = 0; x < dst_truth.cols; ++x)
-            if (geometry[i].mask.at<std::uint8_t>(y, x) && std::isfinite(dst_truth.at<cv::Vec3f>(y, x)[1]))
-              lum.push_back(dst_truth.at<cv::Vec3f>(y, x)[1]);
-        double white = 1.0;
-        if (!lum.empty()) {
-          std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(lum.size() * 99 / 100), lum.end());
-          white = std::max(1e-12, static_cast<double>(lum[lum.size() * 99 / 100]));
-        }
-        m.update(CompareFrame(relit, radiance[i].radiance, dst_truth, white));
-        if (m["compared_pixels"].get<int>() == 0) {
-          m["truth_under_destination"] = how + "; no relit pixel to compare";
-          frames_json.push_back(m);
-          continue;
-        }
+      const TruthInputs in{&pairs, &camera, &dst, &dst_frame_truth, known_albedo};
+      m.update(CompareWithTruth(run, in, i, radiance[i], geometry[i], fits[i], relit ? &*relit : nullptr));
+      if (m.contains("irradiance_relative_rms"))
+        irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
+      if (m.contains("compared_pixels") && m["compared_pixels"].get<int>() > 0) {
         relit_errors.push_back(m["relit_relative_rms"].get<double>());
         baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
         relit8.push_back(m["relit_rms_8bit"].get<double>());
