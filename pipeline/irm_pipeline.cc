@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -90,9 +92,9 @@ void AddCamera(StageKey& key, const std::string& name, const PinholeCamera& came
 }
 
 struct SceneGeometry {
-  TriangleMesh mesh;
   StageKey key;
   std::string origin;
+  std::function<TriangleMesh()> make;  // the mesh (split, with normals); run by MeshStage when not cached
 };
 
 SceneGeometry LoadGeometry(PipelineRun& run) {
@@ -117,7 +119,7 @@ SceneGeometry LoadGeometry(PipelineRun& run) {
     const Site site = run.rig() ? run.rig()->site : Site{};
     const LoadedSceneMesh loaded =
         LoadSceneMesh(path.string(), frame, site, zone > 0 ? std::optional<int>(zone) : std::nullopt, options);
-    g.mesh = loaded.mesh;
+    g.make = [mesh = loaded.mesh] { return mesh; };
     g.key.AddFileContent("mesh", path).Add("frame", frame_name).Add("zone", loaded.utm_zone);
     if (frame == MeshFrame::kUtm) {
       g.key.Add("site.lat", site.latitude_deg()).Add("site.lon", site.longitude_deg()).Add("site.h", site.height_m);
@@ -130,7 +132,7 @@ SceneGeometry LoadGeometry(PipelineRun& run) {
     }
     g.origin = path.string();
   } else if (run.rig() != nullptr && run.rig()->world) {
-    g.mesh = ProcessingMeshFromScene(run.rig()->world->scene(), options);
+    g.make = [world = run.rig()->world, options] { return ProcessingMeshFromScene(world->scene(), options); };
     // The recorded world's files (rig.yaml, scene.yaml and its meshes) are what the mesh depends on.
     std::vector<fs::path> files;
     for (const auto& entry : fs::recursive_directory_iterator(run.session().dir() / "rig")) {
@@ -146,15 +148,99 @@ SceneGeometry LoadGeometry(PipelineRun& run) {
         "the irm pipeline needs the scene's geometry: the session recorded none; give --mesh FILE "
         "(OBJ or PLY, ENU at the site, or UTM with --set mesh_frame=utm)");
   }
-  if (g.mesh.triangles.empty()) throw InvalidArgumentError("the scene geometry (" + g.origin + ") has no triangles");
   return g;
 }
+
+// The scene mesh as a stage (mesh.bin: counts, positions, triangles, normals, albedo; mesh.json:
+// the counts): a rerun reads it only when a stage that casts rays has to run.
+struct MeshStage {
+  std::int64_t vertices = 0;
+  std::int64_t triangles = 0;
+  Lazy<TriangleMesh> mesh;
+};
+
+template <typename T>
+void WriteVectors(std::ofstream& out, const std::vector<T>& v) {
+  const std::int64_t n = static_cast<std::int64_t>(v.size());
+  out.write(reinterpret_cast<const char*>(&n), sizeof(n));
+  out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+}
+
+template <typename T>
+void ReadVectors(std::ifstream& in, std::vector<T>* v) {
+  std::int64_t n = 0;
+  in.read(reinterpret_cast<char*>(&n), sizeof(n));
+  if (!in || n < 0 || n > (std::int64_t{1} << 31)) return;
+  v->resize(static_cast<std::size_t>(n));
+  in.read(reinterpret_cast<char*>(v->data()), static_cast<std::streamsize>(v->size() * sizeof(T)));
+}
+
+TriangleMesh ReadMeshFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  TriangleMesh mesh;
+  ReadVectors(in, &mesh.positions);
+  ReadVectors(in, &mesh.triangles);
+  ReadVectors(in, &mesh.normals);
+  ReadVectors(in, &mesh.albedo);
+  std::string why;
+  if (!in || !mesh.IsValid(&why)) throw IoError(path.string(), "is short or unreadable; run with --force");
+  return mesh;
+}
+
+MeshStage RunMeshStage(PipelineRun& run, const SceneGeometry& g) {
+  std::shared_ptr<TriangleMesh> made;
+  const StageCache::Result stage = run.RunStage("irm-mesh", g.key, [&](const fs::path& dir) {
+    made = std::make_shared<TriangleMesh>(g.make());
+    if (made->triangles.empty()) throw InvalidArgumentError("the scene geometry (" + g.origin + ") has no triangles");
+    std::ofstream out(dir / "mesh.bin", std::ios::binary);
+    WriteVectors(out, made->positions);
+    WriteVectors(out, made->triangles);
+    WriteVectors(out, made->normals);
+    WriteVectors(out, made->albedo);
+    if (!out) throw IoError((dir / "mesh.bin").string(), "cannot be written");
+    WriteJsonFile(dir / "mesh.json", {{"vertices", made->vertex_count()}, {"triangles", made->triangle_count()}});
+  });
+  MeshStage m;
+  const nlohmann::json counts = ReadJsonFile(stage.dir / "mesh.json");
+  m.vertices = counts["vertices"].get<std::int64_t>();
+  m.triangles = counts["triangles"].get<std::int64_t>();
+  m.mesh = made ? Lazy<TriangleMesh>([made] { return *made; })
+                : Lazy<TriangleMesh>([path = stage.dir / "mesh.bin"] { return ReadMeshFile(path); });
+  return m;
+}
+
+// The ray caster over the scene mesh, built (and the relighting inputs checked) when a stage
+// first needs it: building Embree's tree over the demo's 666k triangles is most of a rerun.
+class LazyCaster {
+ public:
+  LazyCaster(const MeshStage& mesh, const irm::View& source, const irm::View& target,
+             const irm::RelightOptions& options)
+      : mesh_(mesh), source_(source), target_(target), options_(options) {}
+  const RayCaster& get() const {
+    if (!caster_) {
+      caster_ = std::make_unique<RayCaster>(mesh_.mesh.get());
+      irm::CheckRelightInputs(*caster_, source_, target_, options_);
+    }
+    return *caster_;
+  }
+
+ private:
+  const MeshStage& mesh_;
+  const irm::View& source_;
+  const irm::View& target_;
+  const irm::RelightOptions& options_;
+  mutable std::unique_ptr<RayCaster> caster_;
+};
 
 // ---------------------------------------------------------------------------------------
 // Stages
 
-irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const RayCaster& caster, const irm::View& view,
-                            const irm::RelightOptions& options, const StageKey& mesh_key, StageKey* key) {
+irm::SkyShape SkyShapeStage(PipelineRun& run, const std::string& role, const LazyCaster& caster, const irm::View& view,
+                            const irm::RelightOptions& options, const StageKey& view_key, const StageKey& radiance_key);
+
+irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const LazyCaster& caster, const MeshStage& mesh,
+                            const irm::View& view, const irm::RelightOptions& options, const StageKey& mesh_key,
+                            const StageKey& radiance_key, StageKey* key) {
   key->Add("stage", "irm-view-v4").AddKey("mesh", mesh_key);
   AddCamera(*key, "camera", view.camera);
   for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
@@ -166,7 +252,7 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
   irm::ViewGeometry geometry;
   bool computed = false;
   const StageCache::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
-    geometry = irm::ComputeViewGeometry(caster, view, options, with_sky_view);
+    geometry = irm::ComputeViewGeometry(caster.get(), view, options, with_sky_view);
     computed = true;
     std::ofstream out(dir / "vertices.bin", std::ios::binary);
     out.write(reinterpret_cast<const char*>(geometry.visible.data()),
@@ -185,7 +271,7 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
                                       {"seconds", geometry.seconds}});
   });
   if (!computed) {
-    const std::size_t n = caster.mesh().vertex_count();
+    const std::size_t n = static_cast<std::size_t>(mesh.vertices);
     geometry.visible.resize(n);
     geometry.sun_fraction.resize(n);
     std::ifstream in(stage.dir / "vertices.bin", std::ios::binary);
@@ -200,11 +286,10 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
     if (!in) throw IoError((stage.dir / "vertices.bin").string(), "is short or unreadable; run with --force");
     geometry.visible_in_cast_shadow = ReadJsonFile(stage.dir / "view.json")["visible_in_cast_shadow"].get<int>();
   }
-  // The sky's shape is the photograph's, not the geometry's: measured on every run (a fraction of
-  // a second), and the build stage's key holds the radiance it comes from.
+  // The sky's shape is the photograph's, not the geometry's: a stage of its own, keyed by the view
+  // and the radiance it is measured on.
   if (options.sky_samples > 0 && options.sky_gradient) {
-    geometry.sky_shape = irm::FitSkyShape(caster, view.image->pixels, view.camera, view.mask, view.sun_dir.normalized(),
-                                          options.sky_shape);
+    geometry.sky_shape = SkyShapeStage(run, role, caster, view, options, *key, radiance_key);
     const irm::SkyShape& shape = geometry.sky_shape;
     char text[200];
     if (shape.measured) {
@@ -219,6 +304,41 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Ray
     }
   }
   return geometry;
+}
+
+irm::SkyShape SkyShapeStage(PipelineRun& run, const std::string& role, const LazyCaster& caster, const irm::View& view,
+                            const irm::RelightOptions& options, const StageKey& view_key,
+                            const StageKey& radiance_key) {
+  const irm::SkyShapeOptions& o = options.sky_shape;
+  StageKey key;
+  key.Add("stage", "irm-sky-v1").AddKey("view", view_key).AddKey("radiance", radiance_key);
+  key.Add("max_rays", o.max_rays).Add("sun_exclusion_rad", static_cast<double>(o.sun_exclusion_rad));
+  key.Add("min_span_rad", static_cast<double>(o.min_elevation_span_rad)).Add("min_pixels", o.min_pixels);
+  key.Add("trim", static_cast<double>(o.trim_fraction)).Add("max_gradient", static_cast<double>(o.max_abs_gradient));
+  const StageCache::Result stage = run.RunStage("irm-sky-" + role, key, [&](const fs::path& dir) {
+    const irm::SkyShape shape =
+        irm::FitSkyShape(caster.get(), view.image->pixels, view.camera, view.mask, view.sun_dir.normalized(), o);
+    // Floats through JSON doubles: exact both ways.
+    WriteJsonFile(dir / "sky.json", {{"measured", shape.measured},
+                                     {"gradient", VecJson(shape.gradient)},
+                                     {"horizon", VecJson(shape.horizon)},
+                                     {"pixels", shape.pixels},
+                                     {"min_elevation_rad", shape.min_elevation_rad},
+                                     {"max_elevation_rad", shape.max_elevation_rad},
+                                     {"rms_relative_residual", shape.rms_relative_residual},
+                                     {"reason", shape.reason}});
+  });
+  const nlohmann::json j = ReadJsonFile(stage.dir / "sky.json");
+  irm::SkyShape shape;
+  shape.measured = j["measured"].get<bool>();
+  shape.gradient = VecFromJson(j["gradient"]);
+  shape.horizon = VecFromJson(j["horizon"]);
+  shape.pixels = j["pixels"].get<int>();
+  shape.min_elevation_rad = j["min_elevation_rad"].get<float>();
+  shape.max_elevation_rad = j["max_elevation_rad"].get<float>();
+  shape.rms_relative_residual = j["rms_relative_residual"].get<double>();
+  shape.reason = j["reason"].get<std::string>();
+  return shape;
 }
 
 // One IRM as images: ratios (EXR, 0 where the bin is empty), a preview (PNG) and the sample
@@ -630,6 +750,48 @@ cv::Mat ShadowAgreement(const RayCaster& caster, const PinholeCamera& camera, co
   return out;
 }
 
+// The relit source (relight_dir/relit.exr, status.png) against the world rendered from the source
+// camera at the target's time, per region (lit, shadow, penumbra), on relit pixels where the mesh
+// and the world agree; writes the error image to `error_png`.
+nlohmann::json CompareIrmWithTruth(const sim::World& world, const RayCaster& caster, const irm::View& source,
+                                   const irm::View& target, UtcTime source_utc, UtcTime target_utc,
+                                   const fs::path& relight_dir, const fs::path& error_png) {
+  const sim::GroundTruth truth = world.Render(source.camera, target_utc);
+  const sim::GroundTruth source_truth = world.Render(source.camera, source_utc);
+  const RadianceImage relit = calibration::LoadRadianceExr((relight_dir / "relit.exr").string());
+  const cv::Mat status = cv::imread((relight_dir / "status.png").string(), cv::IMREAD_UNCHANGED);
+  if (status.empty()) throw IoError((relight_dir / "status.png").string(), "cannot be read; run with --force");
+  cv::Mat use;
+  cv::compare(status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
+  const cv::Mat agree = GeometryAgreement(caster, source.camera, truth.depth_m);
+  const cv::Mat shadows_agree = ShadowAgreement(caster, source.camera, agree,
+                                                {{source.sun_dir.normalized(), &source_truth.sun_visibility},
+                                                 {target.sun_dir.normalized(), &truth.sun_visibility}});
+  const int relit_pixels = cv::countNonZero(use);
+  use &= agree;
+  const int geometry_agrees = cv::countNonZero(use);
+  use &= shadows_agree;
+  nlohmann::json t;
+  t["geometry_mismatch_pixels"] = relit_pixels - geometry_agrees;
+  t["shadow_geometry_mismatch_pixels"] = geometry_agrees - cv::countNonZero(use);
+  cv::Mat error_image;
+  const RegionErrors after =
+      CompareRegions(relit, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use, &error_image);
+  calibration::SaveImage(error_image, error_png.string());
+  const RegionErrors before =
+      CompareRegions(*source.image, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use);
+  t["relit"] = after.ToJson();
+  t["no_relighting"] = before.ToJson();
+  t["comparison"] =
+      "relit source vs the world rendered from the source camera at the target's time, on relit pixels "
+      "where mesh and truth agree; one least-squares scale per image (relative radiance), relative RMS per region";
+  // How far the frames' recorded sun is from the world's (both ENU).
+  const double angle = std::acos(
+      std::clamp(static_cast<double>(target.sun_dir.cast<double>().dot(world.SunDirection(target_utc))), -1.0, 1.0));
+  t["target_sun_direction_error_deg"] = angle * 180.0 / std::numbers::pi;
+  return t;
+}
+
 // Without --source and --target: the earliest and the latest complete still bracket of the
 // first camera that has two, so the sun has moved the most between them.
 std::pair<std::optional<std::string>, std::optional<std::string>> SourceAndTarget(PipelineRun& run) {
@@ -669,7 +831,7 @@ void RunIrmPipeline(PipelineRun& run) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgumentError("irm settings: " + why);
 
-  SceneGeometry geometry = LoadGeometry(run);
+  const SceneGeometry geometry = LoadGeometry(run);
   const sim::SimDeviceSpec* source_spec = FindDeviceSpec(run.rig(), source_bracket.front().device_id);
   const sim::SimDeviceSpec* target_spec = FindDeviceSpec(run.rig(), target_bracket.front().device_id);
   for (const auto& [spec, frame] :
@@ -681,9 +843,11 @@ void RunIrmPipeline(PipelineRun& run) {
   }
   run.Decide("irm", "plan",
              "relight " + source_bracket.front().device_id + " frame " + std::to_string(source_bracket.front().id) +
-                 " to the light of frame " + std::to_string(target_bracket.front().id) + " on " +
-                 std::to_string(geometry.mesh.triangle_count()) + " triangles");
+                 " to the light of frame " + std::to_string(target_bracket.front().id) + " (mesh: " + geometry.origin +
+                 ")");
   if (run.request().explain) return;
+  const MeshStage mesh = RunMeshStage(run, geometry);
+  run.Decide("irm", "note", "the mesh has " + std::to_string(mesh.triangles) + " triangles");
 
   const BracketRadiance source_radiance = LinearRadiance(run, source_bracket);
   const BracketRadiance target_radiance = LinearRadiance(run, target_bracket);
@@ -691,13 +855,12 @@ void RunIrmPipeline(PipelineRun& run) {
                    MaskFromStatus(source_radiance.status)};
   irm::View target{&target_radiance.radiance, target_spec->camera, SunDirection(target_radiance, "target"),
                    MaskFromStatus(target_radiance.status)};
-  const RayCaster caster(geometry.mesh);
-  irm::CheckRelightInputs(caster, source, target, options);
+  const LazyCaster caster(mesh, source, target, options);
   StageKey source_view_key, target_view_key;
   const irm::ViewGeometry source_geometry =
-      ViewStage(run, "source", caster, source, options, geometry.key, &source_view_key);
+      ViewStage(run, "source", caster, mesh, source, options, geometry.key, source_radiance.key, &source_view_key);
   const irm::ViewGeometry target_geometry =
-      ViewStage(run, "target", caster, target, options, geometry.key, &target_view_key);
+      ViewStage(run, "target", caster, mesh, target, options, geometry.key, target_radiance.key, &target_view_key);
   // IRM build.
   StageKey build_key;
   build_key.Add("stage", "irm-build-v3").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
@@ -712,7 +875,7 @@ void RunIrmPipeline(PipelineRun& run) {
   irm::RelightSummary summary;
   summary.preprocess_s = source_geometry.seconds + target_geometry.seconds;
   const StageCache::Result build = run.RunStage("irm-build", build_key, [&](const fs::path& dir) {
-    irms = irm::BuildIrmsFromViews(caster, source, target, source_geometry, target_geometry, options, &summary);
+    irms = irm::BuildIrmsFromViews(caster.get(), source, target, source_geometry, target_geometry, options, &summary);
     WriteJsonFile(dir / "irms.json", IrmSetToJson(irms));
     WriteJsonFile(dir / "build.json", SummaryJson(summary));
     for (int k = 0; k < 4; ++k) {
@@ -748,7 +911,7 @@ void RunIrmPipeline(PipelineRun& run) {
   nlohmann::json relight_json;
   const StageCache::Result relight = run.RunStage("irm-relight", relight_key, [&](const fs::path& dir) {
     const irm::RelightResult result =
-        irm::RelightPixels(caster, source, target, source_geometry, target_geometry, irms, options, summary);
+        irm::RelightPixels(caster.get(), source, target, source_geometry, target_geometry, irms, options, summary);
     const double white = WhiteOf(*target.image);
     calibration::SaveRadianceExr(result.relit, (dir / "relit.exr").string());
     calibration::SaveImage(RadiancePreview(result.relit, white), (dir / "relit.png").string());
@@ -757,7 +920,7 @@ void RunIrmPipeline(PipelineRun& run) {
     calibration::SaveImage(result.status, (dir / "status.png").string());
     calibration::SaveRadianceExr(SunImage(result.source_sun), (dir / "source_sun.exr").string());
     calibration::SaveRadianceExr(SunImage(result.target_sun), (dir / "target_sun.exr").string());
-    const SeamResult seam = Seam(caster, source, target, result);
+    const SeamResult seam = Seam(caster.get(), source, target, result);
     calibration::SaveRadianceExr(seam.image, (dir / "seam_difference.exr").string());
     relight_json = SummaryJson(result.summary);
     relight_json["seam"] = {{"overlap_pixels", seam.overlap_pixels},
@@ -780,9 +943,7 @@ void RunIrmPipeline(PipelineRun& run) {
                 "relative difference to the target where both see a surface: R before, G after, B 1 on the seam");
   nlohmann::json& m = run.metrics();
   m["irm"] = relight_json;
-  m["irm"]["mesh"] = {{"origin", geometry.origin},
-                      {"vertices", geometry.mesh.vertex_count()},
-                      {"triangles", geometry.mesh.triangle_count()}};
+  m["irm"]["mesh"] = {{"origin", geometry.origin}, {"vertices", mesh.vertices}, {"triangles", mesh.triangles}};
   m["irm"]["visible_in_cast_shadow"] = {{"source", source_geometry.visible_in_cast_shadow},
                                         {"target", target_geometry.visible_in_cast_shadow}};
   m["irm"]["single_map"] = irms.single_map;
@@ -799,48 +960,43 @@ void RunIrmPipeline(PipelineRun& run) {
   m["irm"]["sky_shape"] = {{"source", sky_json(source_geometry.sky_shape)},
                            {"target", sky_json(target_geometry.sky_shape)}};
 
-  // Against the simulated world's truth: the source camera under the target's sun.
+  // Against the simulated world's truth: the source camera under the target's sun. A stage of its
+  // own (it renders the world twice and casts shadow rays per pixel), keyed by the relit result
+  // and the stored world.
   if (compare_truth && run.rig() != nullptr && run.rig()->world) {
-    const sim::World& world = *run.rig()->world;
-    const sim::GroundTruth truth = world.Render(source.camera, target_radiance.utc);
-    const sim::GroundTruth source_truth = world.Render(source.camera, source_radiance.utc);
-    const RadianceImage relit = calibration::LoadRadianceExr((relight.dir / "relit.exr").string());
-    const cv::Mat status = cv::imread((relight.dir / "status.png").string(), cv::IMREAD_UNCHANGED);
-    cv::Mat use;
-    cv::compare(status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
-    const cv::Mat agree = GeometryAgreement(caster, source.camera, truth.depth_m);
-    const cv::Mat shadows_agree = ShadowAgreement(caster, source.camera, agree,
-                                                  {{source.sun_dir.normalized(), &source_truth.sun_visibility},
-                                                   {target.sun_dir.normalized(), &truth.sun_visibility}});
-    const int relit_pixels = cv::countNonZero(use);
-    use &= agree;
-    const int geometry_agrees = cv::countNonZero(use);
-    use &= shadows_agree;
-    m["truth"]["geometry_mismatch_pixels"] = relit_pixels - geometry_agrees;
-    m["truth"]["shadow_geometry_mismatch_pixels"] = geometry_agrees - cv::countNonZero(use);
-    cv::Mat error_image;
-    const RegionErrors after =
-        CompareRegions(relit, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use, &error_image);
-    calibration::SaveImage(error_image, (run.out_dir() / "truth_error.png").string());
+    StageKey truth_key;
+    truth_key.Add("stage", "irm-truth-v1").AddKey("relight", relight_key).AddKey("mesh", geometry.key);
+    truth_key.AddKey("source_radiance", source_radiance.key).AddKey("target_radiance", target_radiance.key);
+    truth_key.Add("world", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+    truth_key.Add("source_utc", FormatIso8601(source_radiance.utc))
+        .Add("target_utc", FormatIso8601(target_radiance.utc));
+    AddCamera(truth_key, "camera", source.camera);
+    for (int k = 0; k < 3; ++k) {
+      truth_key.Add("source_sun", static_cast<double>(source.sun_dir[k]));
+      truth_key.Add("target_sun", static_cast<double>(target.sun_dir[k]));
+    }
+    const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
+      WriteJsonFile(dir / "truth.json",
+                    CompareIrmWithTruth(*run.rig()->world, caster.get(), source, target, source_radiance.utc,
+                                        target_radiance.utc, relight.dir, dir / "truth_error.png"));
+    });
+    fs::copy_file(truth.dir / "truth_error.png", run.out_dir() / "truth_error.png",
+                  fs::copy_options::overwrite_existing);
     run.AddOutput(run.out_dir() / "truth_error.png",
                   "relative error of the relit source against the truth (white at 10%; blue tint: shadow, red: "
                   "penumbra)");
-    const RegionErrors before =
-        CompareRegions(*source.image, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use);
-    m["truth"]["relit"] = after.ToJson();
-    m["truth"]["no_relighting"] = before.ToJson();
-    m["truth"]["comparison"] =
-        "relit source vs the world rendered from the source camera at the target's time, on relit pixels "
-        "where mesh and truth agree; one least-squares scale per image (relative radiance), relative RMS per region";
-    // How far the frames' recorded sun is from the world's (both ENU).
-    const double angle = std::acos(std::clamp(
-        static_cast<double>(target.sun_dir.cast<double>().dot(world.SunDirection(target_radiance.utc))), -1.0, 1.0));
-    m["truth"]["target_sun_direction_error_deg"] = angle * 180.0 / std::numbers::pi;
+    m["truth"] = ReadJsonFile(truth.dir / "truth.json");
+    const auto figure = [&](const char* which, const char* region) {
+      const nlohmann::json& v = m["truth"][which]["relative_rms_" + std::string(region)];
+      return v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+    };
     char text[160];
     std::snprintf(text, sizeof(text),
                   "relit vs truth: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
                   "relighting: %.4f, %.4f, %.4f)",
-                  after.lit, after.shadow, after.penumbra, before.lit, before.shadow, before.penumbra);
+                  figure("relit", "lit"), figure("relit", "shadow"), figure("relit", "penumbra"),
+                  figure("no_relighting", "lit"), figure("no_relighting", "shadow"),
+                  figure("no_relighting", "penumbra"));
     run.Decide("truth", "note", text);
   }
 }
