@@ -10,6 +10,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <set>
+#include <string>
 
 #include "calibration/image_file.h"
 #include "core/error.h"
@@ -259,6 +261,16 @@ int Count(const nlohmann::json& summary, const std::string& action, const std::s
   return n;
 }
 
+// The IRM stages (names starting "irm-") the summary records with `action`.
+std::set<std::string> Stages(const nlohmann::json& summary, const std::string& action) {
+  std::set<std::string> stages;
+  for (const nlohmann::json& d : summary["decisions"]) {
+    const std::string stage = d["stage"];
+    if (d["action"] == action && stage.rfind("irm-", 0) == 0) stages.insert(stage);
+  }
+  return stages;
+}
+
 TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
   const fs::path dir = TempDir("cli");
   const fs::path session = dir / "session";
@@ -272,7 +284,10 @@ TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
   const testing::CliResult first = testing::RunRelume(command);
   ASSERT_EQ(first.exit_code, 0) << first.output;
   const nlohmann::json summary = ReadJsonFile(out / "summary.json");
-  EXPECT_EQ(Count(summary, "run", "irm-"), 4) << first.output;  // two views, the build, the relighting
+  // The mesh, two views and their sky shapes, the build, the relighting and the truth comparison.
+  const std::set<std::string> all_irm = {"irm-mesh",       "irm-view-source", "irm-sky-source", "irm-view-target",
+                                         "irm-sky-target", "irm-build",       "irm-relight",    "irm-truth"};
+  EXPECT_EQ(Stages(summary, "run"), all_irm) << first.output;
   EXPECT_NE(first.output.find("four IRMs:"), std::string::npos) << first.output;
   for (const nlohmann::json& o : summary["outputs"]) {
     EXPECT_TRUE(fs::exists(out / o["path"].get<std::string>())) << o.dump();
@@ -301,15 +316,18 @@ TEST(IrmCliTest, RelightsACapturedSessionBeatsNoRelightingAndReusesStages) {
   // New sun-disk samples: views too.
   ASSERT_EQ(testing::RunRelume(command).exit_code, 0);
   const nlohmann::json again = ReadJsonFile(out / "summary.json");
-  EXPECT_EQ(Count(again, "reuse"), 6) << again["decisions"].dump(1);  // 2 radiance + 4 irm
+  EXPECT_EQ(Count(again, "reuse"), 10) << again["decisions"].dump(1);  // 2 radiance + 8 irm
   EXPECT_EQ(Count(again, "run"), 0);
+  EXPECT_EQ(again["metrics"]["truth"], summary["metrics"]["truth"]);  // the same figures, from the stage
   ASSERT_EQ(testing::RunRelume(command + " --set bins=16").exit_code, 0);
   const nlohmann::json bins = ReadJsonFile(out / "summary.json");
-  EXPECT_EQ(Count(bins, "reuse", "irm-view"), 2) << bins["decisions"].dump(1);
-  EXPECT_EQ(Count(bins, "run", "irm-"), 2) << bins["decisions"].dump(1);
+  EXPECT_EQ(Stages(bins, "run"), (std::set<std::string>{"irm-build", "irm-relight", "irm-truth"}))
+      << bins["decisions"].dump(1);
   ASSERT_EQ(testing::RunRelume(command + " --set sun_samples=4").exit_code, 0);
   const nlohmann::json samples = ReadJsonFile(out / "summary.json");
-  EXPECT_EQ(Count(samples, "run", "irm-"), 4) << samples["decisions"].dump(1);
+  std::set<std::string> after_views = all_irm;
+  after_views.erase("irm-mesh");
+  EXPECT_EQ(Stages(samples, "run"), after_views) << samples["decisions"].dump(1);
   EXPECT_EQ(Count(samples, "reuse", "radiance"), 2) << samples["decisions"].dump(1);
 
   // Without --source and --target: the earliest and the latest bracket of the camera.

@@ -94,10 +94,14 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   EXPECT_EQ(actions.size(), 15u);  // 4 radiance + 4 geometry + 4 fit + 3 relight
   for (const auto& [stage, action] : actions) EXPECT_EQ(action, "reuse") << stage;
 
-  // One knob: sh_order=1 recomputes the fits and the relighting only.
+  // One knob: sh_order=1 recomputes the fits, the relighting and their comparison with the truth
+  // only (radiance and geometry reused).
   const nlohmann::json order1 = Process(session, out, "--set sh_order=1");
-  for (const auto& [stage, action] : StageActions(order1)) {
-    const bool depends = stage.rfind("fit-", 0) == 0 || stage.rfind("relight-", 0) == 0;
+  const auto order1_actions = StageActions(order1);
+  EXPECT_EQ(order1_actions.size(), 19u);  // 15 + 4 truth
+  for (const auto& [stage, action] : order1_actions) {
+    const bool depends =
+        stage.rfind("fit-", 0) == 0 || stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
     EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   for (const nlohmann::json& f : order1["metrics"]["frames"]) EXPECT_EQ(f["fit"]["order_used"], 1);
@@ -120,7 +124,8 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   const nlohmann::json unknown = Process(session, out, "--set albedo=unknown");
   EXPECT_EQ(unknown["metrics"]["albedo"], "unknown");
   for (const auto& [stage, action] : StageActions(unknown)) {
-    const bool depends = stage.rfind("fit-", 0) == 0 || stage.rfind("relight-", 0) == 0;
+    const bool depends =
+        stage.rfind("fit-", 0) == 0 || stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
     EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   EXPECT_LT(unknown["metrics"]["relit_relative_rms_mean"].get<double>(), 0.03);
@@ -166,7 +171,9 @@ TEST(ShPipelineCliTest, MovingObjectWithSensorNoiseRelitToAnShFile) {
   calibration::SaveRadianceExr(map, (root / "env.exr").string());
   const nlohmann::json env = Process(session, root / "out", "--target-light " + (root / "env.exr").string());
   for (const auto& [stage, action] : StageActions(env)) {
-    EXPECT_EQ(action, stage.rfind("relight-", 0) == 0 ? "run" : "reuse") << stage;
+    // A new destination: every frame is relit and compared with the truth again.
+    const bool depends = stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
+    EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   ASSERT_EQ(env["metrics"]["compared_frames"], 4) << env["metrics"].dump(1);
   EXPECT_LT(env["metrics"]["relit_relative_rms_mean"].get<double>(),
