@@ -91,27 +91,63 @@ void AddCamera(StageKey& key, const std::string& name, const PinholeCamera& came
   for (int i = 0; i < 12; ++i) key.Add(name + ".pose", m(i % 3, i / 3));
 }
 
+// The pipeline's knobs (knobs.h), with the stages each changes.
+struct IrmKnobs {
+  irm::RelightOptions relight;
+  IrmMeshOptions mesh;
+  std::string mesh_frame = "enu";
+  int mesh_utm_zone = 0;  // 0: the site's
+  bool compare_truth = true;
+
+  template <typename V>
+  void VisitKnobs(V& v) {
+    v.Knob("mesh_spacing_m", mesh.spacing_m, "largest edge of the mesh's triangles after splitting (m)", {"mesh"});
+    v.Knob("mesh_frame", mesh_frame, "frame of a --mesh file: enu or utm", {"mesh"});
+    v.Knob("mesh_utm_zone", mesh_utm_zone, "UTM zone of a --mesh file (0: the site's)", {"mesh"});
+    v.Knob("sun_samples", relight.sun_samples, "rays per vertex over the sun's disk", {"view"});
+    v.Knob("sky_samples", relight.sky_samples, "cosine-weighted rays per vertex for its sky view (0: open sky)",
+           {"view", "build"});
+    v.Knob("penumbra", relight.use_penumbra_fractions, "use fractional sun visibility in penumbrae", {"view"});
+    v.Knob("sky_gradient", relight.sky_gradient, "measure the sky's brightness against elevation in each photograph",
+           {"build"});
+    v.Knob("bins", relight.irm.bins, "octahedral normal bins per side of each ratio map", {"build"});
+    v.Knob("model_correction", relight.irm.model_correction, "correct the ratios by the sun + sky model's residual",
+           {"build"});
+    v.Knob("exact_shadow_edges", relight.exact_shadow_edges,
+           "ray-cast the sun fraction of pixels on triangles a shadow edge crosses", {"relight"});
+    v.Knob("threads", relight.threads, "threads for per-pixel relighting (no effect on results)", {"none"});
+    v.Knob("compare_truth", compare_truth, "compare the relit image with the simulated world's truth", {"report"});
+  }
+  bool IsValid(std::string* why) const {
+    if (!relight.IsValid(why) || !mesh.IsValid(why)) return false;
+    if (mesh_frame != "enu" && mesh_frame != "utm") {
+      *why = "mesh_frame=" + mesh_frame + ": expected enu or utm";
+      return false;
+    }
+    if (mesh_utm_zone < 0 || mesh_utm_zone > 60) {
+      *why = "mesh_utm_zone must be 1..60 (0: the site's)";
+      return false;
+    }
+    return true;
+  }
+};
+
 struct SceneGeometry {
   StageKey key;
   std::string origin;
   std::function<TriangleMesh()> make;  // the mesh (split, with normals); run by MeshStage when not cached
 };
 
-SceneGeometry LoadGeometry(PipelineRun& run) {
-  IrmMeshOptions options;
-  options.spacing_m = run.Setting("mesh_spacing_m", options.spacing_m);
-  const std::string frame_name = run.Setting("mesh_frame", std::string("enu"));
-  const int zone = run.Setting("mesh_utm_zone", 0);
-  std::string why;
-  if (!options.IsValid(&why)) throw InvalidArgumentError("--set " + why);
+SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
+  const IrmMeshOptions& options = knobs.mesh;
+  const std::string& frame_name = knobs.mesh_frame;
+  const int zone = knobs.mesh_utm_zone;
   SceneGeometry g;
-  g.key.Add("stage", "irm-mesh-v1").Add("spacing_m", options.spacing_m).Add("sphere_segments", options.sphere_segments);
+  g.key.Add("stage", "irm-mesh-v2").Add("sphere_segments", options.sphere_segments);
+  AddKnobsToKey(g.key, knobs, "mesh");
   if (run.request().mesh) {
     const fs::path& path = *run.request().mesh;
     if (!fs::exists(path)) throw IoError(path.string(), "does not exist (--mesh takes an OBJ or PLY file)");
-    if (frame_name != "enu" && frame_name != "utm") {
-      throw InvalidArgumentError("--set mesh_frame=" + frame_name + ": expected enu or utm");
-    }
     const MeshFrame frame = frame_name == "utm" ? MeshFrame::kUtm : MeshFrame::kEnu;
     if (frame == MeshFrame::kUtm && run.rig() == nullptr) {
       throw InvalidArgumentError("--mesh in UTM needs the site to convert it, and the session has no stored rig");
@@ -239,16 +275,18 @@ irm::SkyShape SkyShapeStage(PipelineRun& run, const std::string& role, const Laz
                             const irm::RelightOptions& options, const StageKey& view_key, const StageKey& radiance_key);
 
 irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const LazyCaster& caster, const MeshStage& mesh,
-                            const irm::View& view, const irm::RelightOptions& options, const StageKey& mesh_key,
+                            const irm::View& view, const IrmKnobs& knobs, const StageKey& mesh_key,
                             const StageKey& radiance_key, StageKey* key) {
-  key->Add("stage", "irm-view-v4").AddKey("mesh", mesh_key);
+  const irm::RelightOptions& options = knobs.relight;
+  key->Add("stage", "irm-view-v5").AddKey("mesh", mesh_key);
   AddCamera(*key, "camera", view.camera);
   for (int k = 0; k < 3; ++k) key->Add("sun", static_cast<double>(view.sun_dir[k]));
-  key->Add("sun_samples", options.sun_samples).Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
-  key->Add("penumbra", options.use_penumbra_fractions).Add("lit", static_cast<double>(options.irm.lit_threshold));
+  key->Add("sun_radius", static_cast<double>(options.sun_angular_radius_rad));
+  key->Add("lit", static_cast<double>(options.irm.lit_threshold));
+  AddKnobsToKey(*key, knobs, "view");
   // Sky views are geometry-only and read from the source photograph's stage alone.
   const bool with_sky_view = role == "source" && options.sky_samples > 0;
-  key->Add("sky_samples", with_sky_view ? options.sky_samples : 0);
+  key->Add("with_sky_view", with_sky_view);
   irm::ViewGeometry geometry;
   bool computed = false;
   const StageCache::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
@@ -813,25 +851,20 @@ std::pair<std::optional<std::string>, std::optional<std::string>> SourceAndTarge
   return {std::nullopt, std::nullopt};  // OneBracket says what to give
 }
 
+namespace {
+
 void RunIrmPipeline(PipelineRun& run) {
   const auto [source_selector, target_selector] = SourceAndTarget(run);
   const auto source_bracket = OneBracket(run, source_selector, "source");
   const auto target_bracket = OneBracket(run, target_selector, "target");
 
-  irm::RelightOptions options;
-  options.irm.bins = run.Setting("bins", options.irm.bins);
-  options.sun_samples = run.Setting("sun_samples", options.sun_samples);
-  options.sky_samples = run.Setting("sky_samples", options.sky_samples);
-  options.use_penumbra_fractions = run.Setting("penumbra", options.use_penumbra_fractions);
-  options.exact_shadow_edges = run.Setting("exact_shadow_edges", options.exact_shadow_edges);
-  options.threads = run.Setting("threads", options.threads);
-  options.irm.model_correction = run.Setting("model_correction", options.irm.model_correction);
-  options.sky_gradient = run.Setting("sky_gradient", options.sky_gradient);
-  const bool compare_truth = run.Setting("compare_truth", true);
+  const IrmKnobs knobs = run.ReadKnobs<IrmKnobs>();
   std::string why;
-  if (!options.IsValid(&why)) throw InvalidArgumentError("irm settings: " + why);
+  if (!knobs.IsValid(&why)) throw InvalidArgumentError("irm settings: " + why);
+  const irm::RelightOptions& options = knobs.relight;
+  const bool compare_truth = knobs.compare_truth;
 
-  const SceneGeometry geometry = LoadGeometry(run);
+  const SceneGeometry geometry = LoadGeometry(run, knobs);
   const sim::SimDeviceSpec* source_spec = FindDeviceSpec(run.rig(), source_bracket.front().device_id);
   const sim::SimDeviceSpec* target_spec = FindDeviceSpec(run.rig(), target_bracket.front().device_id);
   for (const auto& [spec, frame] :
@@ -858,19 +891,19 @@ void RunIrmPipeline(PipelineRun& run) {
   const LazyCaster caster(mesh, source, target, options);
   StageKey source_view_key, target_view_key;
   const irm::ViewGeometry source_geometry =
-      ViewStage(run, "source", caster, mesh, source, options, geometry.key, source_radiance.key, &source_view_key);
+      ViewStage(run, "source", caster, mesh, source, knobs, geometry.key, source_radiance.key, &source_view_key);
   const irm::ViewGeometry target_geometry =
-      ViewStage(run, "target", caster, mesh, target, options, geometry.key, target_radiance.key, &target_view_key);
+      ViewStage(run, "target", caster, mesh, target, knobs, geometry.key, target_radiance.key, &target_view_key);
   // IRM build.
   StageKey build_key;
-  build_key.Add("stage", "irm-build-v3").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
-  build_key.Add("sky_gradient", options.sky_samples > 0 && options.sky_gradient);
+  build_key.Add("stage", "irm-build-v4").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
+  AddKnobsToKey(build_key, knobs, "build");
   build_key.AddKey("source_radiance", source_radiance.key).AddKey("target_radiance", target_radiance.key);
-  build_key.Add("bins", options.irm.bins).Add("lit", static_cast<double>(options.irm.lit_threshold));
+  build_key.Add("lit", static_cast<double>(options.irm.lit_threshold));
   build_key.Add("shadow", static_cast<double>(options.irm.shadow_threshold));
   build_key.Add("min_samples", options.irm.min_samples_per_bin)
       .Add("trim", static_cast<double>(options.irm.trim_fraction));
-  build_key.Add("fill", irm::ToString(options.irm.fill)).Add("model_correction", options.irm.model_correction);
+  build_key.Add("fill", irm::ToString(options.irm.fill));
   irm::IrmSet irms;
   irm::RelightSummary summary;
   summary.preprocess_s = source_geometry.seconds + target_geometry.seconds;
@@ -906,8 +939,8 @@ void RunIrmPipeline(PipelineRun& run) {
 
   // Per-pixel relighting.
   StageKey relight_key;
-  relight_key.Add("stage", "irm-relight-v1").AddKey("build", build_key);
-  relight_key.Add("exact_shadow_edges", options.exact_shadow_edges);
+  relight_key.Add("stage", "irm-relight-v2").AddKey("build", build_key);
+  AddKnobsToKey(relight_key, knobs, "relight");
   nlohmann::json relight_json;
   const StageCache::Result relight = run.RunStage("irm-relight", relight_key, [&](const fs::path& dir) {
     const irm::RelightResult result =
@@ -999,6 +1032,13 @@ void RunIrmPipeline(PipelineRun& run) {
                   figure("no_relighting", "penumbra"));
     run.Decide("truth", "note", text);
   }
+}
+
+}  // namespace
+
+PipelineEntry IrmPipelineEntry() {
+  return {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
+          RunIrmPipeline, WithRadianceKnobs(DescribeKnobs<IrmKnobs>())};
 }
 
 }  // namespace relume::pipeline

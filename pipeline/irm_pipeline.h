@@ -4,16 +4,18 @@
 //
 // Stages (each cached by a StageKey, so an unchanged re-run reuses everything and a changed
 // knob recomputes only what depends on it):
+//   irm-mesh    the scene mesh, split (mesh_spacing_m), as mesh.bin
 //   irm-view    per photograph: vertex visibility and sun fractions (mesh, camera, sun, sun_samples)
+//   irm-sky     per photograph: the sky's brightness against elevation (view + its radiance)
 //   irm-build   the IRMs from the vertices seen in both (+ radiance of both, bins, thresholds)
 //   irm-relight every source pixel (+ exact_shadow_edges); relit EXR, preview, status, seam
+//   irm-truth   simulated sessions: the relit image against the world's truth, per region
 // The mesh comes from the session's recorded world (<session>/rig/) or from --mesh (OBJ/PLY, in
 // ENU, or UTM with --set mesh_frame=utm); cameras from the rig's device specs; sun directions
 // from the frames' recorded azimuth and elevation.
 //
-// Knobs (--set): bins (32), sun_samples (16), penumbra (true), exact_shadow_edges (true),
-// model_correction (true), mesh_spacing_m (0.5), mesh_frame (enu|utm), mesh_utm_zone (site's),
-// threads (2), compare_truth (true).
+// Knobs (--set; `relume process --list --pipeline irm` lists them with their defaults): IrmKnobs
+// in irm_pipeline.cc, each declared once with the stages it changes (knobs.h).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -25,7 +27,8 @@
 
 namespace relume::pipeline {
 
-void RunIrmPipeline(PipelineRun& run);
+// The pipeline as `relume process` lists it: name, description, run function and knobs.
+PipelineEntry IrmPipelineEntry();
 
 // An IRM set as JSON and back (NaN ratios as null), for the irm-build stage's output.
 nlohmann::json IrmSetToJson(const irm::IrmSet& set);

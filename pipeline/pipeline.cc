@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <fstream>
@@ -20,53 +21,6 @@ PipelineRun::PipelineRun(const PipelineRequest& request, const capture::SessionR
                          std::shared_ptr<const rig::RigConfig> rig)
     : request_(request), session_(session), rig_(std::move(rig)), cache_(request.out_dir / "stages", request.reuse) {
   for (const auto& [key, value] : request_.settings) settings_read_[key] = false;
-}
-
-namespace {
-
-[[noreturn]] void BadSetting(const std::string& key, const std::string& value, const std::string& expected) {
-  throw InvalidArgumentError("--set " + key + "=" + value + ": expected " + expected);
-}
-
-}  // namespace
-
-double PipelineRun::Setting(const std::string& key, double fallback) {
-  const auto it = request_.settings.find(key);
-  settings_read_[key] = true;
-  if (it == request_.settings.end()) return fallback;
-  double value = 0.0;
-  const char* begin = it->second.data();
-  const char* end = begin + it->second.size();
-  const auto [ptr, ec] = std::from_chars(begin, end, value);
-  if (ec != std::errc() || ptr != end || !std::isfinite(value)) BadSetting(key, it->second, "a finite number");
-  return value;
-}
-
-int PipelineRun::Setting(const std::string& key, int fallback) {
-  const auto it = request_.settings.find(key);
-  settings_read_[key] = true;
-  if (it == request_.settings.end()) return fallback;
-  int value = 0;
-  const char* begin = it->second.data();
-  const char* end = begin + it->second.size();
-  const auto [ptr, ec] = std::from_chars(begin, end, value);
-  if (ec != std::errc() || ptr != end) BadSetting(key, it->second, "an integer");
-  return value;
-}
-
-std::string PipelineRun::Setting(const std::string& key, const std::string& fallback) {
-  const auto it = request_.settings.find(key);
-  settings_read_[key] = true;
-  return it == request_.settings.end() ? fallback : it->second;
-}
-
-bool PipelineRun::Setting(const std::string& key, bool fallback) {
-  const auto it = request_.settings.find(key);
-  settings_read_[key] = true;
-  if (it == request_.settings.end()) return fallback;
-  if (it->second == "true" || it->second == "1" || it->second == "yes") return true;
-  if (it->second == "false" || it->second == "0" || it->second == "no") return false;
-  BadSetting(key, it->second, "true or false");
 }
 
 std::vector<std::string> PipelineRun::UnusedSettings() const {
@@ -125,6 +79,7 @@ nlohmann::json PipelineRun::Summary(double seconds) const {
   summary["explain"] = request_.explain;
   summary["seconds"] = seconds;
   summary["settings"] = request_.settings;
+  summary["knobs"] = knobs_json_;
   summary["decisions"] = nlohmann::json::array();
   for (const Decision& d : decisions_) {
     summary["decisions"].push_back({{"stage", d.stage}, {"action", d.action}, {"reason", d.reason}});
@@ -133,6 +88,51 @@ nlohmann::json PipelineRun::Summary(double seconds) const {
   for (const auto& [path, what] : outputs_) summary["outputs"].push_back({{"path", path}, {"what", what}});
   summary["metrics"] = metrics_;
   return summary;
+}
+
+namespace {
+
+std::size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+void CheckSettings(const std::map<std::string, std::string>& settings, const std::string& pipeline) {
+  const bool all = pipeline.empty() || pipeline == "all";
+  std::set<std::string> knobs;
+  for (const PipelineEntry& entry : Pipelines()) {
+    if (!all && entry.name != pipeline) continue;
+    for (const KnobInfo& k : entry.knobs) knobs.insert(k.name);
+  }
+  for (const auto& [key, value] : settings) {
+    if (knobs.contains(key)) continue;
+    std::string closest;
+    std::size_t best = 4;  // suggest only names within 3 edits
+    for (const std::string& k : knobs) {
+      const std::size_t d = EditDistance(key, k);
+      if (d < best) {
+        best = d;
+        closest = k;
+      }
+    }
+    const std::string where = all ? "any pipeline" : "the " + pipeline + " pipeline";
+    throw InvalidArgumentError("--set " + key + "=" + value + ": not a knob of " + where +
+                               (closest.empty() ? std::string() : " (did you mean " + closest + "?)") +
+                               "; `relume process --list --pipeline " + (all ? std::string("NAME") : pipeline) +
+                               "` lists " + (all ? "a pipeline's" : "its") + " knobs with their defaults");
+  }
 }
 
 std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& session, const std::string& selector) {
@@ -231,6 +231,9 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
                                                     capture::kSessionDatabaseName +
                                                     "); record one with `relume capture`");
   }
+  // A typo is refused; a knob of another pipeline is noted below (one --set serves every
+  // pipeline when `relume process` runs them all).
+  CheckSettings(request.settings, "all");
   const capture::SessionReader session(request.session_dir);
   std::shared_ptr<const rig::RigConfig> rig = rig::LoadSessionRig(request.session_dir);
   PrepareOutputFolder(request.out_dir);

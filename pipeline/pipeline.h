@@ -14,10 +14,12 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "capture/session.h"
+#include "pipeline/knobs.h"
 #include "pipeline/stage_cache.h"
 #include "rig/rig_config.h"
 
@@ -56,13 +58,19 @@ class PipelineRun {
   StageCache& cache() { return cache_; }
   const std::filesystem::path& out_dir() const { return request_.out_dir; }
 
-  // Settings: typed reads of --set values with defaults; a value that does not parse is an
-  // InvalidArgumentError naming it; a key the pipeline never reads is noted in the summary.
-  double Setting(const std::string& key, double fallback);
-  int Setting(const std::string& key, int fallback);
-  std::string Setting(const std::string& key, const std::string& fallback);
-  bool Setting(const std::string& key, bool fallback);
+  // --set keys no ReadKnobs call used (noted in the summary).
   std::vector<std::string> UnusedSettings() const;
+  // The pipeline's knobs (knobs.h) with the request's --set values applied. Each key used counts
+  // as read (UnusedSettings), and the values go to summary.json ("knobs").
+  template <typename Knobs>
+  Knobs ReadKnobs() {
+    Knobs knobs;
+    std::set<std::string> used;
+    ApplySettings(request_.settings, knobs, &used);
+    for (const std::string& key : used) settings_read_[key] = true;
+    knobs_json_.update(KnobsToJson(knobs));
+    return knobs;
+  }
 
   void Decide(const std::string& stage, const std::string& action, const std::string& reason);
   // Runs a stage through the cache and records "run" or "reuse" with the key's description.
@@ -85,6 +93,7 @@ class PipelineRun {
   StageCache cache_;
   std::vector<Decision> decisions_;
   nlohmann::json metrics_ = nlohmann::json::object();
+  nlohmann::json knobs_json_ = nlohmann::json::object();
   std::vector<std::pair<std::string, std::string>> outputs_;
   std::map<std::string, bool> settings_read_;
   std::chrono::steady_clock::time_point progress_start_;
@@ -114,10 +123,16 @@ struct PipelineEntry {
   std::string name;
   std::string description;
   PipelineFunction run;
+  std::vector<KnobInfo> knobs;  // its --set keys (knobs.h)
 };
 
 // Every pipeline of this build (pipelines.cc).
 const std::vector<PipelineEntry>& Pipelines();
+
+// Checks --set keys before anything runs: each must be a knob of `pipeline` ("all": of some
+// pipeline of this build). InvalidArgumentError naming the key, the closest knob name and where
+// the knobs are listed (`relume process --list --pipeline NAME`).
+void CheckSettings(const std::map<std::string, std::string>& settings, const std::string& pipeline);
 
 // Frames of the session matching a selector: a frame id ("42"), a bracket ("bracket:3"), a
 // device's stream ("rgbd:color", "dslr:still"), or "all". InvalidArgumentError naming the

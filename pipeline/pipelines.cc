@@ -42,6 +42,14 @@ TruthComparison CompareWithTruth(const RadianceImage& estimate, const cv::Mat& s
   return {fit.scale, fit.relative_rms, static_cast<int>(fit.samples)};
 }
 
+struct RadiancePipelineKnobs {
+  bool compare_truth = true;
+  template <typename V>
+  void VisitKnobs(V& v) {
+    v.Knob("compare_truth", compare_truth, "compare each bracket with the simulated world's truth", {"report"});
+  }
+};
+
 void RunRadiancePipeline(PipelineRun& run) {
   const auto brackets = StillBrackets(run.session(), run.request().source);
   if (brackets.empty()) {
@@ -51,7 +59,7 @@ void RunRadiancePipeline(PipelineRun& run) {
   run.Decide("radiance", "plan", std::to_string(brackets.size()) + " bracket(s) of still frames to linearise");
   if (run.request().explain) return;
   nlohmann::json& per_bracket = run.metrics()["brackets"];
-  const bool truth = run.Setting("compare_truth", true);
+  const bool truth = run.ReadKnobs<RadiancePipelineKnobs>().compare_truth;
   double worst = 0.0;
   int done = 0;
   for (const auto& bracket : brackets) {
@@ -95,11 +103,10 @@ void RunRadiancePipeline(PipelineRun& run) {
 
 const std::vector<PipelineEntry>& Pipelines() {
   static const std::vector<PipelineEntry> pipelines = {
-      {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline},
-      {"sh", "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
-       RunShPipeline},
-      {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
-       RunIrmPipeline},
+      {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline,
+       WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>())},
+      ShPipelineEntry(),
+      IrmPipelineEntry(),
       RadiosityPipelineEntry(),
   };
   return pipelines;

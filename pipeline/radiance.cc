@@ -153,6 +153,11 @@ LinearisedBracket LineariseBracket(const capture::SessionReader& session,
   return out;
 }
 
+std::vector<KnobInfo> WithRadianceKnobs(std::vector<KnobInfo> knobs) {
+  for (KnobInfo& k : DescribeKnobs<RadianceKnobs>()) knobs.push_back(std::move(k));
+  return knobs;
+}
+
 BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket) {
   RELUME_CHECK(!bracket.empty());
   const capture::SessionReader& session = run.session();
@@ -166,14 +171,10 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   const std::string name =
       out.bracket_id ? "bracket " + std::to_string(*out.bracket_id) : "frame " + std::to_string(bracket.front().id);
 
-  calibration::HdrMergeOptions merge;
-  merge.black_margin = run.Setting("merge_black_margin", merge.black_margin);
-  merge.saturation_margin = run.Setting("merge_saturation_margin", merge.saturation_margin);
-  calibration::ResponseOptions response_options;
-  response_options.sample_count = run.Setting("response_samples", response_options.sample_count);
-  response_options.lambda = run.Setting("response_lambda", response_options.lambda);
-  response_options.smoothness = calibration::ResponseSmoothnessFromString(
-      run.Setting("response_smoothness", std::string(calibration::ToString(response_options.smoothness))));
+  RadianceKnobs knobs = run.ReadKnobs<RadianceKnobs>();
+  const calibration::HdrMergeOptions& merge = knobs.merge;
+  calibration::ResponseOptions& response_options = knobs.response;
+  response_options.smoothness = calibration::ResponseSmoothnessFromString(knobs.response_smoothness);
   std::string why;
   if (!merge.IsValid(&why)) throw InvalidArgumentError("merge settings: " + why);
   if (!response_options.IsValid(&why)) throw InvalidArgumentError("response settings: " + why);
@@ -192,13 +193,10 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   }
 
   StageKey& key = out.key;
-  key.Add("stage", "radiance-v1");
+  key.Add("stage", "radiance-v2");
   const std::vector<double> times = RelativeExposures(bracket, name);
   for (std::size_t i = 0; i < bracket.size(); ++i) key.Add("frame", bracket[i].sha256).Add("exposure", times[i]);
-  key.Add("black_margin", merge.black_margin).Add("saturation_margin", merge.saturation_margin);
-  key.Add("response_samples", response_options.sample_count)
-      .Add("response_lambda", response_options.lambda)
-      .Add("response_smoothness", calibration::ToString(response_options.smoothness));
+  AddKnobsToKey(key, knobs, "radiance");
   key.Add("profile", profile_id).Add("response", response_id);
 
   const bool sensor_linear = bracket.front().encoding == SampleEncoding::kSensorLinear;

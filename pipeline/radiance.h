@@ -31,6 +31,28 @@
 
 namespace relume::pipeline {
 
+// The knobs of linear radiance (knobs.h), shared by every pipeline that linearises brackets.
+struct RadianceKnobs {
+  calibration::HdrMergeOptions merge;
+  calibration::ResponseOptions response;
+  std::string response_smoothness = calibration::ToString(calibration::ResponseOptions{}.smoothness);
+
+  template <typename V>
+  void VisitKnobs(V& v) {
+    v.Knob("merge_black_margin", merge.black_margin, "code values above black below which a pixel is not trusted",
+           {"radiance"});
+    v.Knob("merge_saturation_margin", merge.saturation_margin,
+           "code values below white above which a pixel is not trusted", {"radiance"});
+    v.Knob("response_samples", response.sample_count, "pixels sampled to recover a response from a bracket",
+           {"radiance"});
+    v.Knob("response_lambda", response.lambda, "smoothness weight of the recovered response", {"radiance"});
+    v.Knob("response_smoothness", response_smoothness, "smoothness prior of the recovered response", {"radiance"});
+  }
+};
+
+// `knobs` followed by the RadianceKnobs, for a pipeline that linearises brackets.
+std::vector<KnobInfo> WithRadianceKnobs(std::vector<KnobInfo> knobs);
+
 struct BracketRadiance {
   std::string device_id;
   std::optional<std::int64_t> bracket_id;  // none for a frame outside a bracket

@@ -51,27 +51,33 @@ struct Knobs {
   bool compare_truth = true;
   Eigen::Vector3d light_m{1.0, -1.0, 2.2};
   double light_intensity_w_sr = 30.0;
+
+  template <typename V>
+  void VisitKnobs(V& v) {
+    v.Knob("patch_edge_m", patch_edge_m, "largest patch edge (m)", {"geometry"});
+    v.Knob("material_groups", material_groups, "objects known to share a material: \"a+b,c+d\"", {"geometry"});
+    v.Knob("min_patch_pixels", min_patch_pixels, "pixels a patch needs to be observed", {"observe"});
+    v.Knob("input", input, "camera, or truth (the world's radiance: no camera, noise-free)", {"observe", "scale"});
+    v.Knob("scale", scale, "absolute scale of the first bracket: truth or none", {"scale"});
+    v.Knob("iterations", iterations, "reflectance iterations at most", {"reflectance"});
+    v.Knob("tolerance", tolerance, "albedo change that stops iterating; an indirect share below it skips radiosity",
+           {"reflectance"});
+    v.Knob("form_factor_rays", form_factor_rays, "visibility rays per form factor", {"reflectance"});
+    v.Knob("bf_epsilon", bf_epsilon, "refinement threshold of the patch hierarchy (B F)", {"reflectance"});
+    v.Knob("residual_tolerance", residual_tolerance, "radiosity solve's relative residual", {"reflectance"});
+    v.Knob("direct_samples", direct_samples, "direct-light samples per patch", {"reflectance"});
+    v.Knob("direct_at_pixels", direct_at_pixels,
+           "direct light averaged over the observed pixels' surface points (false: over the patch)", {"reflectance"});
+    v.Knob("compare_truth", compare_truth, "albedo errors against the simulated world per iteration", {"reflectance"});
+    v.Knob("light_x", light_m.x(), "relighting lamp position, east (m)", {"relight"});
+    v.Knob("light_y", light_m.y(), "relighting lamp position, north (m)", {"relight"});
+    v.Knob("light_z", light_m.z(), "relighting lamp position, up (m)", {"relight"});
+    v.Knob("light_intensity", light_intensity_w_sr, "relighting lamp intensity (W/sr)", {"relight"});
+  }
 };
 
-Knobs ReadKnobs(PipelineRun& run) {
-  Knobs k;
-  k.patch_edge_m = run.Setting("patch_edge_m", k.patch_edge_m);
-  k.form_factor_rays = run.Setting("form_factor_rays", k.form_factor_rays);
-  k.bf_epsilon = run.Setting("bf_epsilon", k.bf_epsilon);
-  k.iterations = run.Setting("iterations", k.iterations);
-  k.tolerance = run.Setting("tolerance", k.tolerance);
-  k.residual_tolerance = run.Setting("residual_tolerance", k.residual_tolerance);
-  k.direct_samples = run.Setting("direct_samples", k.direct_samples);
-  k.min_patch_pixels = run.Setting("min_patch_pixels", k.min_patch_pixels);
-  k.direct_at_pixels = run.Setting("direct_at_pixels", k.direct_at_pixels);
-  k.scale = run.Setting("scale", k.scale);
-  k.input = run.Setting("input", k.input);
-  k.material_groups = run.Setting("material_groups", k.material_groups);
-  k.compare_truth = run.Setting("compare_truth", k.compare_truth);
-  k.light_m.x() = run.Setting("light_x", k.light_m.x());
-  k.light_m.y() = run.Setting("light_y", k.light_m.y());
-  k.light_m.z() = run.Setting("light_z", k.light_m.z());
-  k.light_intensity_w_sr = run.Setting("light_intensity", k.light_intensity_w_sr);
+Knobs ReadRadiosityKnobs(PipelineRun& run) {
+  const Knobs k = run.ReadKnobs<Knobs>();
   auto bad = [](const std::string& what) { throw InvalidArgumentError("radiosity pipeline: " + what); };
   if (!(k.patch_edge_m >= 0.05 && k.patch_edge_m <= 10.0)) bad("--set patch_edge_m must be in [0.05, 10] metres");
   if (k.form_factor_rays < 1 || k.form_factor_rays > 256) bad("--set form_factor_rays must be in [1, 256]");
@@ -489,7 +495,7 @@ std::string Percent(double x) {
 }
 
 void RunRadiosityPipeline(PipelineRun& run) {
-  const Knobs knobs = ReadKnobs(run);
+  const Knobs knobs = ReadRadiosityKnobs(run);
   const rig::RigConfig* rig = run.rig();
   if (rig == nullptr || !rig->world) {
     throw InvalidArgumentError(
@@ -536,12 +542,11 @@ void RunRadiosityPipeline(PipelineRun& run) {
   geo.caster = std::make_unique<radiosity::RayCaster>(geo.scene.mesh);
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   const int n = h.LeafCount();
-  geo.key.Add("stage", "radiosity-geometry-v2")
+  geo.key.Add("stage", "radiosity-geometry-v3")
       .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
       .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
-      .Add("device", device)
-      .Add("patch_edge_m", knobs.patch_edge_m)
-      .Add("material_groups", knobs.material_groups);
+      .Add("device", device);
+  AddKnobsToKey(geo.key, knobs, "geometry");
   const StageCache::Result geometry_stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
     cv::Mat points_m;
     WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, spec->camera, &points_m));
@@ -583,8 +588,8 @@ void RunRadiosityPipeline(PipelineRun& run) {
                                  std::to_string(r.radiance.height()) + " does not match the camera of " + device);
     }
     StageKey key;
-    key.Add("stage", "radiosity-observe-v1").AddKey("radiance", r.key).AddKey("geometry", geo.key);
-    key.Add("min_patch_pixels", knobs.min_patch_pixels);
+    key.Add("stage", "radiosity-observe-v2").AddKey("radiance", r.key).AddKey("geometry", geo.key);
+    AddKnobsToKey(key, knobs, "observe");
     const StageCache::Result stage = run.RunStage("radiosity-observe", key, [&](const fs::path& dir) {
       std::vector<Rgb> sum(n, Rgb::Zero());
       std::vector<int> count(n, 0);
@@ -621,7 +626,8 @@ void RunRadiosityPipeline(PipelineRun& run) {
   // reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from the
   // simulated world's rendered radiance (standing in for a radiometric calibration), or stays 1.
   StageKey scale_key;
-  scale_key.Add("stage", "radiosity-scale-v2").AddKey("radiance", radiance.front().key).Add("mode", knobs.scale);
+  scale_key.Add("stage", "radiosity-scale-v3").AddKey("radiance", radiance.front().key);
+  AddKnobsToKey(scale_key, knobs, "scale");
   scale_key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
   const StageCache::Result scale_stage = run.RunStage("radiosity-scale", scale_key, [&](const fs::path& dir) {
     nlohmann::json j = {{"mode", knobs.scale}, {"scale", 1.0}};
@@ -721,19 +727,11 @@ void RunRadiosityPipeline(PipelineRun& run) {
   // Reflectance iterations.
   const MaterialGroups groups = GroupPatches(h, geo.scene, world.scene());
   StageKey reflectance_key;
-  reflectance_key.Add("stage", "radiosity-reflectance-v3").AddKey("geometry", geo.key).AddKey("scale", scale_key);
+  reflectance_key.Add("stage", "radiosity-reflectance-v4").AddKey("geometry", geo.key).AddKey("scale", scale_key);
   for (size_t s = 0; s < observation_keys.size(); ++s) {
     reflectance_key.AddKey("observation", observation_keys[s]).Add("utc", FormatIso8601(radiance[s].utc));
   }
-  reflectance_key.Add("iterations", knobs.iterations)
-      .Add("tolerance", knobs.tolerance)
-      .Add("form_factor_rays", knobs.form_factor_rays)
-      .Add("bf_epsilon", knobs.bf_epsilon)
-      .Add("residual_tolerance", knobs.residual_tolerance)
-      .Add("direct_samples", knobs.direct_samples)
-      .Add("direct_at_pixels", knobs.direct_at_pixels)
-      .Add("skip_radiosity", skip)
-      .Add("compare_truth", knobs.compare_truth);
+  AddKnobsToKey(reflectance_key, knobs, "reflectance").Add("skip_radiosity", skip);
   const StageCache::Result refl_stage =
       run.RunStage("radiosity-reflectance", reflectance_key, [&](const fs::path& dir) {
         radiosity::ReflectanceOptions options = ReflectanceOptionsFrom(knobs, skip);
@@ -911,12 +909,8 @@ void RunRadiosityPipeline(PipelineRun& run) {
 
   // Relight: every recorded lamp off, one point lamp where the command line puts it.
   StageKey relight_key;
-  relight_key.Add("stage", "radiosity-relight-v3")
-      .AddKey("reflectance", reflectance_key)
-      .Add("light_x", knobs.light_m.x())
-      .Add("light_y", knobs.light_m.y())
-      .Add("light_z", knobs.light_m.z())
-      .Add("light_intensity", knobs.light_intensity_w_sr);
+  relight_key.Add("stage", "radiosity-relight-v4").AddKey("reflectance", reflectance_key);
+  AddKnobsToKey(relight_key, knobs, "relight");
   const StageCache::Result relight_stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
     std::vector<Rgb> albedo;
     {
@@ -1030,7 +1024,7 @@ PipelineEntry RadiosityPipelineEntry() {
   return {"radiosity",
           "per-patch albedo of a room under a moving lamp (Loscos: EV-only HDR, consistency scales, reflectance "
           "iterated with radiosity), radiosity solution, relighting (--set light_x=..,light_y=..,light_z=..)",
-          RunRadiosityPipeline};
+          RunRadiosityPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>())};
 }
 
 }  // namespace relume::pipeline

@@ -96,31 +96,46 @@ struct Knobs {
   double pair_max_gap_ms = 16.0;
   bool compare_truth = true;
   bool true_normals = false;  // diagnostic: the world's normals instead of the estimated ones
+
+  // Stage tags: "geometry" (depth filters + normals), "fit", "relight"; "plan": decides which
+  // frames and filters run, and the keys follow from that; "report": the summary only.
+  template <typename V>
+  void VisitKnobs(V& v) {
+    v.Knob("pair_max_gap_ms", pair_max_gap_ms, "largest time gap of a depth and a colour frame paired (ms)", {"plan"});
+    v.Knob("filter_depth", filter_depth, "bilateral and temporal depth filters", {"geometry"});
+    v.Knob("depth_noise_skip_below_m", depth_noise_skip_below_m,
+           "skip the filters when the first depth frame's noise at 1 m is below this (m; 0: always filter)", {"plan"});
+    v.Knob("bilateral_radius", bilateral.radius_px, "bilateral depth filter radius (px)", {"geometry"});
+    v.Knob("range_sigma_at_1m_m", bilateral.range_sigma_at_1m_m, "depth filters' range sigma at 1 m (m)", {"geometry"});
+    v.Knob("temporal_weight", temporal.weight, "weight of the previous frame in the temporal depth filter",
+           {"geometry"});
+    v.Knob("normal_window", normals.window_radius_px, "normal estimation window radius (px)", {"geometry"});
+    v.Knob("normals_reuse", normals_reuse, "reuse the previous frame's normals when the depth did not change",
+           {"geometry"});
+    v.Knob("normals_reuse_sigmas", reuse_sigmas, "range sigmas a depth pixel must move to count as changed",
+           {"geometry"});
+    v.Knob("normals_reuse_max_changed_fraction", reuse_max_changed_fraction,
+           "share of changed depth pixels up to which normals are reused", {"geometry"});
+    v.Knob("true_normals", true_normals, "diagnostic: the simulated world's normals instead of estimated ones",
+           {"geometry"});
+    v.Knob("sh_order", fit.fit.max_order, "highest SH order fitted (1 or 2)", {"fit"});
+    v.Knob("max_condition_number", fit.fit.max_condition_number,
+           "condition number above which the fit drops to order 1", {"fit"});
+    v.Knob("min_solid_angle_order2_sr", fit.fit.min_solid_angle_order2_sr, "solid angle of normals order 2 needs (sr)",
+           {"fit"});
+    v.Knob("albedo", albedo, "auto, known (the simulated world's) or unknown (segments + alternating fit)", {"fit"});
+    v.Knob("segments", segmentation.segment_count, "k-means colour segments (unknown albedo)", {"fit"});
+    v.Knob("max_iterations", fit.max_iterations, "alternating light/albedo iterations (unknown albedo)", {"fit"});
+    v.Knob("samples", samples.count, "pixels sampled per frame for the fit", {"fit"});
+    v.Knob("min_irradiance_fraction", relight.min_irradiance_fraction,
+           "source irradiance, as a share of its mean, below which a pixel is not divided", {"relight"});
+    v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"report"});
+  }
 };
 
 Knobs ReadKnobs(PipelineRun& run) {
-  Knobs k;
-  k.filter_depth = run.Setting("filter_depth", k.filter_depth);
-  k.depth_noise_skip_below_m = run.Setting("depth_noise_skip_below_m", k.depth_noise_skip_below_m);
-  k.bilateral.radius_px = run.Setting("bilateral_radius", k.bilateral.radius_px);
-  k.bilateral.range_sigma_at_1m_m = run.Setting("range_sigma_at_1m_m", k.bilateral.range_sigma_at_1m_m);
+  Knobs k = run.ReadKnobs<Knobs>();
   k.temporal.range_sigma_at_1m_m = k.bilateral.range_sigma_at_1m_m;
-  k.temporal.weight = run.Setting("temporal_weight", k.temporal.weight);
-  k.normals.window_radius_px = run.Setting("normal_window", k.normals.window_radius_px);
-  k.normals_reuse = run.Setting("normals_reuse", k.normals_reuse);
-  k.reuse_sigmas = run.Setting("normals_reuse_sigmas", k.reuse_sigmas);
-  k.reuse_max_changed_fraction = run.Setting("normals_reuse_max_changed_fraction", k.reuse_max_changed_fraction);
-  k.fit.fit.max_order = run.Setting("sh_order", k.fit.fit.max_order);
-  k.fit.fit.max_condition_number = run.Setting("max_condition_number", k.fit.fit.max_condition_number);
-  k.fit.fit.min_solid_angle_order2_sr = run.Setting("min_solid_angle_order2_sr", k.fit.fit.min_solid_angle_order2_sr);
-  k.fit.max_iterations = run.Setting("max_iterations", k.fit.max_iterations);
-  k.segmentation.segment_count = run.Setting("segments", k.segmentation.segment_count);
-  k.samples.count = run.Setting("samples", k.samples.count);
-  k.albedo = run.Setting("albedo", k.albedo);
-  k.relight.min_irradiance_fraction = run.Setting("min_irradiance_fraction", k.relight.min_irradiance_fraction);
-  k.pair_max_gap_ms = run.Setting("pair_max_gap_ms", k.pair_max_gap_ms);
-  k.compare_truth = run.Setting("compare_truth", k.compare_truth);
-  k.true_normals = run.Setting("true_normals", k.true_normals);
   std::string why;
   if (!k.bilateral.IsValid(&why)) throw InvalidArgumentError("--set bilateral_radius / range_sigma_at_1m_m: " + why);
   if (!k.temporal.IsValid(&why)) throw InvalidArgumentError("--set temporal_weight: " + why);
@@ -383,16 +398,9 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
                        const FrameGeometry* previous) {
   FrameGeometry g;
   const PinholeIntrinsics& K = camera.intrinsics;
-  g.key.Add("stage", "sh-geometry-v1").Add("depth", pair.depth.sha256);
+  g.key.Add("stage", "sh-geometry-v2").Add("depth", pair.depth.sha256);
   g.key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
-  g.key.Add("filter_depth", k.filter_depth);
-  if (k.filter_depth) {
-    g.key.Add("bilateral_radius", k.bilateral.radius_px).Add("range_sigma", k.bilateral.range_sigma_at_1m_m);
-    g.key.Add("temporal_weight", k.temporal.weight);
-  }
-  g.key.Add("normal_window", k.normals.window_radius_px);
-  g.key.Add("normals_reuse", k.normals_reuse);
-  if (k.normals_reuse) g.key.Add("reuse_sigmas", k.reuse_sigmas).Add("reuse_fraction", k.reuse_max_changed_fraction);
+  AddKnobsToKey(g.key, k, "geometry");  // filter_depth as decided (the noise check may turn it off)
   if (previous != nullptr) g.key.AddKey("previous", previous->key);
   if (k.true_normals) {
     g.key.Add("true_normals", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
@@ -504,15 +512,12 @@ struct FrameFit {
 FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair& pair, const PinholeCamera& camera,
              const FrameRadiance& radiance, const FrameGeometry& geometry) {
   FrameFit f;
-  f.key.Add("stage", "sh-fit-v1").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
-  f.key.Add("sh_order", k.fit.fit.max_order).Add("max_condition", k.fit.fit.max_condition_number);
-  f.key.Add("min_solid_angle", k.fit.fit.min_solid_angle_order2_sr).Add("samples", k.samples.count);
+  f.key.Add("stage", "sh-fit-v2").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
+  AddKnobsToKey(f.key, k, "fit");
   f.key.Add("sample_seed", static_cast<std::int64_t>(k.samples.seed)).Add("known_albedo", known_albedo);
   if (known_albedo) {
     f.key.Add("scene", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
     f.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
-  } else {
-    f.key.Add("segments", k.segmentation.segment_count).Add("max_iterations", k.fit.max_iterations);
   }
   const std::string id = std::to_string(pair.color.id);
   const StageCache::Result stage = run.RunStage("fit-" + id, f.key, [&](const fs::path& dir) {
@@ -804,8 +809,9 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
               const FrameGeometry& geometry, const FrameFit& fit, const ShRgb& dst_light) {
   const std::string id = std::to_string(pair.color.id);
   Relit out;
-  out.key.Add("stage", "sh-relight-v2").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
-  out.key.AddKey("fit", fit.key).Add("min_irradiance_fraction", k.relight.min_irradiance_fraction);
+  out.key.Add("stage", "sh-relight-v3").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
+  out.key.AddKey("fit", fit.key);
+  AddKnobsToKey(out.key, k, "relight");
   for (int row = 0; row < processing::kShCount; ++row)
     for (int c = 0; c < 3; ++c) out.key.Add("dst", dst_light(row, c));
   const StageCache::Result stage = run.RunStage("relight-" + id, out.key, [&](const fs::path& dir) {
@@ -904,8 +910,6 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
       });
   return ReadJson(stage.dir / "truth.json");
 }
-
-}  // namespace
 
 void RunShPipeline(PipelineRun& run) {
   Knobs k = ReadKnobs(run);
@@ -1051,6 +1055,13 @@ void RunShPipeline(PipelineRun& run) {
     metrics["baseline_rms_8bit_mean"] = mean(base8);
     metrics["compared_frames"] = static_cast<int>(relit_errors.size());
   }
+}
+
+}  // namespace
+
+PipelineEntry ShPipelineEntry() {
+  return {"sh", "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
+          RunShPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>())};
 }
 
 }  // namespace relume::pipeline

@@ -27,6 +27,7 @@ nlohmann::json ShLightToJson(const processing::ShRgb& light, int order);
 // Throws InvalidArgumentError naming `what` when the JSON is not an SH light.
 processing::ShRgb ShLightFromJson(const nlohmann::json& json, const std::string& what);
 
-void RunShPipeline(PipelineRun& run);
+// The pipeline as `relume process` lists it: name, description, run function and knobs.
+PipelineEntry ShPipelineEntry();
 
 }  // namespace relume::pipeline

@@ -47,11 +47,28 @@ void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
             << std::defaultfloat;
 }
 
+// The pipelines; with a name, that pipeline's knobs (--set) with their defaults.
+void ListPipelines(const std::string& name) {
+  bool found = false;
+  for (const pipeline::PipelineEntry& entry : pipeline::Pipelines()) {
+    if (!name.empty() && name != "all" && entry.name != name) continue;
+    found = true;
+    std::cout << std::left << std::setw(12) << entry.name << " " << entry.description << "\n";
+    if (name.empty() || name == "all") continue;
+    std::cout << "knobs (--set KEY=VALUE):\n";
+    for (const pipeline::KnobInfo& k : entry.knobs) {
+      std::string stages;
+      for (const std::string& s : k.stages) stages += (stages.empty() ? "" : ",") + s;
+      std::cout << "  " << std::setw(36) << (k.name + "=" + k.default_value.dump()) << " " << k.help << " [" << stages
+                << "]\n";
+    }
+  }
+  if (!found) throw InvalidArgumentError("--list --pipeline " + name + ": no such pipeline (`relume process --list`)");
+}
+
 void Run(const ProcessArgs& args) {
   if (args.list) {
-    for (const pipeline::PipelineEntry& entry : pipeline::Pipelines()) {
-      std::cout << std::left << std::setw(12) << entry.name << " " << entry.description << "\n";
-    }
+    ListPipelines(args.pipeline);
     return;
   }
   if (args.session.empty()) throw InvalidArgumentError("relume process: give the session folder");
@@ -75,6 +92,7 @@ void Run(const ProcessArgs& args) {
   }
   request.explain = args.explain;
   request.reuse = !args.force;
+  pipeline::CheckSettings(request.settings, all ? "all" : args.pipeline);
   pipeline::PrepareOutputFolder(request.out_dir);
   const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process");
 
@@ -135,7 +153,7 @@ void AddProcessCommand(CLI::App& app) {
   cmd->add_option("--set", args->settings, "A pipeline knob, KEY=VALUE (repeatable)");
   cmd->add_flag("--explain", args->explain, "Print the plan and its reasons; run nothing expensive");
   cmd->add_flag("--force", args->force, "Recompute every stage, even unchanged ones");
-  cmd->add_flag("--list", args->list, "List the pipelines of this build");
+  cmd->add_flag("--list", args->list, "List the pipelines of this build (with --pipeline: its knobs and defaults)");
   cmd->callback([args]() { Run(*args); });
 }
 

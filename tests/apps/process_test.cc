@@ -258,3 +258,30 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
 
 }  // namespace
 }  // namespace relume::pipeline
+
+namespace relume::pipeline {
+namespace {
+
+// Knobs are declared once: `--list --pipeline` shows them with their defaults, a typo is refused
+// before anything runs (no output folder made), with the closest knob's name.
+TEST(ProcessCliTest, KnobsAreListedAndATypoIsRefusedBeforeAnythingRuns) {
+  const testing::CliResult list = testing::RunRelume("process --list --pipeline irm");
+  ASSERT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_NE(list.output.find("bins=32"), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("response_samples="), std::string::npos) << list.output;  // radiance knobs too
+  EXPECT_EQ(list.output.find("sh_order"), std::string::npos) << list.output;           // not the SH pipeline's
+
+  const fs::path dir = TempDir("typo");
+  const fs::path out = dir / "out";
+  const testing::CliResult typo = testing::RunRelume("process " + (dir / "no-session").string() + " --out " +
+                                                     out.string() + " --pipeline irm --set bnis=16");
+  testing::ExpectUserError(typo, "--set bnis=16: not a knob of the irm pipeline (did you mean bins?)");
+  EXPECT_FALSE(fs::exists(out));
+  const testing::CliResult other = testing::RunRelume("process " + (dir / "no-session").string() + " --out " +
+                                                      out.string() + " --pipeline irm --set sh_order=1");
+  testing::ExpectUserError(other, "--set sh_order=1: not a knob of the irm pipeline");
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace relume::pipeline
