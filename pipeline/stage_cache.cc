@@ -3,12 +3,15 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <Eigen/Core>
+#include <embree3/rtcore_config.h>
 #include <opencv2/core/version.hpp>
 #include <span>
 #include <system_error>
 
 #include "capture/durable_file.h"
 #include "core/error.h"
+#include "pipeline/code_version.h"
 
 namespace relume::pipeline {
 namespace fs = std::filesystem;
@@ -19,13 +22,11 @@ constexpr const char* kPartialSuffix = ".partial";
 }  // namespace
 
 const std::string& CodeVersion() {
-  static const std::string version = [] {
-    std::string text = std::string("relume ") + RELUME_VERSION + ", opencv " + CV_VERSION;
-    std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    text += ", program " + (ec ? std::string("unknown") : capture::Sha256HexOfFile(exe).substr(0, 16));
-    return text;
-  }();
+  static const std::string version = std::string("relume ") + RELUME_VERSION + ", opencv " + CV_VERSION +
+                                     ", embree " + RTC_VERSION_STRING + ", eigen " +
+                                     std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
+                                     "." + std::to_string(EIGEN_MINOR_VERSION) + ", code " +
+                                     std::string(RELUME_CODE_HASH).substr(0, 16);
   return version;
 }
 

@@ -7,8 +7,9 @@
 // written, so a run stopped by Ctrl-C or a crash leaves no half-written stage behind: the
 // next run removes the temporary folder and computes the stage again.
 //
-// Every key also holds the code that computes it (CodeVersion: relume's version, OpenCV's, and
-// the SHA-256 of the running program), so results of another relume build are recomputed
+// Every key also holds the code that computes it (CodeVersion: relume's, OpenCV's, Embree's and
+// Eigen's versions and the SHA-256 of the sources that compute stage results, made by the
+// build: pipeline/CMakeLists.txt), so results of other code are recomputed
 // rather than trusted; the "stage" field of each key (e.g. "radiance-v1") names the stage's
 // algorithm for people reading stage.json.
 #pragma once
@@ -45,8 +46,9 @@ class StageKey {
   std::vector<std::pair<std::string, std::string>> fields_;
 };
 
-// relume's and OpenCV's versions and the first 16 hex digits of the running program's SHA-256
-// (computed once per process).
+// relume's, OpenCV's, Embree's and Eigen's versions and the first 16 hex digits of the SHA-256 of
+// the sources that compute stage results (the same for the CLI, the tests and any other program
+// built from the same sources).
 const std::string& CodeVersion();
 
 class StageCache {
