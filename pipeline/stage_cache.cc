@@ -110,6 +110,7 @@ StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
   manifest["stage"] = std::string(stage);
   manifest["key"] = result.key;
   manifest["depends_on"] = WithCode(key).Describe();
+  manifest["code"] = code_version_;
   const std::string text = manifest.dump(2) + "\n";
   capture::WriteFileDurably(partial / kManifest,
                             std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));

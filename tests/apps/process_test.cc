@@ -59,19 +59,48 @@ TEST(StageCacheTest, ReusesCompleteStagesAndRecomputesChangedOnes) {
   fs::remove_all(root);
 }
 
-TEST(StageCacheTest, ResultsOfAnotherProgramAreRecomputed) {
+TEST(StageCacheTest, ResultsOfOtherCodeAreRecomputed) {
   const fs::path root = TempDir("code");
   int runs = 0;
   auto produce = [&](const fs::path&) { ++runs; };
   const StageKey key = StageKey().Add("input", "abc");
-  EXPECT_FALSE(StageCache(root, true, "relume 0.1.0, program aaaa").Run("fit", key, produce).reused);
-  EXPECT_TRUE(StageCache(root, true, "relume 0.1.0, program aaaa").Run("fit", key, produce).reused);
-  EXPECT_FALSE(StageCache(root, true, "relume 0.1.0, program bbbb").Run("fit", key, produce).reused);
+  EXPECT_FALSE(StageCache(root, true, "relume 0.1.0, code aaaa").Run("fit", key, produce).reused);
+  EXPECT_TRUE(StageCache(root, true, "relume 0.1.0, code aaaa").Run("fit", key, produce).reused);
+  EXPECT_FALSE(StageCache(root, true, "relume 0.1.0, code bbbb").Run("fit", key, produce).reused);
   EXPECT_EQ(runs, 2);
-  // The default names this program: its SHA-256 is in the key.
-  EXPECT_NE(CodeVersion().find("program "), std::string::npos);
-  EXPECT_EQ(CodeVersion().find("program unknown"), std::string::npos) << CodeVersion();
+  // The default holds the hash of the sources that compute stage results (16 hex digits), made by
+  // the build: the same in this test as in the relume program built from the same sources.
+  const std::string& version = CodeVersion();
+  const std::size_t code = version.find(", code ");
+  ASSERT_NE(code, std::string::npos) << version;
+  const std::string hash = version.substr(code + 7);
+  EXPECT_EQ(hash.size(), 16u) << version;
+  EXPECT_EQ(hash.find_first_not_of("0123456789abcdef"), std::string::npos) << version;
+  EXPECT_NE(version.find("opencv "), std::string::npos) << version;
+  EXPECT_NE(version.find("embree "), std::string::npos) << version;
   fs::remove_all(root);
+}
+
+// The relume program and this test were built from the same sources: a stage the program
+// computed carries the code version this test computes.
+TEST(ProcessCliTest, TheProgramAndTheLibraryShareTheCodeVersion) {
+  const fs::path dir = TempDir("shared_code");
+  const testing::CliResult capture =
+      testing::RunRelume("capture --rig " + std::string(RELUME_SOURCE_DIR) +
+                         "/tests/data/rigs/sim-tiny-irm.yaml --out " + (dir / "session").string());
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  const testing::CliResult run = testing::RunRelume("process " + (dir / "session").string() +
+                                                    " --pipeline radiance --out " + (dir / "out").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  int manifests = 0;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(dir / "out" / "stages")) {
+    if (e.path().filename() != "stage.json") continue;
+    ++manifests;
+    EXPECT_NE(fs::path(e.path()).parent_path().string().find("radiance"), std::string::npos);
+    EXPECT_EQ(ReadJsonFile(e.path())["code"], CodeVersion());
+  }
+  EXPECT_GT(manifests, 0);
+  fs::remove_all(dir);
 }
 
 TEST(StageCacheTest, AStageStoppedMidwayIsRecomputedNotReused) {
