@@ -37,7 +37,9 @@ struct Knobs {
   double patch_edge_m = 1.0;
   int form_factor_rays = 4;
   double bf_epsilon = 2e-3;
-  int iterations = 4;
+  // At most; iterating stops when no albedo changes by more than `tolerance` (issue 26: a fixed 4
+  // stopped rooms of brighter walls unconverged). The summary says when the cap was reached.
+  int iterations = 30;
   double tolerance = 0.01;  // albedo change that stops iterating; indirect share below it skips radiosity
   double residual_tolerance = 1e-3;
   int direct_samples = 4;
