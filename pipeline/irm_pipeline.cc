@@ -1034,11 +1034,30 @@ void RunIrmPipeline(PipelineRun& run) {
   }
 }
 
+std::string IrmHeadline(const nlohmann::json& m) {
+  if (!m.contains("irm")) return "";
+  const nlohmann::json& irm = m["irm"];
+  std::string text = std::string(irm.value("single_map", false) ? "one IRM" : "four IRMs");
+  if (m.contains("truth")) {
+    const nlohmann::json& a = m["truth"]["relit"];
+    const nlohmann::json& b = m["truth"]["no_relighting"];
+    text += "; against the truth: lit " + PercentText(a["relative_rms_lit"]) + ", shadow " +
+            PercentText(a["relative_rms_shadow"]) + ", penumbra " + PercentText(a["relative_rms_penumbra"]) +
+            " (not relit: " + PercentText(b["relative_rms_lit"]) + ", " + PercentText(b["relative_rms_shadow"]) + ", " +
+            PercentText(b["relative_rms_penumbra"]) + ")";
+  } else if (irm.contains("seam")) {
+    text += "; where both photographs see a surface, relit vs target " +
+            PercentText(irm["seam"]["overlap_relative_rms_after"]) + " (before " +
+            PercentText(irm["seam"]["overlap_relative_rms_before"]) + ")";
+  }
+  return text;
+}
+
 }  // namespace
 
 PipelineEntry IrmPipelineEntry() {
   return {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
-          RunIrmPipeline, WithRadianceKnobs(DescribeKnobs<IrmKnobs>())};
+          RunIrmPipeline, WithRadianceKnobs(DescribeKnobs<IrmKnobs>()), IrmHeadline};
 }
 
 }  // namespace relume::pipeline

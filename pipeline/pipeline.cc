@@ -48,6 +48,7 @@ StageCache::Result PipelineRun::RunStage(const std::string& stage, const StageKe
     std::snprintf(text, sizeof(text), "%.2f s", seconds);
     Decide(stage, "run", std::string("computed in ") + text + " (key " + result.key.substr(0, 12) + ")");
   }
+  decisions_.back().cache = true;
   metrics_["stage_seconds"][stage] = result.reused ? 0.0 : seconds;
   return result;
 }
@@ -82,7 +83,9 @@ nlohmann::json PipelineRun::Summary(double seconds) const {
   summary["knobs"] = knobs_json_;
   summary["decisions"] = nlohmann::json::array();
   for (const Decision& d : decisions_) {
-    summary["decisions"].push_back({{"stage", d.stage}, {"action", d.action}, {"reason", d.reason}});
+    nlohmann::json j = {{"stage", d.stage}, {"action", d.action}, {"reason", d.reason}};
+    if (d.cache) j["cache"] = true;
+    summary["decisions"].push_back(std::move(j));
   }
   summary["outputs"] = nlohmann::json::array();
   for (const auto& [path, what] : outputs_) summary["outputs"].push_back({{"path", path}, {"what", what}});
@@ -108,6 +111,13 @@ std::size_t EditDistance(const std::string& a, const std::string& b) {
 }
 
 }  // namespace
+
+std::string PercentText(const nlohmann::json& fraction) {
+  if (!fraction.is_number()) return "n/a";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f %%", 100.0 * fraction.get<double>());
+  return text;
+}
 
 void CheckSettings(const std::map<std::string, std::string>& settings, const std::string& pipeline) {
   const bool all = pipeline.empty() || pipeline == "all";
@@ -249,6 +259,10 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
     run.Decide("settings", "note", "--set " + key + " is not a knob of the " + request.pipeline + " pipeline; ignored");
   }
   nlohmann::json summary = run.Summary(seconds);
+  if (entry->headline && !request.explain) {
+    const std::string headline = entry->headline(summary["metrics"]);
+    if (!headline.empty()) summary["headline"] = headline;
+  }
   if (!request.explain) {
     const std::string text = summary.dump(2) + "\n";
     capture::WriteFileDurably(request.out_dir / "summary.json",

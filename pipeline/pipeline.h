@@ -38,11 +38,14 @@ struct PipelineRequest {
   bool reuse = true;                            // false: recompute every stage (--force)
 };
 
-// A planner decision, logged with its reason: "run", "reuse", "skip" or "choose".
+// A planner decision, logged with its reason: "run", "reuse", "skip", "choose", "plan", "note"
+// or "warn". `cache`: a stage cache event (RunStage's "run" or "reuse"), which the CLI counts
+// instead of printing.
 struct Decision {
   std::string stage;
   std::string action;
   std::string reason;
+  bool cache = false;
 };
 
 class PipelineRun {
@@ -73,6 +76,7 @@ class PipelineRun {
   }
 
   void Decide(const std::string& stage, const std::string& action, const std::string& reason);
+
   // Runs a stage through the cache and records "run" or "reuse" with the key's description.
   StageCache::Result RunStage(const std::string& stage, const StageKey& key,
                               const std::function<void(const std::filesystem::path&)>& produce);
@@ -124,7 +128,13 @@ struct PipelineEntry {
   std::string description;
   PipelineFunction run;
   std::vector<KnobInfo> knobs;  // its --set keys (knobs.h)
+  // The run's headline figures in one sentence, from its metrics (errors against the truth, what
+  // was relit); empty when there is nothing to say. summary.json "headline", the CLI's last lines.
+  std::function<std::string(const nlohmann::json& metrics)> headline;
 };
+
+// "12.3 %" (one decimal; "n/a" for a missing or non-numeric value).
+std::string PercentText(const nlohmann::json& fraction);
 
 // Every pipeline of this build (pipelines.cc).
 const std::vector<PipelineEntry>& Pipelines();

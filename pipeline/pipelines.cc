@@ -99,12 +99,21 @@ void RunRadiancePipeline(PipelineRun& run) {
   if (worst > 0.0) run.metrics()["truth_relative_rms_max"] = worst;
 }
 
+std::string RadianceHeadline(const nlohmann::json& m) {
+  if (!m.contains("brackets")) return "";
+  std::string text = std::to_string(m["brackets"].size()) + " bracket(s) linearised";
+  if (m.contains("truth_relative_rms_max")) {
+    text += "; against the truth: worst relative RMS " + PercentText(m["truth_relative_rms_max"]);
+  }
+  return text;
+}
+
 }  // namespace
 
 const std::vector<PipelineEntry>& Pipelines() {
   static const std::vector<PipelineEntry> pipelines = {
       {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline,
-       WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>())},
+       WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>()), RadianceHeadline},
       ShPipelineEntry(),
       IrmPipelineEntry(),
       RadiosityPipelineEntry(),

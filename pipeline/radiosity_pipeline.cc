@@ -1022,11 +1022,40 @@ void RunRadiosityPipeline(PipelineRun& run) {
 
 }  // namespace
 
+namespace {
+
+std::string RadiosityHeadline(const nlohmann::json& m) {
+  if (!m.contains("reflectance")) return "";
+  const nlohmann::json& r = m["reflectance"];
+  std::string text = std::to_string(m.value("patches", 0)) + " patches, " +
+                     (r.value("converged", false) ? "converged" : "NOT converged") + " after " +
+                     std::to_string(r.value("iterations", 0)) + " iteration(s)";
+  if (r.contains("truth_after") && r["truth_after"].contains("materials")) {
+    double sum = 0.0, worst = 0.0;
+    int n = 0;
+    for (const nlohmann::json& mat : r["truth_after"]["materials"]) {
+      if (!mat["error_of_mean"].is_number()) continue;
+      sum += mat["error_of_mean"].get<double>();
+      worst = std::max(worst, mat["error_of_mean"].get<double>());
+      ++n;
+    }
+    if (n > 0) {
+      char text_buffer[120];
+      std::snprintf(text_buffer, sizeof(text_buffer),
+                    "; albedo error of the mean per material: mean %.3f, worst %.3f (%d materials)", sum / n, worst, n);
+      text += text_buffer;
+    }
+  }
+  return text;
+}
+
+}  // namespace
+
 PipelineEntry RadiosityPipelineEntry() {
   return {"radiosity",
           "per-patch albedo of a room under a moving lamp (Loscos: EV-only HDR, consistency scales, reflectance "
           "iterated with radiosity), radiosity solution, relighting (--set light_x=..,light_y=..,light_z=..)",
-          RunRadiosityPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>())};
+          RunRadiosityPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>()), RadiosityHeadline};
 }
 
 }  // namespace relume::pipeline

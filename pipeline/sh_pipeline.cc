@@ -1057,11 +1057,25 @@ void RunShPipeline(PipelineRun& run) {
   }
 }
 
+std::string ShHeadline(const nlohmann::json& m) {
+  if (!m.contains("frames")) return "";
+  std::string text = std::to_string(m["frames"].size()) + " frame(s), relit to " + m.value("destination", "?");
+  if (m.contains("relit_relative_rms_mean")) {
+    text += "; against the truth (" + std::to_string(m.value("compared_frames", 0)) + " frames): relit " +
+            PercentText(m["relit_relative_rms_mean"]) + " (not relit " + PercentText(m["baseline_relative_rms_mean"]) +
+            ")";
+  }
+  if (m.contains("irradiance_relative_rms_mean")) {
+    text += ", fitted irradiance " + PercentText(m["irradiance_relative_rms_mean"]);
+  }
+  return text;
+}
+
 }  // namespace
 
 PipelineEntry ShPipelineEntry() {
   return {"sh", "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
-          RunShPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>())};
+          RunShPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>()), ShHeadline};
 }
 
 }  // namespace relume::pipeline

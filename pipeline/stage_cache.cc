@@ -1,10 +1,11 @@
 #include "pipeline/stage_cache.h"
 
+#include <embree3/rtcore_config.h>
+
+#include <Eigen/Core>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <Eigen/Core>
-#include <embree3/rtcore_config.h>
 #include <opencv2/core/version.hpp>
 #include <span>
 #include <system_error>
@@ -22,11 +23,10 @@ constexpr const char* kPartialSuffix = ".partial";
 }  // namespace
 
 const std::string& CodeVersion() {
-  static const std::string version = std::string("relume ") + RELUME_VERSION + ", opencv " + CV_VERSION +
-                                     ", embree " + RTC_VERSION_STRING + ", eigen " +
-                                     std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
-                                     "." + std::to_string(EIGEN_MINOR_VERSION) + ", code " +
-                                     std::string(RELUME_CODE_HASH).substr(0, 16);
+  static const std::string version = std::string("relume ") + RELUME_VERSION + ", opencv " + CV_VERSION + ", embree " +
+                                     RTC_VERSION_STRING + ", eigen " + std::to_string(EIGEN_WORLD_VERSION) + "." +
+                                     std::to_string(EIGEN_MAJOR_VERSION) + "." + std::to_string(EIGEN_MINOR_VERSION) +
+                                     ", code " + std::string(RELUME_CODE_HASH).substr(0, 16);
   return version;
 }
 

@@ -1,6 +1,7 @@
 #include "apps/relume/process_command.h"
 
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -27,16 +28,19 @@ struct ProcessArgs {
   bool explain = false;
   bool force = false;
   bool list = false;
+  bool verbose = false;
 };
 
 // Everything through std::cout (main turns off stdio sync, so mixing printf would reorder lines).
-void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
+void PrintDecision(const std::string& stage, const std::string& action, const std::string& reason) {
+  std::cout << "  " << std::left << std::setw(16) << stage << " " << std::setw(7) << action << " " << reason << "\n";
+}
+
+// `--verbose`: every decision (stage cache events too) and every file written.
+void PrintSummaryVerbose(const nlohmann::json& summary, const std::string& out_dir) {
   std::cout << "pipeline " << summary["pipeline"].get<std::string>() << " on " << summary["session"].get<std::string>()
             << (summary["explain"].get<bool>() ? " (plan only)" : "") << "\n";
-  for (const nlohmann::json& d : summary["decisions"]) {
-    std::cout << "  " << std::left << std::setw(16) << d["stage"].get<std::string>() << " " << std::setw(7)
-              << d["action"].get<std::string>() << " " << d["reason"].get<std::string>() << "\n";
-  }
+  for (const nlohmann::json& d : summary["decisions"]) PrintDecision(d["stage"], d["action"], d["reason"]);
   if (summary["explain"].get<bool>()) return;
   for (const nlohmann::json& o : summary["outputs"]) {
     std::cout << "  wrote " << out_dir << "/" << o["path"].get<std::string>() << "  (" << o["what"].get<std::string>()
@@ -45,6 +49,78 @@ void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
   std::cout << "done in " << std::fixed << std::setprecision(2) << summary["seconds"].get<double>() << " s; summary in "
             << out_dir << "/summary.json\n"
             << std::defaultfloat;
+}
+
+// The reason with every number replaced by '#': decisions that differ only in their numbers
+// ("frame 12: depth changed in 3.1 % of pixels") group together.
+std::string NumbersMasked(const std::string& text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const bool digit = std::isdigit(static_cast<unsigned char>(text[i])) != 0;
+    if (!digit) {
+      out += text[i];
+      continue;
+    }
+    while (i + 1 < text.size() && (std::isdigit(static_cast<unsigned char>(text[i + 1])) != 0 ||
+                                   (text[i + 1] == '.' && i + 2 < text.size() &&
+                                    std::isdigit(static_cast<unsigned char>(text[i + 2])) != 0))) {
+      ++i;
+    }
+    out += '#';
+  }
+  return out;
+}
+
+// Default: the decisions that shape the result (stage cache events counted, not listed), alike
+// decisions as one line with their count, and one closing line per pipeline.
+void PrintSummary(const nlohmann::json& summary, const std::string& out_dir) {
+  std::cout << summary["pipeline"].get<std::string>() << (summary["explain"].get<bool>() ? " (plan only)" : "") << "\n";
+  struct Group {
+    std::string stage, action, reason;
+    int count = 0;
+  };
+  std::vector<Group> groups;
+  std::map<std::string, std::size_t> index;
+  int ran = 0, reused = 0;
+  for (const nlohmann::json& d : summary["decisions"]) {
+    if (d.value("cache", false)) {
+      (d["action"] == "reuse" ? reused : ran) += 1;
+      continue;
+    }
+    const std::string key = d["stage"].get<std::string>() + "\n" + d["action"].get<std::string>() + "\n" +
+                            NumbersMasked(d["reason"].get<std::string>());
+    const auto [it, inserted] = index.emplace(key, groups.size());
+    if (inserted) groups.push_back({d["stage"], d["action"], d["reason"], 0});
+    ++groups[it->second].count;
+  }
+  for (const Group& g : groups) {
+    PrintDecision(g.stage, g.action, g.count > 1 ? "(x" + std::to_string(g.count) + ", e.g.) " + g.reason : g.reason);
+  }
+  if (summary["explain"].get<bool>()) return;
+  std::cout << "  " << ran << " stage(s) run, " << reused << " reused; " << summary["outputs"].size()
+            << " output(s) in " << out_dir << " (--verbose lists them); " << std::fixed << std::setprecision(1)
+            << summary["seconds"].get<double>() << " s\n"
+            << std::defaultfloat;
+}
+
+void Print(const nlohmann::json& summary, const std::string& out_dir, bool verbose) {
+  if (verbose) {
+    PrintSummaryVerbose(summary, out_dir);
+  } else {
+    PrintSummary(summary, out_dir);
+  }
+}
+
+// The closing lines: each pipeline's headline figures, or why it did not run.
+void PrintHeadlines(const std::vector<pipeline::PipelineReport>& reports) {
+  std::cout << "summary:\n";
+  for (const pipeline::PipelineReport& r : reports) {
+    std::string line = !r.error.empty() ? "not run: " + r.error
+                       : r.summary.is_object() && r.summary.contains("headline")
+                           ? r.summary["headline"].get<std::string>()
+                           : std::string("done");
+    std::cout << "  " << std::left << std::setw(10) << r.name << " " << line << "\n";
+  }
 }
 
 // The pipelines; with a name, that pipeline's knobs (--set) with their defaults.
@@ -99,7 +175,7 @@ void Run(const ProcessArgs& args) {
   std::vector<pipeline::PipelineReport> reports;
   if (!all) {
     nlohmann::json summary = pipeline::RunPipeline(request);
-    PrintSummary(summary, request.out_dir.string());
+    Print(summary, request.out_dir.string(), args.verbose);
     reports.push_back({request.pipeline, request.out_dir, std::move(summary), ""});
   } else {
     // Every pipeline of this build, each into its own folder; one that cannot run on this
@@ -111,14 +187,14 @@ void Run(const ProcessArgs& args) {
       one.out_dir = request.out_dir / entry.name;
       try {
         nlohmann::json summary = pipeline::RunPipeline(one);
-        PrintSummary(summary, one.out_dir.string());
+        Print(summary, one.out_dir.string(), args.verbose);
         reports.push_back({entry.name, one.out_dir, std::move(summary), ""});
       } catch (const InvalidArgumentError& e) {
-        std::cout << "pipeline " << entry.name << " skipped: " << e.what() << "\n";
+        std::cout << entry.name << " skipped: " << e.what() << "\n";
         reports.push_back({entry.name, one.out_dir, nullptr, e.what()});
       } catch (const Error& e) {
         // Reported, and the run ends with an error after the report is written.
-        std::cout << "pipeline " << entry.name << " FAILED: " << e.what() << "\n";
+        std::cout << entry.name << " FAILED: " << e.what() << "\n";
         reports.push_back({entry.name, one.out_dir, nullptr, std::string("failed: ") + e.what()});
         failed += (failed.empty() ? "" : ", ") + entry.name;
       }
@@ -126,6 +202,7 @@ void Run(const ProcessArgs& args) {
     if (!args.explain) {
       const std::filesystem::path page =
           pipeline::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
+      PrintHeadlines(reports);
       std::cout << "report: " << page.string() << "\n";
     }
     if (!failed.empty()) throw Error("pipeline(s) " + failed + " failed (see above); the others' results are kept");
@@ -134,6 +211,7 @@ void Run(const ProcessArgs& args) {
   if (args.explain) return;
   const std::filesystem::path page =
       pipeline::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
+  PrintHeadlines(reports);
   std::cout << "report: " << page.string() << "\n";
 }
 
@@ -153,6 +231,7 @@ void AddProcessCommand(CLI::App& app) {
   cmd->add_option("--set", args->settings, "A pipeline knob, KEY=VALUE (repeatable)");
   cmd->add_flag("--explain", args->explain, "Print the plan and its reasons; run nothing expensive");
   cmd->add_flag("--force", args->force, "Recompute every stage, even unchanged ones");
+  cmd->add_flag("--verbose", args->verbose, "Print every decision (stage reuse too) and every file written");
   cmd->add_flag("--list", args->list, "List the pipelines of this build (with --pipeline: its knobs and defaults)");
   cmd->callback([args]() { Run(*args); });
 }

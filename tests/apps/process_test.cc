@@ -2,6 +2,7 @@
 // pipeline end to end on a small simulated session (against the world's truth).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -309,6 +310,47 @@ TEST(ProcessCliTest, KnobsAreListedAndATypoIsRefusedBeforeAnythingRuns) {
   const testing::CliResult other = testing::RunRelume("process " + (dir / "no-session").string() + " --out " +
                                                       out.string() + " --pipeline irm --set sh_order=1");
   testing::ExpectUserError(other, "--set sh_order=1: not a knob of the irm pipeline");
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace relume::pipeline
+
+namespace relume::pipeline {
+namespace {
+
+// The command's output fits on a screen: decisions that shape the result (alike ones grouped),
+// stage cache events counted, files only with --verbose, and each pipeline's headline figures
+// at the end (issue 24).
+TEST(ProcessCliTest, OutputIsShortAndEndsWithTheHeadlineFigures) {
+  const fs::path dir = TempDir("short_output");
+  const testing::CliResult capture =
+      testing::RunRelume("capture --rig " + std::string(RELUME_SOURCE_DIR) +
+                         "/tests/data/rigs/sim-tiny-irm.yaml --out " + (dir / "session").string());
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  const std::string command = "process " + (dir / "session").string() + " --out " + (dir / "out").string();
+  const testing::CliResult quiet = testing::RunRelume(command);
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.output;
+  const auto lines = std::count(quiet.output.begin(), quiet.output.end(), '\n');
+  EXPECT_LE(lines, 40) << quiet.output;
+  EXPECT_EQ(quiet.output.find("wrote "), std::string::npos) << quiet.output;
+  EXPECT_EQ(quiet.output.find("inputs and settings unchanged"), std::string::npos) << quiet.output;
+  const std::size_t summary = quiet.output.find("summary:\n");
+  ASSERT_NE(summary, std::string::npos) << quiet.output;
+  EXPECT_NE(quiet.output.find("  irm", summary), std::string::npos) << quiet.output;
+  EXPECT_NE(quiet.output.find("against the truth: lit ", summary), std::string::npos) << quiet.output;
+  EXPECT_NE(quiet.output.find("  sh         not run: ", summary), std::string::npos) << quiet.output;
+  const nlohmann::json irm = ReadJsonFile(dir / "out" / "irm" / "summary.json");
+  EXPECT_NE(irm["headline"].get<std::string>().find("against the truth"), std::string::npos) << irm["headline"];
+
+  // Unchanged rerun: the stages are counted as reused; --verbose lists them and every file.
+  const testing::CliResult again = testing::RunRelume(command);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("0 stage(s) run, "), std::string::npos) << again.output;
+  const testing::CliResult verbose = testing::RunRelume(command + " --verbose");
+  ASSERT_EQ(verbose.exit_code, 0) << verbose.output;
+  EXPECT_NE(verbose.output.find("wrote "), std::string::npos) << verbose.output;
+  EXPECT_NE(verbose.output.find("inputs and settings unchanged"), std::string::npos) << verbose.output;
   fs::remove_all(dir);
 }
 
