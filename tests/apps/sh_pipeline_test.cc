@@ -82,6 +82,17 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
     EXPECT_EQ(f["fit"]["order_used"], 2);  // three objects cover ~3.8 sr: order 2 is supported
     EXPECT_TRUE(f["fit"]["usable"]);
   }
+  // SH describes this light (fit residual ~3 %): no warning. Asked to be stricter than the
+  // residual (a report-only knob), it says SH does not fit, reusing every stage.
+  EXPECT_TRUE(m["sh_fits_scene"].get<bool>()) << m["fit_residual_median"];
+  EXPECT_LT(m["fit_residual_median"].get<double>(), 0.05);
+  EXPECT_EQ(CountDecisions(first, "sh-model", "warn"), 0);
+  const nlohmann::json strict = Process(session, out, "--set max_fit_residual=0.01");
+  EXPECT_EQ(CountDecisions(strict, "sh-model", "warn"), 1);
+  EXPECT_FALSE(strict["metrics"]["sh_fits_scene"].get<bool>());
+  EXPECT_NE(strict["headline"].get<std::string>().find("SH DOES NOT FIT"), std::string::npos) << strict["headline"];
+  for (const auto& [stage, action] : StageActions(strict)) EXPECT_EQ(action, "reuse") << stage;
+
   // Noise-free, static: frames 2-4 reuse the first frame's normals, with the reason.
   EXPECT_EQ(CountDecisions(first, "normals", "skip"), 3);
   for (const nlohmann::json& o : first["outputs"]) EXPECT_TRUE(fs::exists(out / o["path"].get<std::string>())) << o;
