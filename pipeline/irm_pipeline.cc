@@ -651,84 +651,15 @@ irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
   return set;
 }
 
-nlohmann::json RegionErrors::ToJson() const {
-  return {{"scale", scale},
-          {"relative_rms_all", all},
-          {"relative_rms_lit", lit},
-          {"relative_rms_shadow", shadow},
-          {"relative_rms_penumbra", penumbra},
-          {"lit_pixels", lit_pixels},
-          {"shadow_pixels", shadow_pixels},
-          {"penumbra_pixels", penumbra_pixels}};
-}
-
-RegionErrors CompareRegions(const RadianceImage& estimate, const RadianceImage& truth, const cv::Mat& source_sun_truth,
-                            const cv::Mat& target_sun_truth, const cv::Mat& use, cv::Mat* error_image) {
-  RELUME_CHECK(estimate.pixels.size() == truth.pixels.size() && use.size() == truth.pixels.size());
-  auto usable = [&](int x, int y) {
-    if (use.at<std::uint8_t>(y, x) == 0) return false;
-    const cv::Vec3f& e = estimate.pixels.at<cv::Vec3f>(y, x);
-    const cv::Vec3f& t = truth.pixels.at<cv::Vec3f>(y, x);
-    for (int c = 0; c < 3; ++c) {
-      if (!std::isfinite(e[c]) || !std::isfinite(t[c]) || !(t[c] > 0.0f)) return false;
-    }
-    return true;
-  };
-  // Scale: minimise sum (a q - 1)^2 with q = e / t: a = sum q / sum q^2.
-  double sq = 0, sqq = 0;
-  for (int y = 0; y < truth.height(); ++y) {
-    for (int x = 0; x < truth.width(); ++x) {
-      if (!usable(x, y)) continue;
-      for (int c = 0; c < 3; ++c) {
-        const double q = estimate.pixels.at<cv::Vec3f>(y, x)[c] / truth.pixels.at<cv::Vec3f>(y, x)[c];
-        sq += q;
-        sqq += q * q;
-      }
-    }
-  }
-  RegionErrors errors;
-  if (!(sqq > 0.0)) return errors;
-  errors.scale = sq / sqq;
-  double lit = 0, shadow = 0, penumbra = 0;
-  if (error_image) *error_image = cv::Mat(truth.height(), truth.width(), CV_8UC3, cv::Scalar::all(0));
-  for (int y = 0; y < truth.height(); ++y) {
-    for (int x = 0; x < truth.width(); ++x) {
-      if (!usable(x, y)) continue;
-      double e2 = 0;
-      for (int c = 0; c < 3; ++c) {
-        const double q = estimate.pixels.at<cv::Vec3f>(y, x)[c] / truth.pixels.at<cv::Vec3f>(y, x)[c];
-        e2 += (errors.scale * q - 1.0) * (errors.scale * q - 1.0) / 3.0;
-      }
-      const float fs = source_sun_truth.at<float>(y, x), ft = target_sun_truth.at<float>(y, x);
-      const bool penumbra_s = fs > 0.01f && fs<0.99f, penumbra_t = ft> 0.01f && ft < 0.99f;
-      if (error_image) {
-        // Brightness: the error (white at 10%); hue: the region (lit grey, shadow blue, penumbra red).
-        const double v = std::min(1.0, std::sqrt(e2) * 10.0) * 255.0;
-        const bool lit_both = fs >= 0.99f && ft >= 0.99f;
-        const bool penumbra_either = penumbra_s || penumbra_t;
-        const auto u8 = [](double value) { return static_cast<std::uint8_t>(std::min(255.0, value)); };
-        error_image->at<cv::Vec3b>(y, x) =
-            cv::Vec3b(u8(lit_both || penumbra_either ? v : 0.3 * v), u8(lit_both ? v : 0.3 * v),
-                      u8(lit_both ? v : (penumbra_either ? 0.3 * v : v + 40)));
-      }
-      if (penumbra_s || penumbra_t) {
-        penumbra += e2;
-        ++errors.penumbra_pixels;
-      } else if (fs >= 0.99f && ft >= 0.99f) {
-        lit += e2;
-        ++errors.lit_pixels;
-      } else {
-        shadow += e2;
-        ++errors.shadow_pixels;
-      }
-    }
-  }
-  auto rms = [](double sum, std::int64_t n) { return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0; };
-  errors.lit = rms(lit, errors.lit_pixels);
-  errors.shadow = rms(shadow, errors.shadow_pixels);
-  errors.penumbra = rms(penumbra, errors.penumbra_pixels);
-  errors.all = rms(lit + shadow + penumbra, errors.lit_pixels + errors.shadow_pixels + errors.penumbra_pixels);
-  return errors;
+nlohmann::json SunRegionErrorsJson(const metrics::SunRegionErrors& e) {
+  return {{"scale", e.scale},
+          {"relative_rms_all", e.all},
+          {"relative_rms_lit", e.lit},
+          {"relative_rms_shadow", e.shadow},
+          {"relative_rms_penumbra", e.penumbra},
+          {"lit_pixels", e.lit_pixels},
+          {"shadow_pixels", e.shadow_pixels},
+          {"penumbra_pixels", e.penumbra_pixels}};
 }
 
 cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& truth_depth_m) {
@@ -813,13 +744,15 @@ nlohmann::json CompareIrmWithTruth(const sim::World& world, const RayCaster& cas
   t["geometry_mismatch_pixels"] = relit_pixels - geometry_agrees;
   t["shadow_geometry_mismatch_pixels"] = geometry_agrees - cv::countNonZero(use);
   cv::Mat error_image;
-  const RegionErrors after =
-      CompareRegions(relit, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use, &error_image);
+  const metrics::SunRegionErrors after =
+      metrics::CompareSunRegions(relit.pixels, truth.radiance.pixels, source_truth.sun_visibility, truth.sun_visibility,
+                                 use, metrics::Scale::kFitted, &error_image);
   calibration::SaveImage(error_image, error_png.string());
-  const RegionErrors before =
-      CompareRegions(*source.image, truth.radiance, source_truth.sun_visibility, truth.sun_visibility, use);
-  t["relit"] = after.ToJson();
-  t["no_relighting"] = before.ToJson();
+  const metrics::SunRegionErrors before =
+      metrics::CompareSunRegions(source.image->pixels, truth.radiance.pixels, source_truth.sun_visibility,
+                                 truth.sun_visibility, use, metrics::Scale::kFitted);
+  t["relit"] = SunRegionErrorsJson(after);
+  t["no_relighting"] = SunRegionErrorsJson(before);
   t["comparison"] =
       "relit source vs the world rendered from the source camera at the target's time, on relit pixels "
       "where mesh and truth agree; one least-squares scale per image (relative radiance), relative RMS per region";

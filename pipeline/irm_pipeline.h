@@ -24,6 +24,7 @@
 #include "pipeline/pipeline.h"
 #include "processing/geometry/ray_caster.h"
 #include "processing/irm/irm.h"
+#include "processing/metrics.h"
 
 namespace relume::pipeline {
 
@@ -34,22 +35,10 @@ PipelineEntry IrmPipelineEntry();
 nlohmann::json IrmSetToJson(const irm::IrmSet& set);
 irm::IrmSet IrmSetFromJson(const nlohmann::json& json);
 
-// Error of a relit image against the truth rendered under the target's light, per region.
-// Radiance from a session is relative (one unknown scale per device), so `estimate` is first
-// scaled by the least-squares factor a minimising sum ((a e - t) / t)^2 over every compared
-// pixel and channel; errors are then relative RMS, sqrt(mean ((a e - t) / t)^2), per region.
-// Regions from the truth's sun visibility at the source and target times: lit (>= 0.99 in
-// both), shadow (<= 0.01 in either and no penumbra), penumbra (in between in either).
-// Pixels compared: `use` non-zero and truth finite and > 0 in every channel. `error_image`
-// (optional): an 8-bit RGB picture of the per-pixel error and region.
-struct RegionErrors {
-  double scale = 0.0;
-  double lit = 0.0, shadow = 0.0, penumbra = 0.0, all = 0.0;
-  std::int64_t lit_pixels = 0, shadow_pixels = 0, penumbra_pixels = 0;
-  nlohmann::json ToJson() const;
-};
-RegionErrors CompareRegions(const RadianceImage& estimate, const RadianceImage& truth, const cv::Mat& source_sun_truth,
-                            const cv::Mat& target_sun_truth, const cv::Mat& use, cv::Mat* error_image = nullptr);
+// The errors of a relit image against the truth per sun region (processing/metrics.h:
+// per-sample relative RMS after the fitted scale, radiance from a session being relative), as
+// summary.json writes them.
+nlohmann::json SunRegionErrorsJson(const metrics::SunRegionErrors& errors);
 
 // Pixels where the mesh and the truth see the same surface: the distance along the pixel's ray
 // to the first hit of `caster` within 1% of the truth's (depth_m is along the optical axis).

@@ -17,6 +17,7 @@
 #include "core/input_file.h"
 #include "pipeline/radiance.h"
 #include "processing/depth_filter.h"
+#include "processing/metrics.h"
 #include "processing/normals.h"
 #include "processing/relight.h"
 #include "processing/segmentation.h"
@@ -675,50 +676,49 @@ Destination ChooseDestination(PipelineRun& run, const std::vector<RgbdPair>& pai
 
 // ---- errors against the world's truth -------------------------------------------------------
 
-struct Rms {
-  double sum_sq_diff = 0.0;
-  double sum_sq_truth = 0.0;
-  int pixels = 0;
-  double Relative() const { return sum_sq_truth > 0.0 ? std::sqrt(sum_sq_diff / sum_sq_truth) : 0.0; }
-};
-
 double Srgb8(double v) {
   v = std::clamp(v, 0.0, 1.0);
   return 255.0 * (v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055);
 }
 
+// The relit frame and the unrelit source against the truth under the destination light, on the
+// same pixels (relit, source and truth finite): signal-relative RMS (processing/metrics.h, as
+// `relume bench` measures SH relighting), and the RMS in 8-bit sRGB steps with `white` as 1.
 nlohmann::json CompareFrame(const processing::RelightResult& relit, const RadianceImage& source, const cv::Mat& truth,
                             double white) {
-  Rms relit_rms, base_rms;
+  cv::Mat compared = relit.valid.clone();
   double relit8 = 0.0, base8 = 0.0;
   for (int y = 0; y < truth.rows; ++y) {
     const auto* r = relit.relit.pixels.ptr<cv::Vec3f>(y);
     const auto* s = source.pixels.ptr<cv::Vec3f>(y);
     const auto* t = truth.ptr<cv::Vec3f>(y);
-    const std::uint8_t* v = relit.valid.ptr<std::uint8_t>(y);
+    std::uint8_t* v = compared.ptr<std::uint8_t>(y);
     for (int x = 0; x < truth.cols; ++x) {
       if (v[x] == 0) continue;
       bool ok = true;
-      for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(t[x][c]) && std::isfinite(s[x][c]);
-      if (!ok) continue;
+      for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(t[x][c]) && std::isfinite(s[x][c]) && std::isfinite(r[x][c]);
+      if (!ok) {
+        v[x] = 0;
+        continue;
+      }
       for (int c = 0; c < 3; ++c) {
-        relit_rms.sum_sq_diff += (r[x][c] - t[x][c]) * (r[x][c] - t[x][c]);
-        base_rms.sum_sq_diff += (s[x][c] - t[x][c]) * (s[x][c] - t[x][c]);
-        relit_rms.sum_sq_truth += t[x][c] * t[x][c];
         const double tt = Srgb8(t[x][c] / white);
         relit8 += (Srgb8(r[x][c] / white) - tt) * (Srgb8(r[x][c] / white) - tt);
         base8 += (Srgb8(s[x][c] / white) - tt) * (Srgb8(s[x][c] / white) - tt);
       }
-      ++relit_rms.pixels;
     }
   }
-  base_rms.sum_sq_truth = relit_rms.sum_sq_truth;
-  const double n = std::max(1, 3 * relit_rms.pixels);
-  return {{"relit_relative_rms", relit_rms.Relative()},
-          {"baseline_relative_rms", base_rms.Relative()},
+  const metrics::SignalError relit_error =
+      metrics::SignalRelativeRms(relit.relit.pixels, truth, compared, metrics::Scale::kAbsolute);
+  const metrics::SignalError base_error =
+      metrics::SignalRelativeRms(source.pixels, truth, compared, metrics::Scale::kAbsolute);
+  const bool any = relit_error.pixels > 0;
+  const double n = std::max<double>(1.0, 3.0 * static_cast<double>(relit_error.pixels));
+  return {{"relit_relative_rms", any ? relit_error.relative_rms : 0.0},
+          {"baseline_relative_rms", any ? base_error.relative_rms : 0.0},
           {"relit_rms_8bit", std::sqrt(relit8 / n)},
           {"baseline_rms_8bit", std::sqrt(base8 / n)},
-          {"compared_pixels", relit_rms.pixels}};
+          {"compared_pixels", relit_error.pixels}};
 }
 
 // Fitted irradiance at the true normals against the true irradiance, over the mask. With

@@ -129,7 +129,7 @@ TEST(IrmSetJsonTest, RoundTripKeepsEveryRatio) {
 // world's own sky irradiance near an occluder is off by a few per cent (the building's shaded
 // face by 1.6 %), which is the truth's quadrature error, not the relighting's.
 struct NoiseFreeCase {
-  RegionErrors relit, baseline;
+  metrics::SunRegionErrors relit, baseline;
   irm::RelightSummary summary;
   int shadow_geometry_mismatch = 0;
 };
@@ -166,15 +166,16 @@ NoiseFreeCase RunNoiseFree(bool penumbra, bool sky_gradient = true, int width = 
   c.shadow_geometry_mismatch = cv::countNonZero(agree) - cv::countNonZero(shadows_agree);
   use &= shadows_agree;
   cv::Mat error_image;
-  c.relit =
-      CompareRegions(result.relit, target.radiance, source.sun_visibility, target.sun_visibility, use, &error_image);
+  c.relit = metrics::CompareSunRegions(result.relit.pixels, target.radiance.pixels, source.sun_visibility,
+                                       target.sun_visibility, use, metrics::Scale::kFitted, &error_image);
   if (const char* dump = std::getenv("RELUME_IRM_TEST_DUMP")) {
     calibration::SaveImage(error_image, std::string(dump) + "/noise_free_error.png");
     calibration::SaveImage(pipeline::RadiancePreview(result.relit, 0.0), std::string(dump) + "/noise_free_relit.png");
     calibration::SaveImage(pipeline::RadiancePreview(target.radiance, 0.0),
                            std::string(dump) + "/noise_free_target.png");
   }
-  c.baseline = CompareRegions(source.radiance, target.radiance, source.sun_visibility, target.sun_visibility, use);
+  c.baseline = metrics::CompareSunRegions(source.radiance.pixels, target.radiance.pixels, source.sun_visibility,
+                                          target.sun_visibility, use, metrics::Scale::kFitted);
   c.summary = result.summary;
   std::printf(
       "penumbra %d: relit lit %.4f shadow %.4f penumbra %.4f all %.4f (pixels %lld/%lld/%lld, scale %.4f); "

@@ -37,42 +37,17 @@ IrmScene::IrmScene(int width, int height, const it::Light& source_light_in, cons
   truth = it::Render(*caster, source_camera, target_light, &truth_target_sun, 32, n);
 }
 
-std::string IrmErrors::Describe() const {
-  return "lit " + Format(lit) + " (" + std::to_string(n_lit) + " px), shadow " + Format(shadow) + " (" +
-         std::to_string(n_shadow) + " px), penumbra " + Format(penumbra) + " (" + std::to_string(n_penumbra) + " px)";
+std::string Describe(const metrics::SunRegionErrors& e) {
+  return "lit " + Format(e.lit) + " (" + std::to_string(e.lit_pixels) + " px), shadow " + Format(e.shadow) + " (" +
+         std::to_string(e.shadow_pixels) + " px), penumbra " + Format(e.penumbra) + " (" +
+         std::to_string(e.penumbra_pixels) + " px), scale " + Format(e.scale);
 }
 
-IrmErrors CompareRelit(const IrmScene& s, const irm::RelightResult& result) {
-  IrmErrors e;
-  for (int y = 0; y < result.status.rows; ++y) {
-    for (int x = 0; x < result.status.cols; ++x) {
-      if (result.status.at<std::uint8_t>(y, x) != irm::kRelit) continue;
-      const cv::Vec3f r = result.relit.pixels.at<cv::Vec3f>(y, x);
-      const cv::Vec3f t = s.truth.pixels.at<cv::Vec3f>(y, x);
-      double e2 = 0.0;
-      for (int c = 0; c < 3; ++c) e2 += std::pow((r[c] - t[c]) / t[c], 2) / 3;
-      const float fs = s.truth_source_sun.at<float>(y, x), ft = s.truth_target_sun.at<float>(y, x);
-      const bool pure_s = !(fs > 0.0f && fs < 1.0f), pure_t = !(ft > 0.0f && ft < 1.0f);  // NaN: attached shadow
-      e.all += e2;
-      ++e.n_all;
-      if (!pure_s || !pure_t) {
-        e.penumbra += e2;
-        ++e.n_penumbra;
-      } else if (fs >= 1.0f && ft >= 1.0f) {
-        e.lit += e2;
-        ++e.n_lit;
-      } else {
-        e.shadow += e2;
-        ++e.n_shadow;
-      }
-    }
-  }
-  auto rms = [](double sum, int n) { return n ? std::sqrt(sum / n) : 0.0; };
-  e.all = rms(e.all, e.n_all);
-  e.lit = rms(e.lit, e.n_lit);
-  e.shadow = rms(e.shadow, e.n_shadow);
-  e.penumbra = rms(e.penumbra, e.n_penumbra);
-  return e;
+metrics::SunRegionErrors CompareRelit(const IrmScene& s, const irm::RelightResult& result) {
+  cv::Mat use;
+  cv::compare(result.status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
+  return metrics::CompareSunRegions(result.relit.pixels, s.truth.pixels, s.truth_source_sun, s.truth_target_sun, use,
+                                    metrics::Scale::kFitted);
 }
 
 void BenchIrm(bool quick, std::vector<Row>& rows) {
@@ -99,14 +74,14 @@ void BenchIrm(bool quick, std::vector<Row>& rows) {
     irm::RelightResult result;
     const double seconds = BestSeconds(
         quick ? 1 : 2, [&] { result = irm::RelightImage(*s.caster, s.SourceView(), s.TargetView(), options); });
-    const IrmErrors e = CompareRelit(s, result);
+    const metrics::SunRegionErrors e = CompareRelit(s, result);
     rows.push_back({"irm", "IRM relight (sun + sky model)",
                     std::to_string(k.bins) + " bins, " + std::to_string(k.sun_samples) + " sun-disk samples, " +
                         std::to_string(k.sky_samples) + " sky samples, " +
                         (k.model_correction ? "" : "no model correction, ") + std::to_string(width) + "x" +
                         std::to_string(height),
                     seconds, mp / seconds, "MP/s", e.all, "relit relative RMS, all relit pixels",
-                    e.Describe() + (result.irms.single_map ? ", one IRM" : ", four IRMs")});
+                    Describe(e) + (result.irms.single_map ? ", one IRM" : ", four IRMs")});
   }
 }
 

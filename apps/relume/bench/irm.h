@@ -8,6 +8,7 @@
 
 #include "processing/irm/relight.h"
 #include "processing/irm/testing_scene.h"
+#include "processing/metrics.h"
 
 namespace relume::app::bench {
 
@@ -27,14 +28,10 @@ struct IrmScene {
   irm::View TargetView() const { return {&target, target_camera, target_light.sun_dir, {}}; }
 };
 
-// Relative RMS (per channel |relit - truth| / truth) over the relit pixels, and per region by
-// the true sun fractions in both lights: lit in both, shadow (umbra in either, pure in both),
-// penumbra (partial in either).
-struct IrmErrors {
-  double all = 0.0, lit = 0.0, shadow = 0.0, penumbra = 0.0;
-  int n_all = 0, n_lit = 0, n_shadow = 0, n_penumbra = 0;
-  std::string Describe() const;
-};
-IrmErrors CompareRelit(const IrmScene& s, const irm::RelightResult& result);
+// The relit pixels against the truth, per sun region, by the same measure as the irm
+// pipeline's comparison with the truth (processing/metrics.h: per-sample relative RMS after the
+// fitted scale, regions at sun fractions 0.01 / 0.99).
+metrics::SunRegionErrors CompareRelit(const IrmScene& s, const irm::RelightResult& result);
+std::string Describe(const metrics::SunRegionErrors& e);
 
 }  // namespace relume::app::bench

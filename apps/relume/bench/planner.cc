@@ -118,13 +118,13 @@ void IrmSkip(bool quick, std::vector<Row>& rows) {
   const double skip_s = BestSeconds(repeats, [&] { run(options, &a); });
   const double forced_s = BestSeconds(repeats, [&] { run(forced, &b); });
   if (!a.irms.single_map) throw InvalidArgumentError("bench planner: the no-shadow IRM scene has cast shadows");
-  const IrmErrors ea = CompareRelit(s, a), eb = CompareRelit(s, b);
+  const metrics::SunRegionErrors ea = CompareRelit(s, a), eb = CompareRelit(s, b);
   AddPair(rows, "one IRM instead of four (no cast shadow)",
           "lone building, suns 170/70 and 190/75 deg (az/el), IRM build + relight (per-vertex rays shared)", skip_s,
           forced_s, ea.all, eb.all, "relit relative RMS, all relit pixels",
           std::to_string(gs.visible_in_cast_shadow) + " + " + std::to_string(gt.visible_in_cast_shadow) +
-              " visible vertices in cast shadow; " + ea.Describe(),
-          eb.Describe());
+              " visible vertices in cast shadow; " + Describe(ea),
+          Describe(eb));
 }
 
 // SH order 1 instead of 2: the normals cover only a cap of the big sphere (about 37 deg).

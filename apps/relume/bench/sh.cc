@@ -9,6 +9,7 @@
 #include <string>
 
 #include "apps/relume/bench/bench.h"
+#include "processing/metrics.h"
 #include "processing/relight.h"
 #include "processing/sh_pipeline.h"
 
@@ -27,18 +28,10 @@ ShScene::ShScene(int width, int height) {
   dst = pt::RenderScene(scene, dst_light);
 }
 
+// As the sh pipeline measures relighting against the truth (processing/metrics.h).
 double RelitRelativeRms(const ShScene& s, const processing::RelightResult& r) {
-  double error = 0.0, total = 0.0;
-  for (int y = 0; y < r.valid.rows; ++y) {
-    for (int x = 0; x < r.valid.cols; ++x) {
-      if (!r.valid.at<unsigned char>(y, x)) continue;
-      const cv::Vec3f t = s.dst.radiance.pixels.at<cv::Vec3f>(y, x);
-      const cv::Vec3f d = r.relit.pixels.at<cv::Vec3f>(y, x) - t;
-      error += d.dot(d);
-      total += t.dot(t);
-    }
-  }
-  return total > 0.0 ? std::sqrt(error / total) : NAN;
+  return metrics::SignalRelativeRms(r.relit.pixels, s.dst.radiance.pixels, r.valid, metrics::Scale::kAbsolute)
+      .relative_rms;
 }
 
 double IrradianceRelativeRms(const ShScene& s, const processing::ShRgb& light, const cv::Mat& mask) {
