@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
-#include <thread>
 
 #include "calibration/bracket.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace relume::calibration {
 namespace {
@@ -183,26 +183,21 @@ HdrMergeResult MergeHdr(const std::vector<CameraImage>& frames, const std::vecto
   out.contributors = cv::Mat(first.pixels.size(), CV_16UC1);
   out.status = cv::Mat(first.pixels.size(), CV_8UC1);
   const int rows = first.height();
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, std::max(1, rows / 8));
+  // At least 8 rows per thread: a thread costs more than merging a few rows.
+  constexpr int kMinRowsPerThread = 8;
   const int mid_code = (first.black_level + first.white_level) / 2;
-  auto work = [&](int begin, int end) {
+  auto work = [&](std::int64_t begin, std::int64_t end) {
+    const int b = static_cast<int>(begin), e = static_cast<int>(end);
     if (levels == 256) {
-      MergeRows<std::uint8_t>(mats, tables, levels, channels, order.front(), order.back(), mid_code, begin, end, &out);
+      MergeRows<std::uint8_t>(mats, tables, levels, channels, order.front(), order.back(), mid_code, b, e, &out);
     } else {
-      MergeRows<std::uint16_t>(mats, tables, levels, channels, order.front(), order.back(), mid_code, begin, end, &out);
+      MergeRows<std::uint16_t>(mats, tables, levels, channels, order.front(), order.back(), mid_code, b, e, &out);
     }
   };
-  if (threads == 1) {
-    work(0, rows);
-  } else {
-    std::vector<std::thread> pool;
-    for (int k = 0; k < threads; ++k) pool.emplace_back(work, rows * k / threads, rows * (k + 1) / threads);
-    for (auto& th : pool) th.join();
-  }
+  ParallelFor(0, rows, work, options.threads, kMinRowsPerThread);
   HdrMergeSummary& s = out.summary;
   s.frames = n;
-  s.threads_used = threads;
+  s.threads_used = ParallelThreads(0, rows, options.threads, kMinRowsPerThread);
   s.pixels = static_cast<long long>(first.pixels.total());
   for (int y = 0; y < rows; ++y) {
     const std::uint8_t* st = out.status.ptr<std::uint8_t>(y);

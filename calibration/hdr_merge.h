@@ -12,7 +12,7 @@
 //    value is still finite: saturated everywhere -> the shortest frame's value (a lower bound);
 //    black everywhere -> the longest frame's value (an upper bound, often 0). Never NaN.
 //  - Works in one pass per row over all frames with per-frame lookup tables
-//    (X(z)/t_j * w(z) and w(z)), rows split across std::threads.
+//    (X(z)/t_j * w(z) and w(z)), rows split across threads (core/parallel.h).
 #pragma once
 
 #include <opencv2/core/mat.hpp>

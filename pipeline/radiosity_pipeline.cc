@@ -379,7 +379,7 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
 struct Geometry {
   RadiosityScene scene;
   std::unique_ptr<radiosity::PatchHierarchy> hierarchy;
-  std::unique_ptr<radiosity::RayCaster> caster;
+  std::unique_ptr<RayCaster> caster;
   StageKey key;
   cv::Mat ids;
   cv::Mat points_m;  // CV_32FC3: where each pixel's ray meets its patch (NaN where ids is -1)
@@ -541,7 +541,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
   radiosity::HierarchyOptions hopt;
   hopt.max_patch_edge_m = knobs.patch_edge_m;
   geo.hierarchy = std::make_unique<radiosity::PatchHierarchy>(geo.scene.mesh, hopt);
-  geo.caster = std::make_unique<radiosity::RayCaster>(geo.scene.mesh);
+  geo.caster = std::make_unique<RayCaster>(radiosity::ToTriangleMesh(geo.scene.mesh));
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   const int n = h.LeafCount();
   geo.key.Add("stage", "radiosity-geometry-v3")

@@ -147,8 +147,8 @@ int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eige
   return hierarchy.nodes()[node].leaf;
 }
 
-cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity::RayCaster& caster,
-                     const PinholeCamera& camera, cv::Mat* points_m) {
+cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const RayCaster& caster, const PinholeCamera& camera,
+                     cv::Mat* points_m) {
   const int width = camera.intrinsics.width, height = camera.intrinsics.height;
   cv::Mat ids(height, width, CV_32SC1, cv::Scalar(-1));
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -159,10 +159,11 @@ cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity
     int* row = ids.ptr<int>(v);
     for (int u = 0; u < width; ++u) {
       const Eigen::Vector3d dir = (rotation * camera.intrinsics.Unproject({u + 0.5, v + 0.5})).normalized();
-      double t = 0.0;
-      const int triangle = caster.Intersect(eye, dir, &t);
-      if (triangle < 0) continue;
-      const int patch = PatchAt(hierarchy, triangle, eye + t * dir);
+      const RayCaster::Hit hit =
+          caster.Intersect(eye.cast<float>(), dir.cast<float>(), 0.0f, std::numeric_limits<float>::infinity());
+      if (!hit.valid) continue;
+      const double t = hit.t;
+      const int patch = PatchAt(hierarchy, hit.triangle, eye + t * dir);
       if (hierarchy.leaf(patch).normal.dot(dir) >= 0.0) continue;  // the back of a one-sided patch
       row[u] = patch;
       if (points_m != nullptr) {

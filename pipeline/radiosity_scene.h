@@ -46,7 +46,7 @@ int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eige
 
 // CV_32SC1: the patch each pixel's centre ray hits first (-1 where it hits nothing). With
 // `points_m`, also where it hits it (CV_32FC3, scene metres; NaN where the id is -1).
-cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const radiosity::RayCaster& caster,
-                     const PinholeCamera& camera, cv::Mat* points_m = nullptr);
+cv::Mat PatchIdImage(const radiosity::PatchHierarchy& hierarchy, const RayCaster& caster, const PinholeCamera& camera,
+                     cv::Mat* points_m = nullptr);
 
 }  // namespace relume::pipeline

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
 
 #include "core/error.h"
 
@@ -22,6 +23,18 @@ struct RayCaster::Impl {
 };
 
 RayCaster::RayCaster(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>()), mesh_(mesh) {
+  Build();
+}
+
+RayCaster::RayCaster(TriangleMesh&& mesh)
+    : impl_(std::make_unique<Impl>()),
+      owned_mesh_(std::make_unique<const TriangleMesh>(std::move(mesh))),
+      mesh_(*owned_mesh_) {
+  Build();
+}
+
+void RayCaster::Build() {
+  const TriangleMesh& mesh = mesh_;
   std::string why;
   if (!mesh.IsValid(&why)) throw InvalidArgumentError("ray caster: invalid mesh: " + why);
   impl_->device = rtcNewDevice("threads=1");
@@ -29,7 +42,7 @@ RayCaster::RayCaster(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
   impl_->scene = rtcNewScene(impl_->device);
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
   RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  // Shared buffers: Embree reads one float beyond the last vertex, so copy into padded storage.
+  // Embree's own buffers (it reads one float beyond the last vertex, which they allow for).
   float* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                                 3 * sizeof(float), mesh.vertex_count()));
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
@@ -49,7 +62,9 @@ RayCaster::RayCaster(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
   rtcAttachGeometry(impl_->scene, geometry);
   rtcReleaseGeometry(geometry);
   rtcCommitScene(impl_->scene);
-  if (mesh.vertex_count() > 0) epsilon_ = std::max(1e-6f, 1e-5f * (hi - lo).norm());
+  // The offset policy (header): an empty mesh has nothing to clear, and gets the floor.
+  const float diagonal = mesh.vertex_count() > 0 ? (hi - lo).norm() : 0.0f;
+  epsilon_ = std::max(1e-6f, 1e-5f * diagonal);
 }
 
 RayCaster::~RayCaster() = default;
@@ -80,6 +95,7 @@ RayCaster::Hit RayCaster::Intersect(const Eigen::Vector3f& origin, const Eigen::
   rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rayhit.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(impl_->scene, &context, &rayhit);
+  Count(1);
   Hit hit;
   if (rayhit.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
     hit.valid = true;
@@ -98,7 +114,26 @@ bool RayCaster::Occluded(const Eigen::Vector3f& origin, const Eigen::Vector3f& d
   RTCRay ray;
   FillRay(ray, origin, direction, t_near, t_far);
   rtcOccluded1(impl_->scene, &context, &ray);
+  Count(1);
   return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
+}
+
+bool RayCaster::SegmentOccluded(const Eigen::Vector3d& from, const Eigen::Vector3d& from_normal,
+                                const Eigen::Vector3d& to, const Eigen::Vector3d& to_normal) const {
+  const double lift = surface_lift(), skip = surface_skip();
+  const Eigen::Vector3d a = from + lift * from_normal;
+  const Eigen::Vector3d b = to + lift * to_normal;
+  const Eigen::Vector3d d = b - a;
+  const double length = d.norm();
+  if (!(length > 2.0 * skip)) return false;  // no room between the skipped ends
+  return Occluded(a.cast<float>(), (d / length).cast<float>(), static_cast<float>(skip),
+                  static_cast<float>(length - skip));
+}
+
+bool RayCaster::RayOccluded(const Eigen::Vector3d& from, const Eigen::Vector3d& from_normal,
+                            const Eigen::Vector3d& direction) const {
+  const Eigen::Vector3d a = from + static_cast<double>(surface_lift()) * from_normal;
+  return Occluded(a.cast<float>(), direction.cast<float>(), surface_skip(), std::numeric_limits<float>::infinity());
 }
 
 void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, int count, std::span<Hit> hits) const {
@@ -145,6 +180,7 @@ void RayCaster::IntersectCameraRow(const PinholeCamera& camera, int y, int x0, i
     Eigen::Map<Lanes>(packet.ray.dir_y) = rotation(1, 0) * nx + (rotation(1, 1) * ny + rotation(1, 2) * nz);
     Eigen::Map<Lanes>(packet.ray.dir_z) = rotation(2, 0) * nx + (rotation(2, 1) * ny + rotation(2, 2) * nz);
     rtcIntersect16(valid, impl_->scene, &context, &packet);
+    Count(std::min(16, count - start));
     for (int i = 0; i < 16 && start + i < count; ++i) {
       Hit& hit = hits[static_cast<std::size_t>(start + i)];
       hit = Hit{};
@@ -169,6 +205,7 @@ int RayCaster::CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Ei
   context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
   const std::size_t count = directions.size();
   int unoccluded = 0;
+  std::int64_t cast = 0;
   for (std::size_t start = 0; start < count; start += 16) {
     alignas(64) RTCRay16 packet;
     alignas(64) int valid[16];
@@ -195,11 +232,13 @@ int RayCaster::CountUnoccluded(const Eigen::Vector3f& origin, std::span<const Ei
     if (!any) continue;
     rtcOccluded16(valid, impl_->scene, &context, &packet);
     for (std::size_t i = 0; i < 16; ++i) {
+      cast += valid[i] != 0 ? 1 : 0;
       if (valid[i] == 0 || packet.tfar[i] < 0.0f) continue;  // inactive, or blocked (-inf)
       ++unoccluded;
       if (weight_sum != nullptr) *weight_sum += weights[start + i];
     }
   }
+  Count(cast);
   return unoccluded;
 }
 
@@ -280,10 +319,9 @@ float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, 
 float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
                          std::span<const Eigen::Vector3f> disk_directions) {
   RELUME_CHECK(!disk_directions.empty());
-  const Eigen::Vector3f origin = point + normal * (2.0f * caster.epsilon());
-  // Rays start a little off the surface and skip their first few epsilons, so that a point
-  // where two surfaces meet (a wall's foot on the ground) does not shadow itself.
-  RayBatch batch(caster, origin, 4.0f * caster.epsilon(), /*coherent=*/true);
+  // The offset policy (header): lifted off the surface, the first few epsilons skipped.
+  const Eigen::Vector3f origin = point + normal * caster.surface_lift();
+  RayBatch batch(caster, origin, caster.surface_skip(), /*coherent=*/true);
   // A part of the disk behind the surface counts as blocked.
   for (const Eigen::Vector3f& d : disk_directions) batch.Add(d, d.dot(normal) > 0.0f);
   return static_cast<float>(batch.Unoccluded()) / static_cast<float>(disk_directions.size());
@@ -293,13 +331,12 @@ SkyView SkyViewMoments(const RayCaster& caster, const Eigen::Vector3f& point, co
                        int samples) {
   RELUME_CHECK(samples >= 1);
   const Eigen::Vector3f n = normal.normalized();
-  const Eigen::Vector3f origin = point + n * (2.0f * caster.epsilon());
+  const Eigen::Vector3f origin = point + n * caster.surface_lift();
   const Eigen::Vector3f helper = std::abs(n.z()) < 0.9f ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX();
   const Eigen::Vector3f u = n.cross(helper).normalized();
   const Eigen::Vector3f v = n.cross(u);
-  // As SunVisibleFraction: no self-shadowing at creases. Directions over the hemisphere are
-  // not coherent.
-  RayBatch batch(caster, origin, 4.0f * caster.epsilon(), /*coherent=*/false);
+  // The offset policy, as SunVisibleFraction. Directions over the hemisphere are not coherent.
+  RayBatch batch(caster, origin, caster.surface_skip(), /*coherent=*/false);
   // Cosine-weighted directions (Malley: uniform on the unit disk, lifted to the hemisphere), one
   // per cell of a rings x sectors grid over the disk's area, so the unblocked share estimates v
   // and the unblocked rays' mean elevation sine (blocked ones counting 0) estimates m.

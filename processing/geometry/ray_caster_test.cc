@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <vector>
+
+#include "core/parallel.h"
 
 namespace relume {
 namespace {
@@ -162,6 +165,113 @@ TEST(RayCasterTest, SkyZenithMomentMatchesAnalyticIntegrals) {
   const SkyView down = SkyViewMoments(open, {0, 0, 5}, {0, 0, -1}, 256);
   EXPECT_EQ(down.view, 0.0f);
   EXPECT_EQ(down.zenith_moment, 0.0f);
+}
+
+// Ground 10 m x 10 m, a wall 2 m tall across x = 1 (facing -x), and a roof 1 m up over
+// x in [3, 5] (facing down).
+TriangleMesh GroundWallRoof() {
+  TriangleMesh scene = MakeQuad({-5, -5, 0}, {10, 0, 0}, {0, 10, 0}, 4);
+  scene.Append(MakeQuad({1, -5, 0}, {0, 0, 2}, {0, 10, 0}, 1));
+  scene.Append(MakeQuad({3, -5, 1}, {0, 10, 0}, {2, 0, 0}, 1));
+  return scene;
+}
+
+TEST(RayCasterTest, OffsetPolicyScalesWithTheMesh) {
+  const TriangleMesh scene = GroundWallRoof();
+  const RayCaster caster(scene);
+  const float diagonal = std::sqrt(10.0f * 10.0f + 10.0f * 10.0f + 2.0f * 2.0f);
+  EXPECT_FLOAT_EQ(caster.epsilon(), 1e-5f * diagonal);
+  EXPECT_EQ(caster.surface_lift(), 2.0f * caster.epsilon());
+  EXPECT_EQ(caster.surface_skip(), 4.0f * caster.epsilon());
+  // A tiny mesh gets the floor of 1e-6 m.
+  const RayCaster tiny(MakeQuad({0, 0, 0}, {1e-3f, 0, 0}, {0, 1e-3f, 0}, 1));
+  EXPECT_EQ(tiny.epsilon(), 1e-6f);
+}
+
+TEST(RayCasterTest, SegmentsBetweenSurfacePoints) {
+  const RayCaster caster(GroundWallRoof());
+  const Eigen::Vector3d up(0, 0, 1), toward_minus_x(-1, 0, 0), down(0, 0, -1), free(0, 0, 0);
+  // Ground to ground across the wall: blocked; on the same side: open, in both directions.
+  EXPECT_TRUE(caster.SegmentOccluded({0, 0, 0}, up, {2, 0, 0}, up));
+  EXPECT_TRUE(caster.SegmentOccluded({2, 0, 0}, up, {0, 0, 0}, up));
+  EXPECT_FALSE(caster.SegmentOccluded({-4, 0, 0}, up, {0, 0, 0}, up));
+  EXPECT_FALSE(caster.SegmentOccluded({0, 0, 0}, up, {-4, 0, 0}, up));
+  // The wall's face and the ground before it see each other, right down to the crease: a point
+  // at the wall's foot does not shadow itself (the skip), nor does the wall point.
+  EXPECT_FALSE(caster.SegmentOccluded({0, 0, 0}, up, {1, 0, 1}, toward_minus_x));
+  EXPECT_FALSE(caster.SegmentOccluded({1.0 - 1e-5, 0, 0}, up, {1, 0, 1}, toward_minus_x));
+  EXPECT_FALSE(caster.SegmentOccluded({0, 0, 0}, up, {1, 0, 1e-5}, toward_minus_x));
+  // Ground under the roof and the roof's underside: open; a lamp above the roof: blocked.
+  EXPECT_FALSE(caster.SegmentOccluded({4, 0, 0}, up, {4, 1, 1}, down));
+  EXPECT_TRUE(caster.SegmentOccluded({4, 0, 0}, up, {4, 0, 3}, free));
+  EXPECT_FALSE(caster.SegmentOccluded({-2, 0, 0}, up, {-2, 0, 3}, free));
+  // Ends that meet after lifting: nothing between them.
+  EXPECT_FALSE(caster.SegmentOccluded({0, 0, 0}, up, {0, 0, 0}, up));
+}
+
+TEST(RayCasterTest, RaysFromSurfacePoints) {
+  const RayCaster caster(GroundWallRoof());
+  const Eigen::Vector3d up(0, 0, 1);
+  EXPECT_TRUE(caster.RayOccluded({4, 0, 0}, up, up));                                       // under the roof
+  EXPECT_FALSE(caster.RayOccluded({0, 0, 0}, up, up));                                      // open sky
+  EXPECT_TRUE(caster.RayOccluded({0, 0, 0}, up, Eigen::Vector3d(1, 0, 1).normalized()));    // the wall
+  EXPECT_FALSE(caster.RayOccluded({0, 0, 0}, up, Eigen::Vector3d(-1, 0, 1).normalized()));  // away from it
+  // A grazing ray toward the wall: blocked from 1 cm, but from 10 um (inside the skip, 4 epsilon
+  // = 0.4 mm here) the wall counts as the point's own crease, the policy's stated price.
+  const Eigen::Vector3d grazing = Eigen::Vector3d(1, 0, 0.01).normalized();
+  EXPECT_TRUE(caster.RayOccluded({1.0 - 1e-2, 0, 0}, up, grazing));
+  EXPECT_FALSE(caster.RayOccluded({1.0 - 1e-5, 0, 0}, up, grazing));
+  // Grazing along the ground away from the wall: the ground it leaves does not block it.
+  EXPECT_FALSE(caster.RayOccluded({1.0 - 1e-5, 0, 0}, up, Eigen::Vector3d(-1, 0, 1e-3).normalized()));
+  // The raw query, unlifted and unskipped from the ground itself, would call that blocked or not
+  // depending on float rounding; the surface query adds exactly the policy's lift and skip.
+  const Eigen::Vector3f from(0.5f, 0.25f, 0.0f), dir = Eigen::Vector3f(1, 0, 1).normalized();
+  EXPECT_EQ(
+      caster.RayOccluded(from.cast<double>(), up, dir.cast<double>()),
+      caster.Occluded(from + Eigen::Vector3f::UnitZ() * caster.surface_lift(), dir, caster.surface_skip(), INFINITY));
+}
+
+TEST(RayCasterTest, CountsEveryRayAcrossThreads) {
+  const TriangleMesh scene = GroundWallRoof();
+  const RayCaster caster(scene);
+  EXPECT_EQ(caster.rays_cast(), 0);
+  caster.Intersect({0, 0, 3}, {0, 0, -1}, 0, INFINITY);
+  caster.Occluded({0, 0, 3}, {0, 0, -1}, 0, INFINITY);
+  EXPECT_EQ(caster.rays_cast(), 2);
+  caster.SegmentOccluded({0, 0, 0}, {0, 0, 1}, {2, 0, 0}, {0, 0, 1});
+  caster.SegmentOccluded({0, 0, 0}, {0, 0, 1}, {0, 0, 0}, {0, 0, 1});  // no ray: the ends meet
+  caster.RayOccluded({0, 0, 0}, {0, 0, 1}, {0, 0, 1});
+  EXPECT_EQ(caster.rays_cast(), 4);
+  // Packets count their active rays only.
+  const std::vector<Eigen::Vector3f> directions(20, Eigen::Vector3f::UnitZ());
+  std::vector<std::uint8_t> use(20, 1);
+  use[3] = use[17] = 0;
+  caster.CountUnoccluded({0, 0, 0.1f}, directions, use, 0.0f, INFINITY, true);
+  EXPECT_EQ(caster.rays_cast(), 4 + 18);
+  std::vector<RayCaster::Hit> hits(21);
+  const PinholeCamera camera =
+      PinholeCamera::LookAt(PinholeIntrinsics::FromHorizontalFov(21, 5, 1.0), {-4, 0, 3}, {0, 0, 0});
+  caster.IntersectCameraRow(camera, 2, 0, 21, hits);
+  EXPECT_EQ(caster.rays_cast(), 4 + 18 + 21);
+  // From several threads at once: no ray lost.
+  const std::int64_t before = caster.rays_cast();
+  ParallelForEach(
+      0, 4000,
+      [&](std::int64_t i) {
+        const double x = -4.0 + 8.0 * static_cast<double>(i) / 4000.0;
+        caster.SegmentOccluded({x, 0, 0}, {0, 0, 1}, {x, 1, 3}, {0, 0, 0});
+      },
+      4);
+  EXPECT_EQ(caster.rays_cast() - before, 4000);
+}
+
+TEST(RayCasterTest, OwnsAMeshGivenByValue) {
+  // A caster built from a temporary keeps the mesh: mesh() and Interpolate stay valid.
+  const RayCaster caster(MakeQuad({-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, 2));
+  EXPECT_EQ(caster.mesh().triangle_count(), 8u);
+  const RayCaster::Hit hit = caster.Intersect({0.25f, 0.5f, 1}, {0, 0, -1}, 0, INFINITY);
+  ASSERT_TRUE(hit.valid);
+  EXPECT_NEAR(caster.Interpolate(caster.mesh().positions, hit).y(), 0.5f, 1e-6f);
 }
 
 }  // namespace

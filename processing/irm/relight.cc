@@ -4,9 +4,10 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <thread>
+#include <mutex>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace relume::irm {
 
@@ -14,24 +15,6 @@ namespace {
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// fn(i, worker) for i in [0, count), interleaved over `threads` workers (numbered from 0).
-template <typename Fn>
-void ParallelForWorkers(int count, int threads, Fn&& fn) {
-  threads = std::max(1, std::min(threads, count));
-  std::vector<std::thread> workers;
-  for (int t = 0; t < threads; ++t) {
-    workers.emplace_back([&, t] {
-      for (int i = t; i < count; i += threads) fn(i, t);
-    });
-  }
-  for (std::thread& w : workers) w.join();
-}
-
-template <typename Fn>
-void ParallelFor(int count, int threads, Fn&& fn) {
-  ParallelForWorkers(count, threads, [&](int i, int) { fn(i); });
 }
 
 // The sun's visible fraction at a surface point, over the disk's directions (SunDiskDirections,
@@ -171,16 +154,19 @@ std::vector<float> VertexSunFractions(const RayCaster& caster, const Eigen::Vect
   std::vector<float> fractions(mesh.vertex_count(), 1.0f);
   const Eigen::Vector3f sun = sun_dir.normalized();
   const std::vector<Eigen::Vector3f> disk = SunDiskDirections(sun, angular_radius_rad, samples);
-  ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
-    if (needed != nullptr && (*needed)[static_cast<std::size_t>(i)] == 0) {
-      fractions[static_cast<std::size_t>(i)] = std::numeric_limits<float>::quiet_NaN();
-      return;
-    }
-    const Eigen::Vector3f& n = mesh.normals[static_cast<std::size_t>(i)];
-    if (n.dot(sun) <= 0.0f) return;  // attached shadow: reported as 1 (the sun term is zero)
-    fractions[static_cast<std::size_t>(i)] =
-        SunVisibleFraction(caster, mesh.positions[static_cast<std::size_t>(i)], n, disk);
-  });
+  ParallelForEach(
+      0, static_cast<std::int64_t>(mesh.vertex_count()),
+      [&](std::int64_t i) {
+        const auto k = static_cast<std::size_t>(i);
+        if (needed != nullptr && (*needed)[k] == 0) {
+          fractions[k] = std::numeric_limits<float>::quiet_NaN();
+          return;
+        }
+        const Eigen::Vector3f& n = mesh.normals[k];
+        if (n.dot(sun) <= 0.0f) return;  // attached shadow: reported as 1 (the sun term is zero)
+        fractions[k] = SunVisibleFraction(caster, mesh.positions[k], n, disk);
+      },
+      threads);
   return fractions;
 }
 
@@ -189,13 +175,16 @@ std::vector<float> VertexSkyViews(const RayCaster& caster, int samples, int thre
   const TriangleMesh& mesh = caster.mesh();
   std::vector<float> sky(mesh.vertex_count(), std::numeric_limits<float>::quiet_NaN());
   if (zenith_moments != nullptr) zenith_moments->assign(mesh.vertex_count(), std::numeric_limits<float>::quiet_NaN());
-  ParallelFor(static_cast<int>(mesh.vertex_count()), threads, [&](int i) {
-    const auto k = static_cast<std::size_t>(i);
-    if (needed != nullptr && (*needed)[k] == 0) return;
-    const SkyView view = SkyViewMoments(caster, mesh.positions[k], mesh.normals[k], samples);
-    sky[k] = view.view;
-    if (zenith_moments != nullptr) (*zenith_moments)[k] = view.zenith_moment;
-  });
+  ParallelForEach(
+      0, static_cast<std::int64_t>(mesh.vertex_count()),
+      [&](std::int64_t i) {
+        const auto k = static_cast<std::size_t>(i);
+        if (needed != nullptr && (*needed)[k] == 0) return;
+        const SkyView view = SkyViewMoments(caster, mesh.positions[k], mesh.normals[k], samples);
+        sky[k] = view.view;
+        if (zenith_moments != nullptr) (*zenith_moments)[k] = view.zenith_moment;
+      },
+      threads);
   return sky;
 }
 
@@ -273,18 +262,21 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
   summary->visible_in_both = static_cast<int>(both.size());
   std::vector<Sample> candidates(both.size());
   std::vector<std::uint8_t> keep(both.size(), 0);
-  ParallelFor(static_cast<int>(both.size()), options.threads, [&](int k) {
-    const std::size_t i = both[static_cast<std::size_t>(k)];
-    Sample& s = candidates[static_cast<std::size_t>(k)];
-    s.normal = mesh.normals[i];
-    s.source_sun = source_geometry.sun_fraction[i];
-    s.target_sun = target_geometry.sun_fraction[i];
-    if (!source_geometry.sky_view.empty()) s.sky_view = source_geometry.sky_view[i];
-    if (!source_geometry.sky_moment.empty()) s.sky_moment = source_geometry.sky_moment[i];
-    keep[static_cast<std::size_t>(k)] =
-        ConsistentSample(caster, source, source_from_world, source_disk, i, s.source_sun, options, &s.source_rgb) &&
-        ConsistentSample(caster, target, target_from_world, target_disk, i, s.target_sun, options, &s.target_rgb);
-  });
+  ParallelForEach(
+      0, static_cast<std::int64_t>(both.size()),
+      [&](std::int64_t k) {
+        const std::size_t i = both[static_cast<std::size_t>(k)];
+        Sample& s = candidates[static_cast<std::size_t>(k)];
+        s.normal = mesh.normals[i];
+        s.source_sun = source_geometry.sun_fraction[i];
+        s.target_sun = target_geometry.sun_fraction[i];
+        if (!source_geometry.sky_view.empty()) s.sky_view = source_geometry.sky_view[i];
+        if (!source_geometry.sky_moment.empty()) s.sky_moment = source_geometry.sky_moment[i];
+        keep[static_cast<std::size_t>(k)] =
+            ConsistentSample(caster, source, source_from_world, source_disk, i, s.source_sun, options, &s.source_rgb) &&
+            ConsistentSample(caster, target, target_from_world, target_disk, i, s.target_sun, options, &s.target_rgb);
+      },
+      options.threads);
   std::vector<Sample> samples;
   for (std::size_t k = 0; k < both.size(); ++k) {
     if (keep[k]) samples.push_back(candidates[k]);
@@ -353,11 +345,11 @@ struct TriangleTerms {
   bool own_source = false, own_target = false, own_sky = false;
   bool flat = false;
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
-  const RatioTable::NormalTerms* ratio_terms = nullptr;  // flat: in the worker's NormalTermsCache
+  const RatioTable::NormalTerms* ratio_terms = nullptr;  // flat: in the chunk's NormalTermsCache
 };
 
-// The ratio table's terms for the flat triangles' normals a worker met last: a scene has few
-// distinct flat normals (ground, walls, roofs), each shared by many triangles, while the
+// The ratio table's terms for the flat triangles' normals a chunk of rows met last: a scene has
+// few distinct flat normals (ground, walls, roofs), each shared by many triangles, while the
 // triangles along a row change every few pixels.
 class NormalTermsCache {
  public:
@@ -459,7 +451,7 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
 
 // One row of the source: every output pixel is written here (no image is filled beforehand).
 void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits, NormalTermsCache& normals,
-                RelightResult& result, PixelCounts& worker_counts) {
+                RelightResult& result, PixelCounts& chunk_counts) {
   const int width = c.source.image->width();
   c.caster.IntersectCameraRow(c.source.camera, y, 0, width, hits);
   const std::uint8_t* mask = c.source.mask.empty() ? nullptr : c.source.mask.ptr<std::uint8_t>(y);
@@ -470,8 +462,8 @@ void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits,
   float* ft_row = result.target_sun.ptr<float>(y);
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   TriangleTerms triangle;  // neighbouring pixels mostly see the same triangle
-  // Counted here and added to the worker's once per row: the workers' counts share a cache
-  // line, and incrementing them per pixel from two cores would bounce it between them.
+  // Counted here and added to the chunk's once per row (the chunk's counts are shared
+  // through a reference, these stay in registers).
   PixelCounts counts;
   for (int x = 0; x < width; ++x) {
     const RayCaster::Hit& hit = hits[static_cast<std::size_t>(x)];
@@ -496,7 +488,7 @@ void RelightRow(const PixelContext& c, int y, std::vector<RayCaster::Hit>& hits,
     status[x] = kRelit;
     ++counts.relit;
   }
-  worker_counts += counts;
+  chunk_counts += counts;
 }
 
 }  // namespace
@@ -533,17 +525,22 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
   result.status.create(height, width, CV_8UC1);
   result.source_sun.create(height, width, CV_32FC1);
   result.target_sun.create(height, width, CV_32FC1);
-  const int workers = std::max(1, std::min(options.threads, height));
-  std::vector<PixelCounts> counts(static_cast<std::size_t>(workers));
-  std::vector<std::vector<RayCaster::Hit>> hits(static_cast<std::size_t>(workers),
-                                                std::vector<RayCaster::Hit>(static_cast<std::size_t>(width)));
-  std::vector<NormalTermsCache> normals(static_cast<std::size_t>(workers));
-  ParallelForWorkers(height, workers, [&](int y, int worker) {
-    const auto w = static_cast<std::size_t>(worker);
-    RelightRow(context, y, hits[w], normals[w], result, counts[w]);
-  });
+  // Each chunk of rows has its own hit buffer, normal cache and counts (integers: their sum
+  // does not depend on how the rows were split).
+  std::mutex total_mutex;
   PixelCounts total;
-  for (const PixelCounts& c : counts) total += c;
+  ParallelFor(
+      0, height,
+      [&](std::int64_t y_begin, std::int64_t y_end) {
+        std::vector<RayCaster::Hit> hits(static_cast<std::size_t>(width));
+        NormalTermsCache normals;
+        PixelCounts counts;
+        for (std::int64_t y = y_begin; y < y_end; ++y)
+          RelightRow(context, static_cast<int>(y), hits, normals, result, counts);
+        const std::lock_guard<std::mutex> lock(total_mutex);
+        total += counts;
+      },
+      options.threads);
   summary.pixels_relit = total.relit;
   summary.pixels_without_ratio = total.without_ratio;
   summary.pixels_masked = total.masked;

@@ -1,7 +1,5 @@
 #include "processing/radiosity/geometry.h"
 
-#include <embree3/rtcore.h>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -93,109 +91,6 @@ double PointToPolygonFormFactor(const Eigen::Vector3d& x, const Eigen::Vector3d&
 double PointToTriangleFormFactor(const Eigen::Vector3d& x, const Eigen::Vector3d& n, const Triangle& triangle) {
   const Eigen::Vector3d v[3] = {triangle.v0, triangle.v1, triangle.v2};
   return PointToPolygonFormFactor(x, n, v, 3, triangle.Normal());
-}
-
-struct RayCaster::Impl {
-  RTCDevice device = nullptr;
-  RTCScene scene = nullptr;
-};
-
-RayCaster::RayCaster(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
-  impl_->device = rtcNewDevice("threads=1");
-  RELUME_CHECK_MSG(impl_->device != nullptr, "Embree device creation failed");
-  impl_->scene = rtcNewScene(impl_->device);
-  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
-  RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                               3 * sizeof(float), mesh.positions_m.size()));
-  Eigen::AlignedBox3d box;
-  for (size_t i = 0; i < mesh.positions_m.size(); ++i) {
-    for (int k = 0; k < 3; ++k) vertices[3 * i + k] = static_cast<float>(mesh.positions_m[i][k]);
-    box.extend(mesh.positions_m[i]);
-  }
-  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                 3 * sizeof(unsigned), mesh.triangles.size()));
-  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-    for (int k = 0; k < 3; ++k) indices[3 * t + k] = static_cast<unsigned>(mesh.triangles[t][k]);
-  }
-  rtcCommitGeometry(geometry);
-  rtcAttachGeometry(impl_->scene, geometry);
-  rtcReleaseGeometry(geometry);
-  rtcCommitScene(impl_->scene);
-  // Float32 geometry: keep ray ends clear of their own surface by a scene-relative margin.
-  const double diagonal = box.isEmpty() ? 1.0 : box.diagonal().norm();
-  offset_m_ = std::max(1e-6, 2e-5 * diagonal);
-}
-
-RayCaster::~RayCaster() {
-  if (impl_->scene != nullptr) rtcReleaseScene(impl_->scene);
-  if (impl_->device != nullptr) rtcReleaseDevice(impl_->device);
-}
-
-namespace {
-
-bool Occluded(RTCScene scene, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double tfar) {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  RTCRay ray;
-  ray.org_x = static_cast<float>(origin.x());
-  ray.org_y = static_cast<float>(origin.y());
-  ray.org_z = static_cast<float>(origin.z());
-  ray.dir_x = static_cast<float>(dir.x());
-  ray.dir_y = static_cast<float>(dir.y());
-  ray.dir_z = static_cast<float>(dir.z());
-  ray.tnear = 0.0f;
-  ray.tfar = static_cast<float>(tfar);
-  ray.time = 0.0f;
-  ray.mask = 0xFFFFFFFFu;
-  ray.id = 0;
-  ray.flags = 0;
-  rtcOccluded1(scene, &context, &ray);
-  return ray.tfar < 0.0f;
-}
-
-}  // namespace
-
-bool RayCaster::SegmentOccluded(const Eigen::Vector3d& from, const Eigen::Vector3d& from_normal,
-                                const Eigen::Vector3d& to, const Eigen::Vector3d& to_normal) const {
-  const Eigen::Vector3d a = from + offset_m_ * from_normal;
-  const Eigen::Vector3d b = to + offset_m_ * to_normal;
-  const Eigen::Vector3d d = b - a;
-  const double length = d.norm();
-  if (!(length > offset_m_)) return false;
-  ++rays_cast_;
-  return Occluded(impl_->scene, a, d / length, length - offset_m_);
-}
-
-bool RayCaster::RayOccluded(const Eigen::Vector3d& from, const Eigen::Vector3d& from_normal,
-                            const Eigen::Vector3d& dir) const {
-  ++rays_cast_;
-  return Occluded(impl_->scene, from + offset_m_ * from_normal, dir, std::numeric_limits<float>::infinity());
-}
-
-int RayCaster::Intersect(const Eigen::Vector3d& from, const Eigen::Vector3d& dir, double* t_m) const {
-  ++rays_cast_;
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  RTCRayHit hit;
-  hit.ray.org_x = static_cast<float>(from.x());
-  hit.ray.org_y = static_cast<float>(from.y());
-  hit.ray.org_z = static_cast<float>(from.z());
-  hit.ray.dir_x = static_cast<float>(dir.x());
-  hit.ray.dir_y = static_cast<float>(dir.y());
-  hit.ray.dir_z = static_cast<float>(dir.z());
-  hit.ray.tnear = 0.0f;
-  hit.ray.tfar = std::numeric_limits<float>::infinity();
-  hit.ray.time = 0.0f;
-  hit.ray.mask = 0xFFFFFFFFu;
-  hit.ray.id = 0;
-  hit.ray.flags = 0;
-  hit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  hit.hit.primID = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &context, &hit);
-  if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return -1;
-  if (t_m != nullptr) *t_m = hit.ray.tfar;
-  return static_cast<int>(hit.hit.primID);
 }
 
 }  // namespace relume::radiosity

@@ -1,5 +1,6 @@
-// Geometry kernels for radiosity: deterministic sampling of triangles and the hemisphere, the
-// analytic point-to-polygon form factor, and an Embree ray caster for visibility.
+// Geometry kernels for radiosity: deterministic sampling of triangles and the hemisphere, and
+// the analytic point-to-polygon form factor. Visibility is relume::RayCaster's
+// (processing/geometry/ray_caster.h, with its offset policy), built on ToTriangleMesh(mesh).
 //
 // Conventions: see scene.h (metres, one-sided triangles with counter-clockwise fronts).
 // Form factor F(dx -> polygon) is the fraction of the power leaving a Lambertian
@@ -10,9 +11,9 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <memory>
 #include <vector>
 
+#include "processing/geometry/ray_caster.h"
 #include "processing/radiosity/scene.h"
 
 namespace relume::radiosity {
@@ -39,33 +40,5 @@ Eigen::Vector3d CosineHemisphereDirection(const Eigen::Vector3d& normal, double 
 double PointToPolygonFormFactor(const Eigen::Vector3d& x, const Eigen::Vector3d& n, const Eigen::Vector3d* vertices,
                                 int vertex_count, const Eigen::Vector3d& polygon_normal);
 double PointToTriangleFormFactor(const Eigen::Vector3d& x, const Eigen::Vector3d& n, const Triangle& triangle);
-
-// Occlusion queries against a mesh, with Embree 3 (one build thread). Not copyable; not for
-// concurrent use (it counts the rays it casts).
-class RayCaster {
- public:
-  explicit RayCaster(const Mesh& mesh);
-  ~RayCaster();
-  RayCaster(const RayCaster&) = delete;
-  RayCaster& operator=(const RayCaster&) = delete;
-
-  // True when the open segment from `from` to `to` hits a triangle. Both ends are moved off
-  // their surfaces by `offset_m` along the given normals (pass zero normals for free points).
-  bool SegmentOccluded(const Eigen::Vector3d& from, const Eigen::Vector3d& from_normal, const Eigen::Vector3d& to,
-                       const Eigen::Vector3d& to_normal) const;
-  // True when the ray from `from` (moved off its surface) along unit `dir` hits anything.
-  bool RayOccluded(const Eigen::Vector3d& from, const Eigen::Vector3d& from_normal, const Eigen::Vector3d& dir) const;
-  // Nearest hit along the ray: the triangle index, or -1; distance in *t_m.
-  int Intersect(const Eigen::Vector3d& from, const Eigen::Vector3d& dir, double* t_m) const;
-
-  double offset_m() const { return offset_m_; }
-  long long rays_cast() const { return rays_cast_; }
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-  double offset_m_ = 1e-6;
-  mutable long long rays_cast_ = 0;
-};
 
 }  // namespace relume::radiosity

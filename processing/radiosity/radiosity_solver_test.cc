@@ -46,6 +46,28 @@ bool AllFinite(const std::vector<Rgb>& values) {
   return true;
 }
 
+TEST(SceneTest, ToTriangleMeshKeepsVerticesAndTriangleOrder) {
+  Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.5));
+  const int box = mesh.AddMaterial({"box", Rgb::Constant(0.3), Rgb::Zero()});
+  mesh.AddBox({0.5, 0.5, 0.0}, {1.0, 1.5, 0.7}, box, /*skip_bottom=*/true);
+  const TriangleMesh converted = ToTriangleMesh(mesh);
+  ASSERT_EQ(converted.vertex_count(), mesh.positions_m.size());
+  ASSERT_EQ(converted.triangle_count(), mesh.triangles.size());
+  for (std::size_t i = 0; i < mesh.positions_m.size(); ++i) {
+    EXPECT_EQ(converted.positions[i], mesh.positions_m[i].cast<float>()) << i;
+  }
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    EXPECT_EQ(converted.triangles[t], Eigen::Vector3i(mesh.triangles[t][0], mesh.triangles[t][1], mesh.triangles[t][2]))
+        << t;
+  }
+  // A ray cast against it names the radiosity mesh's triangle: down onto the box's top.
+  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster::Hit hit = caster.Intersect({0.75f, 1.0f, 1.5f}, {0, 0, -1}, 0.0f, INFINITY);
+  ASSERT_TRUE(hit.valid);
+  EXPECT_EQ(mesh.triangle_material[static_cast<std::size_t>(hit.triangle)], box);
+  EXPECT_NEAR(hit.t, 0.8f, 1e-5f);
+}
+
 TEST(FormFactorTest, PointToSquareMatchesClosedForm) {
   // Differential area 1 m below the centre of a 2 m square: four corner rectangles of the
   // classic closed form F = (x/sqrt(1+x^2) atan(y/sqrt(1+x^2)) + y/sqrt(1+y^2) atan(x/sqrt(1+y^2))) / 2pi.
@@ -81,7 +103,7 @@ TEST(FormFactorTest, BackFacingAndBehindGiveZeroAndHorizonClips) {
 TEST(RadiosityTest, ClosedRoomFormFactorsSumToOne) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.5), Rgb::Constant(1.0));
   const PatchHierarchy h(mesh, Edge(0.5));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   const Solved s = SolveWith(h, caster, {});
   double mean = 0.0;
   for (double f : s.solution.form_factor_sum) mean += f;
@@ -94,7 +116,7 @@ TEST(RadiosityTest, FurnaceRoomMatchesAnalyticRadiosity) {
   for (double rho : {0.3, 0.7}) {
     const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(rho), Rgb(1.0, 2.0, 0.5));
     const PatchHierarchy h(mesh, Edge(0.5));
-    const RayCaster caster(mesh);
+    const RayCaster caster(ToTriangleMesh(mesh));
     RadiosityOptions options;
     options.residual_tolerance = 1e-5;
     const Solved s = SolveWith(h, caster, {}, options);
@@ -113,7 +135,7 @@ TEST(RadiosityTest, FurnaceRoomMatchesAnalyticRadiosity) {
 TEST(RadiosityTest, AlbedoNearOneStopsAndSaysWhy) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.99), Rgb::Constant(1.0));
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   RadiosityOptions options;
   options.residual_tolerance = 1e-4;
   options.max_iterations = 30;
@@ -142,7 +164,7 @@ TEST(RadiosityTest, AlbedoNearOneStopsAndSaysWhy) {
 TEST(RadiosityTest, AlbedoExactlyOneInClosedRoomIsNotContracting) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(1.0), Rgb::Constant(1.0));
   const PatchHierarchy h(mesh, Edge(2.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   RadiosityOptions options;
   options.max_iterations = 400;
   const Solved s = SolveWith(h, caster, {}, options);
@@ -156,7 +178,7 @@ TEST(RadiosityTest, AlbedoExactlyOneInClosedRoomIsNotContracting) {
 TEST(RadiosityTest, NoLightGivesZeroRadiosity) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.5));
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   const Solved s = SolveWith(h, caster, {});
   EXPECT_EQ(s.summary.termination, RadiosityTermination::kNoLight);
   for (const Rgb& b : s.solution.radiosity) EXPECT_EQ(b.norm(), 0.0);
@@ -167,7 +189,7 @@ TEST(RadiosityTest, HierarchicalAgreesWithFullMatrixWithFewerFormFactors) {
   const int box = mesh.AddMaterial({"box", Rgb::Constant(0.3), Rgb::Zero()});
   mesh.AddBox({1.0, 1.0, 0.0}, {2.0, 1.8, 0.8}, box, true);
   const PatchHierarchy h(mesh, Edge(0.8));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   Lighting lighting;
   lighting.point_lights.push_back({Eigen::Vector3d(0.7, 0.6, 2.2), Rgb::Constant(10.0)});
   RadiosityOptions full_options;
@@ -193,7 +215,7 @@ TEST(DirectLightTest, PointLightIrradianceAndShadow) {
   mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   mesh.AddBox({-0.2, 2.8, 0.9}, {0.2, 3.2, 1.0}, m);  // floating occluder above (0, 3)
   const PatchHierarchy h(mesh, Edge(0.2));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   Lighting lighting;
   lighting.point_lights.push_back({Eigen::Vector3d(0, 0, 2), Rgb::Constant(8.0)});
   DirectLightOptions options;
@@ -225,7 +247,7 @@ TEST(DirectLightTest, AtPointsAveragesExactlyThosePointsWithTheirShadows) {
   mesh.triangle_material = {m};
   mesh.AddBox({-0.2, 2.8, 0.9}, {0.2, 3.2, 1.0}, m);  // its shadow is centred on (0, 6, 0)
   const PatchHierarchy h(mesh, Edge(100.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   int ground = -1;
   for (int p = 0; p < h.LeafCount(); ++p) {
     if (h.leaf(p).root == 0) ground = p;
@@ -264,7 +286,7 @@ TEST(DirectLightTest, SpotLightFollowsItsConeAndSmoothstepEdge) {
   const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   const PatchHierarchy h(mesh, Edge(0.2));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   PointLight spot{Eigen::Vector3d(0, 0, 2), Rgb::Constant(8.0)};
   spot.spot_direction = Eigen::Vector3d(0, 0, -1);
   spot.cone_half_angle_rad = 30.0 * std::numbers::pi / 180.0;
@@ -305,7 +327,7 @@ TEST(DirectLightTest, PatchFacingAwayGetsNothing) {
   const int m = mesh.AddMaterial({"card", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({0, 0, 0}, {0, 1, 0}, {1, 1, 0}, {1, 0, 0}, m);  // normal -z
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   Lighting lighting;
   lighting.point_lights.push_back({Eigen::Vector3d(0.5, 0.5, 1.0), Rgb::Constant(1.0)});
   const DirectLight d = ComputeDirectLight(h, caster, lighting, {});
@@ -317,7 +339,7 @@ TEST(DirectLightTest, SunAndSkyOnOpenGroundAreExact) {
   const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.2), Rgb::Zero()});
   mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   const PatchHierarchy h(mesh, Edge(3.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   Lighting lighting;
   SunSky sky;
   sky.sun_dir_in_scene = Eigen::Vector3d(0.6, 0.0, 0.8);
@@ -334,7 +356,7 @@ TEST(DirectLightTest, AreaLightMatchesFormFactor) {
   const int m = mesh.AddMaterial({"floor", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({-0.01, -0.01, 0}, {0.01, -0.01, 0}, {0.01, 0.01, 0}, {-0.01, 0.01, 0}, m);
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   Lighting lighting;
   // 2 m square panel 1 m up, facing down: E = pi L F with F from the closed form above.
   lighting.area_lights.push_back(
@@ -355,7 +377,7 @@ TEST(RadiosityTest, TinyAndHugePatchesStayFinite) {
   mesh.AddQuad({-1000, -1000, 0}, {1000, -1000, 0}, {1000, 1000, 0}, {-1000, 1000, 0}, ground);
   mesh.AddBox({0, 0, 0}, {0.001, 0.001, 0.001}, speck, true);
   const PatchHierarchy h(mesh, Edge(1e4));
-  const RayCaster caster(mesh);
+  const RayCaster caster(ToTriangleMesh(mesh));
   Lighting lighting;
   SunSky sky;
   sky.sun_dir_in_scene = Eigen::Vector3d(0, 0.6, 0.8);
@@ -373,7 +395,7 @@ TEST(IndirectShareTest, OpenGroundSkipsAndRoomDoesNot) {
   const int m = ground.AddMaterial({"ground", Rgb::Constant(0.3), Rgb::Zero()});
   ground.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   const PatchHierarchy hg(ground, Edge(2.0));
-  const RayCaster cg(ground);
+  const RayCaster cg(ToTriangleMesh(ground));
   Lighting sun;
   sun.sun_sky.push_back({Eigen::Vector3d(0, 0, 1), Rgb::Constant(1000), Rgb::Zero()});
   const DirectLight dg = ComputeDirectLight(hg, cg, sun, {});
@@ -383,7 +405,7 @@ TEST(IndirectShareTest, OpenGroundSkipsAndRoomDoesNot) {
 
   const Mesh room = ClosedRoom(3.0, Rgb::Constant(0.7));
   const PatchHierarchy hr(room, Edge(1.0));
-  const RayCaster cr(room);
+  const RayCaster cr(ToTriangleMesh(room));
   Lighting lamp;
   lamp.point_lights.push_back({Eigen::Vector3d(1.5, 1.5, 2.5), Rgb::Constant(5.0)});
   const DirectLight dr = ComputeDirectLight(hr, cr, lamp, {});

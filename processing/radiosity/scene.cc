@@ -19,6 +19,15 @@ bool Fail(std::string* why, const std::string& message) {
 
 }  // namespace
 
+TriangleMesh ToTriangleMesh(const Mesh& mesh) {
+  TriangleMesh out;
+  out.positions.reserve(mesh.positions_m.size());
+  for (const Eigen::Vector3d& p : mesh.positions_m) out.positions.push_back(p.cast<float>());
+  out.triangles.reserve(mesh.triangles.size());
+  for (const std::array<int, 3>& t : mesh.triangles) out.triangles.emplace_back(t[0], t[1], t[2]);
+  return out;
+}
+
 int Mesh::AddMaterial(const Material& material) {
   materials.push_back(material);
   return static_cast<int>(materials.size()) - 1;

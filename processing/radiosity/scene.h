@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "core/mesh.h"
+
 namespace relume::radiosity {
 
 using Rgb = Eigen::Vector3d;
@@ -51,6 +53,11 @@ struct Mesh {
   // triangles, albedo outside [0, 1], negative or non-finite emission.
   bool IsValid(std::string* why) const;
 };
+
+// The mesh as core's TriangleMesh (float positions, the same vertices and triangles in the same
+// order, so a triangle index means the same in both; no normals or albedo), for
+// relume::RayCaster: `const RayCaster caster(ToTriangleMesh(mesh));`. Materials stay here.
+TriangleMesh ToTriangleMesh(const Mesh& mesh);
 
 // A point lamp: isotropic, or a spot when spot_direction is non-zero. A spot has full
 // intensity within cone_half_angle_rad - falloff_rad of spot_direction and falls smoothly

@@ -2,15 +2,14 @@
 
 #include <embree3/rtcore.h>
 
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <mutex>
 #include <numbers>
-#include <thread>
 
 #include "core/error.h"
 #include "core/frames.h"
+#include "core/parallel.h"
 #include "sim/world/sampling.h"
 
 namespace relume::sim {
@@ -565,15 +564,15 @@ GroundTruth World::Render(const PinholeCamera& camera, UtcTime time) const {
     }
   };
 
-  std::atomic<int> next_row{0};
-  auto worker = [&]() {
-    for (int v = next_row++; v < height; v = next_row++) render_row(v);
-  };
-  const int thread_count = std::min(impl.options.threads, height);
-  std::vector<std::thread> threads;
-  for (int i = 1; i < thread_count; ++i) threads.emplace_back(worker);
-  worker();
-  for (std::thread& t : threads) t.join();
+  // Rows are independent (each pixel's quasi-random sequence is keyed by its row and column),
+  // so the image does not depend on the thread count. Released on the way out of an exception too.
+  try {
+    ParallelForEach(
+        0, height, [&](std::int64_t v) { render_row(static_cast<int>(v)); }, impl.options.threads);
+  } catch (...) {
+    impl.Release(state);
+    throw;
+  }
   impl.Release(state);
   return truth;
 }

@@ -60,7 +60,7 @@ TEST(RadiositySceneTest, PixelPatchesLieOnTheObjectTheRendererHits) {
   radiosity::HierarchyOptions options;
   options.max_patch_edge_m = 0.5;
   const radiosity::PatchHierarchy h(rs.mesh, options);
-  const radiosity::RayCaster caster(rs.mesh);
+  const RayCaster caster(radiosity::ToTriangleMesh(rs.mesh));
   // Every leaf's centroid maps back to that leaf.
   for (int p = 0; p < h.LeafCount(); ++p) ASSERT_EQ(PatchAt(h, h.leaf(p).root, h.leaf(p).centroid), p);
 

@@ -401,7 +401,7 @@ TEST_F(StressTest, RadiosityWithAlbedoNearOneStopsWithAReasonAndStaysFinite) {
     radiosity::HierarchyOptions hierarchy_options;
     hierarchy_options.max_patch_edge_m = 0.5 + 1.5 * u(rng);
     const radiosity::PatchHierarchy h(mesh, hierarchy_options);
-    const radiosity::RayCaster caster(mesh);
+    const RayCaster caster(radiosity::ToTriangleMesh(mesh));
     radiosity::RadiosityOptions options;
     options.max_iterations = 150;
     options.residual_tolerance = 1e-3;

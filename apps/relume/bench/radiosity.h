@@ -16,7 +16,7 @@ struct RadiosityRoom {
   RadiosityRoom(int lamp_count, double patch_edge_m, double albedo_scale = 1.0);
   radiosity::testing::TestRoom room;
   std::unique_ptr<radiosity::PatchHierarchy> hierarchy;
-  std::unique_ptr<radiosity::RayCaster> caster;
+  std::unique_ptr<RayCaster> caster;
   std::vector<radiosity::RadianceObservation> photos;
 };
 
