@@ -12,6 +12,7 @@
 #include "calibration/image_file.h"
 #include "calibration/report_plots.h"
 #include "capture/durable_file.h"
+#include "capture/rgbd_geometry.h"
 #include "core/error.h"
 
 namespace relume::pipeline {
@@ -183,6 +184,23 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
        << " m</td></tr><tr><th>clock</th><td>" << Escape(info.clock_name) << "</td></tr><tr><th>recorded</th><td>"
        << Escape(FormatIso8601(info.created_utc)) << " by " << Escape(info.software_version) << "</td></tr></table>\n";
 
+  // The overview: each pipeline's headline figures, linked to its section.
+  html << "<h2>Results</h2>\n<table id=\"results\"><tr><th>pipeline</th><th>result</th></tr>\n";
+  for (const PipelineReport& p : pipelines) {
+    html << "<tr><td><a href=\"#pipeline-" << Escape(p.name) << "\">" << Escape(p.name) << "</a></td><td>";
+    if (p.summary.is_null()) {
+      html << "<span class=\"skip\">not run: " << Escape(p.error) << "</span>";
+    } else {
+      html << Escape(p.summary.value("headline", std::string("done")));
+      for (const nlohmann::json& d : p.summary["decisions"]) {
+        if (d["action"] == "warn")
+          html << "<br><span class=\"error\">" << Escape(d["reason"].get<std::string>()) << "</span>";
+      }
+    }
+    html << "</td></tr>\n";
+  }
+  html << "</table>\n";
+
   // Devices and frame counts.
   html << "<h2>Devices and frames</h2>\n<table id=\"devices\"><tr><th>device</th><th>model</th><th>frames</th>"
           "<th>brackets (complete / partial)</th></tr>\n";
@@ -224,6 +242,23 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
          << Escape(c.device_id) << "</h3>\n<p>from frames";
     for (const std::int64_t id : c.source_frame_ids) html << " " << id;
     html << ", recorded " << Escape(FormatIso8601(c.created_utc)) << "</p>\n";
+    if (c.kind == "rgbd_geometry") {
+      // An RGB-D sensor's intrinsics and registration, stored by the session writer: not a profile.
+      try {
+        drivers::RgbdFrame geometry;
+        capture::ApplyRgbdGeometryJson(c.json, &geometry);
+        const PinholeIntrinsics& k = geometry.color_intrinsics;
+        html << "<p>colour " << k.width << "x" << k.height << ", fx " << Fixed(k.fx, 1) << " px; depth "
+             << (geometry.registered_to_color ? "registered to colour" : "not registered to colour") << "</p>\n";
+      } catch (const Error& e) {
+        html << "<p class=\"error\">cannot be read: " << Escape(e.what()) << "</p>\n";
+      }
+      continue;
+    }
+    if (c.kind != "profile" && c.kind != "response") {
+      html << "<p>a calibration of kind " << Escape(c.kind) << " (not shown here)</p>\n";
+      continue;
+    }
     try {
       const calibration::CalibrationProfile profile = calibration::ProfileFromJson(c.json, "calibration");
       if (c.kind == "profile") {

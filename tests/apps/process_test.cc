@@ -191,6 +191,11 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   EXPECT_NE(dom.find("data-images-loaded=\"4\""), std::string::npos) << "one preview per bracket";
   EXPECT_NE(dom.find("data-figures=\"1\""), std::string::npos) << "the timeline";
   EXPECT_NE(dom.find("id=\"pipeline-radiance\""), std::string::npos);
+  // The overview comes first: each pipeline's headline figures, before the session's details.
+  const std::size_t results = dom.find("id=\"results\"");
+  ASSERT_NE(results, std::string::npos);
+  EXPECT_LT(results, dom.find("id=\"devices\""));
+  EXPECT_NE(dom.find("bracket(s) linearised; against the truth: worst relative RMS", results), std::string::npos);
   EXPECT_NE(dom.find("truth_relative_rms"), std::string::npos);
 
   // Errors a user can make, each named.

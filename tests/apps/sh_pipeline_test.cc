@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "calibration/image_file.h"
@@ -81,6 +82,15 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   for (const nlohmann::json& f : m["frames"]) {
     EXPECT_EQ(f["fit"]["order_used"], 2);  // three objects cover ~3.8 sr: order 2 is supported
     EXPECT_TRUE(f["fit"]["usable"]);
+  }
+  // The report shows the RGB-D sensor's recorded geometry as such (it was once read as a colour
+  // profile and reported as an error).
+  {
+    std::ifstream page(out / "report.html");
+    std::ostringstream html;
+    html << page.rdbuf();
+    EXPECT_EQ(html.str().find("cannot be read"), std::string::npos);
+    EXPECT_NE(html.str().find("depth registered to colour"), std::string::npos);
   }
   // SH describes this light (fit residual ~3 %): no warning. Asked to be stricter than the
   // residual (a report-only knob), it says SH does not fit, reusing every stage.
