@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <set>
 #include <span>
 #include <sstream>
@@ -129,6 +130,34 @@ std::optional<fs::path> ShownImage(const fs::path& output) {
   return std::nullopt;
 }
 
+// The images that show a pipeline's result at a glance: the last relit image of its outputs
+// (relit.png, or an SH frame's composite.png) with the source and target previews its stage wrote
+// beside it and the error against the truth; else its first preview. Captions say which.
+std::vector<std::pair<fs::path, std::string>> KeyImages(const PipelineReport& p) {
+  std::vector<std::pair<fs::path, std::string>> images;
+  std::optional<fs::path> relit;
+  std::optional<fs::path> first;
+  for (const nlohmann::json& o : p.summary["outputs"]) {
+    const fs::path output = p.out_dir / o.value("path", "");
+    const std::string name = output.filename().string();
+    if ((name == "relit.png" || name == "composite.png") && fs::exists(output)) relit = output;
+    if (!first) {
+      const std::optional<fs::path> image = ShownImage(output);
+      if (image && fs::exists(*image)) first = image;
+    }
+  }
+  if (!relit) {
+    if (first) images.emplace_back(*first, "preview");
+    return images;
+  }
+  const fs::path dir = relit->parent_path();
+  if (fs::exists(dir / "source.png")) images.emplace_back(dir / "source.png", "source");
+  images.emplace_back(*relit, "relit");
+  if (fs::exists(dir / "target.png")) images.emplace_back(dir / "target.png", "target");
+  if (fs::exists(p.out_dir / "truth_error.png")) images.emplace_back(p.out_dir / "truth_error.png", "error vs truth");
+  return images;
+}
+
 // Scalar figures of a metrics object, flattened to "a.b.c" keys (arrays of objects listed by index).
 void Flatten(const nlohmann::json& j, const std::string& prefix,
              std::vector<std::pair<std::string, std::string>>& out) {
@@ -176,7 +205,8 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
           "text-align:left;vertical-align:top}th{background:#f3f3f3}figure{display:inline-block;margin:6px;"
           "vertical-align:top}figure img{max-width:420px;border:1px solid #ccc}figcaption{font-size:12px;"
           "max-width:420px}.skip{color:#a60}.run{color:#060}.reuse{color:#06a}.error{color:#b00}"
-          "code{font-size:12px}\n</style>\n</head>\n<body>\n";
+          "code{font-size:12px}#results img{max-height:150px;max-width:200px;border:1px solid #ccc}"
+          "#results figure{margin:2px}.blink{cursor:pointer}\n</style>\n</head>\n<body>\n";
   html << "<h1>relume report: " << Escape(info.name) << "</h1>\n";
   html << "<table id=\"session\"><tr><th>session</th><td>" << Escape(fs::absolute(session.dir()).string())
        << "</td></tr><tr><th>site</th><td>" << Fixed(info.site.latitude_deg(), 6) << "&#176;, "
@@ -184,18 +214,31 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
        << " m</td></tr><tr><th>clock</th><td>" << Escape(info.clock_name) << "</td></tr><tr><th>recorded</th><td>"
        << Escape(FormatIso8601(info.created_utc)) << " by " << Escape(info.software_version) << "</td></tr></table>\n";
 
-  // The overview: each pipeline's headline figures, linked to its section.
-  html << "<h2>Results</h2>\n<table id=\"results\"><tr><th>pipeline</th><th>result</th></tr>\n";
+  // The overview: each pipeline's headline figures and warnings, linked to its section, with its
+  // key images (click the relit one to blink it against the source).
+  html << "<h2>Results</h2>\n<table id=\"results\"><tr><th>pipeline</th><th>result</th><th>images</th></tr>\n";
   for (const PipelineReport& p : pipelines) {
     html << "<tr><td><a href=\"#pipeline-" << Escape(p.name) << "\">" << Escape(p.name) << "</a></td><td>";
     if (p.summary.is_null()) {
-      html << "<span class=\"skip\">not run: " << Escape(p.error) << "</span>";
-    } else {
-      html << Escape(p.summary.value("headline", std::string("done")));
-      for (const nlohmann::json& d : p.summary["decisions"]) {
-        if (d["action"] == "warn")
-          html << "<br><span class=\"error\">" << Escape(d["reason"].get<std::string>()) << "</span>";
+      html << "<span class=\"skip\">not run: " << Escape(p.error) << "</span></td><td></td></tr>\n";
+      continue;
+    }
+    html << Escape(p.summary.value("headline", std::string("done")));
+    for (const nlohmann::json& d : p.summary["decisions"]) {
+      if (d["action"] == "warn")
+        html << "<br><span class=\"error\">" << Escape(d["reason"].get<std::string>()) << "</span>";
+    }
+    html << "</td><td>";
+    const auto images = KeyImages(p);
+    const auto source = std::find_if(images.begin(), images.end(), [](const auto& i) { return i.second == "source"; });
+    for (const auto& [path, caption] : images) {
+      const std::string src = Escape(fs::relative(path, out_dir).string());
+      html << "<figure><img src=\"" << src << "\" alt=\"" << Escape(p.name + " " + caption) << "\"";
+      if (caption == "relit" && source != images.end()) {
+        html << " class=\"blink\" data-a=\"" << src << "\" data-b=\""
+             << Escape(fs::relative(source->first, out_dir).string()) << "\" title=\"click: relit / source\"";
       }
+      html << "><figcaption>" << Escape(caption) << "</figcaption></figure>";
     }
     html << "</td></tr>\n";
   }
@@ -292,17 +335,23 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
     }
     html << "<p>" << Fixed(p.summary.value("seconds", 0.0), 2) << " s; output in <code>"
          << Escape(fs::relative(p.out_dir, out_dir).string()) << "</code></p>\n";
-    html << "<table class=\"decisions\"><tr><th>stage</th><th>action</th><th>reason</th></tr>\n";
+    // Decisions collapsed, counted per action.
+    std::map<std::string, int> actions;
+    for (const nlohmann::json& d : p.summary["decisions"]) ++actions[d.value("action", "")];
+    html << "<details class=\"decisions\"><summary>" << p.summary["decisions"].size() << " decisions:";
+    for (const auto& [action, count] : actions) html << " " << count << " " << Escape(action);
+    html << "</summary><table class=\"decisions\"><tr><th>stage</th><th>action</th><th>reason</th></tr>\n";
     for (const nlohmann::json& d : p.summary["decisions"]) {
       const std::string action = d.value("action", "");
       html << "<tr><td>" << Escape(d.value("stage", "")) << "</td><td class=\"" << Escape(action) << "\">"
            << Escape(action) << "</td><td>" << Escape(d.value("reason", "")) << "</td></tr>\n";
     }
-    html << "</table>\n";
+    html << "</table></details>\n";
     std::vector<std::pair<std::string, std::string>> figures;
     if (p.summary.contains("metrics")) Flatten(p.summary["metrics"], "", figures);
     if (!figures.empty()) {
-      html << "<details open><summary>figures (" << figures.size() << ")</summary><table class=\"metrics\">";
+      html << "<details><summary>all figures (" << figures.size()
+           << ", as summary.json names them)</summary><table class=\"metrics\">";
       for (const auto& [key, value] : figures) {
         html << "<tr><td><code>" << Escape(key) << "</code></td><td>" << Escape(value) << "</td></tr>";
       }
@@ -319,7 +368,12 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
     }
   }
 
-  html << "<script>\nwindow.addEventListener('load', function () {\n"
+  html << "<script>\ndocument.querySelectorAll('img.blink').forEach(function (img) {\n"
+          "  img.addEventListener('click', function () {\n"
+          "    var a = img.getAttribute('data-a'), b = img.getAttribute('data-b');\n"
+          "    img.setAttribute('src', img.getAttribute('src') === a ? b : a);\n"
+          "  });\n"
+          "});\nwindow.addEventListener('load', function () {\n"
           "  var ok = 0, broken = 0;\n"
           "  document.querySelectorAll('img').forEach(function (img) {\n"
           "    if (img.complete && img.naturalWidth > 0) { ok++; } else { broken++; }\n"

@@ -188,7 +188,10 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   ASSERT_EQ(chromium.exit_code, 0) << "chromium failed; install it with scripts/install-deps.sh";
   const std::string& dom = chromium.output;
   EXPECT_NE(dom.find("data-images-broken=\"0\""), std::string::npos) << dom.substr(0, 2000);
-  EXPECT_NE(dom.find("data-images-loaded=\"4\""), std::string::npos) << "one preview per bracket";
+  EXPECT_NE(dom.find("data-images-loaded=\"5\""), std::string::npos)
+      << "one preview per bracket, and the first in the overview";
+  // Decisions are collapsed, with their counts per action.
+  EXPECT_NE(dom.find("<details class=\"decisions\"><summary>"), std::string::npos);
   EXPECT_NE(dom.find("data-figures=\"1\""), std::string::npos) << "the timeline";
   EXPECT_NE(dom.find("id=\"pipeline-radiance\""), std::string::npos);
   // The overview comes first: each pipeline's headline figures, before the session's details.
@@ -347,6 +350,20 @@ TEST(ProcessCliTest, OutputIsShortAndEndsWithTheHeadlineFigures) {
   EXPECT_NE(quiet.output.find("  sh         not run: ", summary), std::string::npos) << quiet.output;
   const nlohmann::json irm = ReadJsonFile(dir / "out" / "irm" / "summary.json");
   EXPECT_NE(irm["headline"].get<std::string>().find("against the truth"), std::string::npos) << irm["headline"];
+
+  // The report opens on the overview: the IRM's key images (source, relit to blink against it,
+  // target, error against the truth) load from the output folder.
+  const testing::CliResult chromium = testing::LoadInChromium(dir / "out" / "report.html");
+  ASSERT_EQ(chromium.exit_code, 0) << "chromium failed; install it with scripts/install-deps.sh";
+  const std::string& dom = chromium.output;
+  EXPECT_NE(dom.find("data-images-broken=\"0\""), std::string::npos) << dom.substr(0, 2000);
+  const std::size_t results = dom.find("id=\"results\"");
+  ASSERT_NE(results, std::string::npos);
+  for (const char* alt : {"alt=\"irm source\"", "alt=\"irm relit\"", "alt=\"irm error vs truth\""}) {
+    EXPECT_NE(dom.find(alt, results), std::string::npos) << alt;
+  }
+  EXPECT_NE(dom.find("class=\"blink\"", results), std::string::npos);
+  EXPECT_EQ(dom.find("cannot be read"), std::string::npos);
 
   // Unchanged rerun: the stages are counted as reused; --verbose lists them and every file.
   const testing::CliResult again = testing::RunRelume(command);
