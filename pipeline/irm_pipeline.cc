@@ -989,8 +989,12 @@ std::string IrmHeadline(const nlohmann::json& m) {
 }  // namespace
 
 PipelineEntry IrmPipelineEntry() {
-  return {"irm", "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
-          RunIrmPipeline, WithRadianceKnobs(DescribeKnobs<IrmKnobs>()), IrmHeadline};
+  return {"irm",
+          "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
+          RunIrmPipeline,
+          WithRadianceKnobs(DescribeKnobs<IrmKnobs>()),
+          IrmHeadline,
+          {"radiance", "mesh", "view", "build", "relight"}};
 }
 
 }  // namespace relume::pipeline

@@ -8,7 +8,7 @@
 //     template <typename V>
 //     void VisitKnobs(V& v) {
 //       v.Knob("bins", bins, "octahedral bins per side of each ratio map", {"build"});
-//       v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"truth"});
+//       v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"report"});
 //     }
 //   };
 //
@@ -20,6 +20,11 @@
 //   - KnobsToJson: the values a run used, for summary.json;
 //   - DescribeKnobs: name, type, default and help, for `relume process --list` and the tests
 //     (every knob names at least one stage).
+// Stage tags are the names the pipeline passes to AddKnobsToKey, plus "plan" (decides which
+// frames or filters run; the keys follow from those), "report" (the summary only) and "none" (no
+// effect on results, e.g. a thread count). A tag no AddKnobsToKey call uses would leave the knob
+// out of every key: pipelines list their tags in PipelineEntry::stage_tags, and a test checks
+// every knob against them.
 // Field types: bool, int, std::int64_t, float, double, std::string.
 #pragma once
 

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 #include "core/error.h"
@@ -113,6 +114,12 @@ TEST(KnobsTest, EveryPipelineDeclaresItsKnobsOnceWithAStageAndAParsableDefault) 
     for (const KnobInfo& k : entry.knobs) {
       EXPECT_TRUE(names.insert(k.name).second) << entry.name << ": " << k.name << " declared twice";
       EXPECT_FALSE(k.stages.empty()) << entry.name << ": " << k.name;
+      for (const std::string& tag : k.stages) {
+        const bool known = tag == "plan" || tag == "report" || tag == "none" ||
+                           std::find(entry.stage_tags.begin(), entry.stage_tags.end(), tag) != entry.stage_tags.end();
+        EXPECT_TRUE(known) << entry.name << ": knob " << k.name << " names stage '" << tag
+                           << "', which no stage key of the pipeline reads";
+      }
       EXPECT_FALSE(k.help.empty()) << entry.name << ": " << k.name;
       const std::string text =
           k.default_value.is_string() ? k.default_value.get<std::string>() : k.default_value.dump();

@@ -131,6 +131,9 @@ struct PipelineEntry {
   // The run's headline figures in one sentence, from its metrics (errors against the truth, what
   // was relit); empty when there is nothing to say. summary.json "headline", the CLI's last lines.
   std::function<std::string(const nlohmann::json& metrics)> headline;
+  // The stage names its AddKnobsToKey calls use (knobs.h); with "plan", "report" and "none", the
+  // only tags its knobs may name.
+  std::vector<std::string> stage_tags;
 };
 
 // "12.3 %" (one decimal; "n/a" for a missing or non-numeric value).

@@ -112,8 +112,12 @@ std::string RadianceHeadline(const nlohmann::json& m) {
 
 const std::vector<PipelineEntry>& Pipelines() {
   static const std::vector<PipelineEntry> pipelines = {
-      {"radiance", "linear HDR radiance of every still bracket (merge, response, colour profile)", RunRadiancePipeline,
-       WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>()), RadianceHeadline},
+      {"radiance",
+       "linear HDR radiance of every still bracket (merge, response, colour profile)",
+       RunRadiancePipeline,
+       WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>()),
+       RadianceHeadline,
+       {"radiance"}},
       ShPipelineEntry(),
       IrmPipelineEntry(),
       RadiosityPipelineEntry(),

@@ -1055,7 +1055,10 @@ PipelineEntry RadiosityPipelineEntry() {
   return {"radiosity",
           "per-patch albedo of a room under a moving lamp (Loscos: EV-only HDR, consistency scales, reflectance "
           "iterated with radiosity), radiosity solution, relighting (--set light_x=..,light_y=..,light_z=..)",
-          RunRadiosityPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>()), RadiosityHeadline};
+          RunRadiosityPipeline,
+          WithRadianceKnobs(DescribeKnobs<Knobs>()),
+          RadiosityHeadline,
+          {"radiance", "geometry", "observe", "scale", "reflectance", "relight"}};
 }
 
 }  // namespace relume::pipeline

@@ -1114,8 +1114,10 @@ std::string ShHeadline(const nlohmann::json& m) {
 }  // namespace
 
 PipelineEntry ShPipelineEntry() {
-  return {"sh", "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
-          RunShPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>()), ShHeadline};
+  return {
+      "sh",          "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
+      RunShPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>()),
+      ShHeadline,    {"radiance", "geometry", "fit", "relight"}};
 }
 
 }  // namespace relume::pipeline
