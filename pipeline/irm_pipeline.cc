@@ -202,22 +202,30 @@ void WriteVectors(std::ofstream& out, const std::vector<T>& v) {
   out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
 }
 
+// Reads a count and that many elements; a count the rest of the file cannot hold (a damaged
+// file) fails the stream instead of allocating it.
 template <typename T>
-void ReadVectors(std::ifstream& in, std::vector<T>* v) {
+void ReadVectors(std::ifstream& in, std::uintmax_t file_bytes, std::vector<T>* v) {
   std::int64_t n = 0;
   in.read(reinterpret_cast<char*>(&n), sizeof(n));
-  if (!in || n < 0 || n > (std::int64_t{1} << 31)) return;
+  if (!in || n < 0 || static_cast<std::uintmax_t>(n) > file_bytes / sizeof(T)) {
+    in.setstate(std::ios::failbit);
+    return;
+  }
   v->resize(static_cast<std::size_t>(n));
   in.read(reinterpret_cast<char*>(v->data()), static_cast<std::streamsize>(v->size() * sizeof(T)));
 }
 
 TriangleMesh ReadMeshFile(const fs::path& path) {
+  std::error_code ec;
+  const std::uintmax_t bytes = fs::file_size(path, ec);
+  if (ec) throw IoError(path.string(), "cannot be read; run with --force");
   std::ifstream in(path, std::ios::binary);
   TriangleMesh mesh;
-  ReadVectors(in, &mesh.positions);
-  ReadVectors(in, &mesh.triangles);
-  ReadVectors(in, &mesh.normals);
-  ReadVectors(in, &mesh.albedo);
+  ReadVectors(in, bytes, &mesh.positions);
+  ReadVectors(in, bytes, &mesh.triangles);
+  ReadVectors(in, bytes, &mesh.normals);
+  ReadVectors(in, bytes, &mesh.albedo);
   std::string why;
   if (!in || !mesh.IsValid(&why)) throw IoError(path.string(), "is short or unreadable; run with --force");
   return mesh;
