@@ -7,10 +7,8 @@
 #include <map>
 #include <memory>
 
-#include "capture/folder_lock.h"
 #include "core/error.h"
-#include "pipeline/pipeline.h"
-#include "pipeline/report.h"
+#include "pipeline/process.h"
 
 namespace relume::app {
 
@@ -168,51 +166,24 @@ void Run(const ProcessArgs& args) {
   }
   request.explain = args.explain;
   request.reuse = !args.force;
-  pipeline::CheckSettings(request.settings, all ? "all" : args.pipeline);
-  pipeline::PrepareOutputFolder(request.out_dir);
-  const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process");
-
-  std::vector<pipeline::PipelineReport> reports;
-  if (!all) {
-    nlohmann::json summary = pipeline::RunPipeline(request);
-    Print(summary, request.out_dir.string(), args.verbose);
-    reports.push_back({request.pipeline, request.out_dir, std::move(summary), ""});
-  } else {
-    // Every pipeline of this build, each into its own folder; one that cannot run on this
-    // session says why and the others go on.
-    std::string failed;
-    for (const pipeline::PipelineEntry& entry : pipeline::Pipelines()) {
-      pipeline::PipelineRequest one = request;
-      one.pipeline = entry.name;
-      one.out_dir = request.out_dir / entry.name;
-      try {
-        nlohmann::json summary = pipeline::RunPipeline(one);
-        Print(summary, one.out_dir.string(), args.verbose);
-        reports.push_back({entry.name, one.out_dir, std::move(summary), ""});
-      } catch (const InvalidArgumentError& e) {
-        std::cout << entry.name << " skipped: " << e.what() << "\n";
-        reports.push_back({entry.name, one.out_dir, nullptr, e.what()});
-      } catch (const Error& e) {
-        // Reported, and the run ends with an error after the report is written.
-        std::cout << entry.name << " FAILED: " << e.what() << "\n";
-        reports.push_back({entry.name, one.out_dir, nullptr, std::string("failed: ") + e.what()});
-        failed += (failed.empty() ? "" : ", ") + entry.name;
-      }
+  const pipeline::ProcessResult result = pipeline::ProcessSession(request, [&](const pipeline::PipelineReport& r) {
+    if (!r.summary.is_null()) {
+      Print(r.summary, r.out_dir.string(), args.verbose);
+    } else if (r.error.rfind("failed: ", 0) == 0) {
+      std::cout << r.name << " FAILED: " << r.error.substr(8) << "\n";
+    } else {
+      std::cout << r.name << " skipped: " << r.error << "\n";
     }
-    if (!args.explain) {
-      const std::filesystem::path page =
-          pipeline::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
-      PrintHeadlines(reports);
-      std::cout << "report: " << page.string() << "\n";
-    }
-    if (!failed.empty()) throw Error("pipeline(s) " + failed + " failed (see above); the others' results are kept");
-    return;
+  });
+  if (!args.explain) {
+    PrintHeadlines(result.reports);
+    std::cout << "report: " << result.report.string() << "\n";
   }
-  if (args.explain) return;
-  const std::filesystem::path page =
-      pipeline::WriteReport(capture::SessionReader(request.session_dir), request.out_dir, reports);
-  PrintHeadlines(reports);
-  std::cout << "report: " << page.string() << "\n";
+  if (!result.failed.empty()) {
+    std::string names;
+    for (const std::string& n : result.failed) names += (names.empty() ? "" : ", ") + n;
+    throw Error("pipeline(s) " + names + " failed (see above); the others' results are kept");
+  }
 }
 
 }  // namespace
