@@ -199,14 +199,18 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
 
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>relume report: "
-       << Escape(info.name) << "</title>\n<style>\n"
-       << "body{font-family:sans-serif;margin:24px;max-width:1100px;color:#222}"
+       << Escape(info.name)
+       << "</title>\n<script>\nwindow.relumeErrors = 0;\nwindow.addEventListener('error', function () { "
+          "window.relumeErrors++; }, true);\n</script>\n<style>\n"
+       << "body{font-family:sans-serif;margin:24px;max-width:1380px;color:#222}"
           "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ddd;padding:3px 8px;font-size:13px;"
           "text-align:left;vertical-align:top}th{background:#f3f3f3}figure{display:inline-block;margin:6px;"
           "vertical-align:top}figure img{max-width:420px;border:1px solid #ccc}figcaption{font-size:12px;"
           "max-width:420px}.skip{color:#a60}.run{color:#060}.reuse{color:#06a}.error{color:#b00}"
-          "code{font-size:12px}#results img{max-height:150px;max-width:200px;border:1px solid #ccc}"
-          "#results figure{margin:2px}.blink{cursor:pointer}\n</style>\n</head>\n<body>\n";
+          "code{font-size:12px}#results img{max-height:130px;max-width:180px;border:1px solid #ccc}"
+          "#results td.images{white-space:nowrap}#results td.result{max-width:420px}#results "
+          "figure{margin:2px}.blink{cursor:pointer}img.light{max-width:160px}\n</style>\n</head>\n"
+          "<body>\n";
   html << "<h1>relume report: " << Escape(info.name) << "</h1>\n";
   html << "<table id=\"session\"><tr><th>session</th><td>" << Escape(fs::absolute(session.dir()).string())
        << "</td></tr><tr><th>site</th><td>" << Fixed(info.site.latitude_deg(), 6) << "&#176;, "
@@ -218,7 +222,8 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
   // key images (click the relit one to blink it against the source).
   html << "<h2>Results</h2>\n<table id=\"results\"><tr><th>pipeline</th><th>result</th><th>images</th></tr>\n";
   for (const PipelineReport& p : pipelines) {
-    html << "<tr><td><a href=\"#pipeline-" << Escape(p.name) << "\">" << Escape(p.name) << "</a></td><td>";
+    html << "<tr><td><a href=\"#pipeline-" << Escape(p.name) << "\">" << Escape(p.name)
+         << "</a></td><td class=\"result\">";
     if (p.summary.is_null()) {
       html << "<span class=\"skip\">not run: " << Escape(p.error) << "</span></td><td></td></tr>\n";
       continue;
@@ -228,7 +233,7 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
       if (d["action"] == "warn")
         html << "<br><span class=\"error\">" << Escape(d["reason"].get<std::string>()) << "</span>";
     }
-    html << "</td><td>";
+    html << "</td><td class=\"images\">";
     const auto images = KeyImages(p);
     const auto source = std::find_if(images.begin(), images.end(), [](const auto& i) { return i.second == "source"; });
     for (const auto& [path, caption] : images) {
@@ -357,14 +362,38 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
       }
       html << "</table></details>\n";
     }
+    // The light over time (SH): up to 12 of the fits' lat-long maps, evenly spaced.
+    std::vector<std::pair<fs::path, std::string>> lights;
+    for (const nlohmann::json& o : p.summary["outputs"]) {
+      const std::string what = o.value("what", "");
+      const fs::path output = p.out_dir / o.value("path", "");
+      if (output.filename() == "latlong.png" && fs::exists(output)) lights.emplace_back(output, what);
+    }
+    if (lights.size() > 1) {
+      html << "<h3>Light over time</h3>\n<div class=\"lights\">";
+      const std::size_t shown_count = std::min<std::size_t>(12, lights.size());
+      for (std::size_t i = 0; i < shown_count; ++i) {
+        const auto& [path, what] = lights[i * (lights.size() - 1) / std::max<std::size_t>(1, shown_count - 1)];
+        html << "<figure><img class=\"light\" src=\"" << Escape(fs::relative(path, out_dir).string()) << "\" alt=\""
+             << Escape(what) << "\"><figcaption>" << Escape(what) << "</figcaption></figure>";
+      }
+      html << "</div>\n";
+    }
+    // Every output image; more than a dozen (an RGB-D stream's frames) collapsed.
     std::set<fs::path> shown;
+    std::ostringstream gallery;
     for (const nlohmann::json& o : p.summary["outputs"]) {
       const fs::path output = p.out_dir / o.value("path", "");
       const std::optional<fs::path> image = ShownImage(output);
       if (!image || !fs::exists(*image) || !shown.insert(*image).second) continue;
-      html << "<figure><img src=\"" << Escape(fs::relative(*image, out_dir).string()) << "\" alt=\""
-           << Escape(o.value("what", "")) << "\"><figcaption>" << Escape(o.value("what", ""))
-           << "</figcaption></figure>\n";
+      gallery << "<figure><img src=\"" << Escape(fs::relative(*image, out_dir).string()) << "\" alt=\""
+              << Escape(o.value("what", "")) << "\"><figcaption>" << Escape(o.value("what", ""))
+              << "</figcaption></figure>\n";
+    }
+    if (shown.size() > 12) {
+      html << "<details><summary>all " << shown.size() << " images</summary>\n" << gallery.str() << "</details>\n";
+    } else {
+      html << gallery.str();
     }
   }
 
@@ -381,6 +410,7 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
           "  document.body.setAttribute('data-images-loaded', ok);\n"
           "  document.body.setAttribute('data-images-broken', broken);\n"
           "  document.body.setAttribute('data-figures', document.querySelectorAll('svg.figure').length);\n"
+          "  document.body.setAttribute('data-script-errors', window.relumeErrors);\n"
           "});\n</script>\n</body>\n</html>\n";
   const std::string text = html.str();
   const fs::path page = out_dir / "report.html";

@@ -357,6 +357,7 @@ TEST(ProcessCliTest, OutputIsShortAndEndsWithTheHeadlineFigures) {
   ASSERT_EQ(chromium.exit_code, 0) << "chromium failed; install it with scripts/install-deps.sh";
   const std::string& dom = chromium.output;
   EXPECT_NE(dom.find("data-images-broken=\"0\""), std::string::npos) << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("data-script-errors=\"0\""), std::string::npos) << dom.substr(0, 2000);
   const std::size_t results = dom.find("id=\"results\"");
   ASSERT_NE(results, std::string::npos);
   for (const char* alt : {"alt=\"irm source\"", "alt=\"irm relit\"", "alt=\"irm error vs truth\""}) {
