@@ -977,21 +977,51 @@ void RunIrmPipeline(PipelineRun& run) {
 
 std::string IrmHeadline(const nlohmann::json& m) {
   if (!m.contains("irm")) return "";
-  const nlohmann::json& irm = m["irm"];
+  const nlohmann::json& irm = Field(m, "irm");
   std::string text = std::string(irm.value("single_map", false) ? "one IRM" : "four IRMs");
   if (m.contains("truth")) {
-    const nlohmann::json& a = m["truth"]["relit"];
-    const nlohmann::json& b = m["truth"]["no_relighting"];
-    text += "; against the truth: lit " + PercentText(a["relative_rms_lit"]) + ", shadow " +
-            PercentText(a["relative_rms_shadow"]) + ", penumbra " + PercentText(a["relative_rms_penumbra"]) +
-            " (not relit: " + PercentText(b["relative_rms_lit"]) + ", " + PercentText(b["relative_rms_shadow"]) + ", " +
-            PercentText(b["relative_rms_penumbra"]) + ")";
+    const nlohmann::json& a = Field(Field(m, "truth"), "relit");
+    const nlohmann::json& b = Field(Field(m, "truth"), "no_relighting");
+    text += "; against the truth: lit " + PercentText(Field(a, "relative_rms_lit")) + ", shadow " +
+            PercentText(Field(a, "relative_rms_shadow")) + ", penumbra " +
+            PercentText(Field(a, "relative_rms_penumbra")) +
+            " (not relit: " + PercentText(Field(b, "relative_rms_lit")) + ", " +
+            PercentText(Field(b, "relative_rms_shadow")) + ", " + PercentText(Field(b, "relative_rms_penumbra")) + ")";
   } else if (irm.contains("seam")) {
     text += "; where both photographs see a surface, relit vs target " +
-            PercentText(irm["seam"]["overlap_relative_rms_after"]) + " (before " +
-            PercentText(irm["seam"]["overlap_relative_rms_before"]) + ")";
+            PercentText(Field(Field(irm, "seam"), "overlap_relative_rms_after")) + " (before " +
+            PercentText(Field(Field(irm, "seam"), "overlap_relative_rms_before")) + ")";
   }
   return text;
+}
+
+std::vector<Figure> IrmFigures(const nlohmann::json& m) {
+  std::vector<Figure> f;
+  if (m.contains("truth")) {
+    const nlohmann::json& t = Field(m, "truth");
+    for (const char* region : {"lit", "shadow", "penumbra"}) {
+      const std::string key = std::string("relative_rms_") + region;
+      AddFigure(f, std::string("relit vs truth, ") + region + " (per-pixel relative RMS)",
+                Field(Field(t, "relit"), key), "%");
+      AddFigure(f, std::string("not relit vs truth, ") + region, Field(Field(t, "no_relighting"), key), "%");
+      AddFigure(f, std::string("pixels compared, ") + region, Field(Field(t, "relit"), std::string(region) + "_pixels"),
+                "", 9);
+    }
+    AddFigure(f, "recorded sun direction vs the world's", t.value("target_sun_direction_error_deg", nlohmann::json()),
+              "deg", 3);
+  }
+  if (m.contains("irm")) {
+    const nlohmann::json& irm = Field(m, "irm");
+    if (irm.contains("seam")) {
+      AddFigure(f, "relit vs target where both see a surface", Field(Field(irm, "seam"), "overlap_relative_rms_after"),
+                "%");
+      AddFigure(f, "source vs target there (before)", Field(Field(irm, "seam"), "overlap_relative_rms_before"), "%");
+    }
+    AddFigure(f, "pixels relit", irm.value("pixels_relit", nlohmann::json()), "", 9);
+    if (irm.contains("mesh"))
+      AddFigure(f, "mesh triangles", Field(irm, "mesh").value("triangles", nlohmann::json()), "", 9);
+  }
+  return f;
 }
 
 }  // namespace
@@ -1002,6 +1032,7 @@ PipelineEntry IrmPipelineEntry() {
           RunIrmPipeline,
           WithRadianceKnobs(DescribeKnobs<IrmKnobs>()),
           IrmHeadline,
+          IrmFigures,
           {"radiance", "mesh", "view", "build", "relight"}};
 }
 

@@ -112,11 +112,34 @@ std::size_t EditDistance(const std::string& a, const std::string& b) {
 
 }  // namespace
 
+const nlohmann::json& Field(const nlohmann::json& j, const std::string& key) {
+  static const nlohmann::json null_json;
+  if (!j.is_object()) return null_json;
+  const auto it = j.find(key);
+  return it == j.end() ? null_json : *it;
+}
+
 std::string PercentText(const nlohmann::json& fraction) {
   if (!fraction.is_number()) return "n/a";
   char text[32];
   std::snprintf(text, sizeof(text), "%.1f %%", 100.0 * fraction.get<double>());
   return text;
+}
+
+void AddFigure(std::vector<Figure>& out, const std::string& label, const nlohmann::json& value, const std::string& unit,
+               int digits) {
+  if (value.is_boolean()) {
+    out.push_back({label, value.get<bool>() ? "yes" : "no", unit});
+    return;
+  }
+  if (!value.is_number()) return;
+  char text[48];
+  if (unit == "%") {
+    std::snprintf(text, sizeof(text), "%.2f", 100.0 * value.get<double>());
+  } else {
+    std::snprintf(text, sizeof(text), "%.*g", digits, value.get<double>());
+  }
+  out.push_back({label, text, unit});
 }
 
 void CheckSettings(const std::map<std::string, std::string>& settings, const std::string& pipeline) {

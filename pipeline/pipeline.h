@@ -121,6 +121,17 @@ class Lazy {
   mutable std::optional<T> value_;
 };
 
+// One figure of a pipeline's result, labelled, for the report: "relit vs truth, lit" "1.0" "%".
+struct Figure {
+  std::string label;
+  std::string value;
+  std::string unit;
+};
+// Appends a figure from a metrics value: fractions shown as per cent ("%"), other numbers with
+// `digits` significant digits; a missing value is left out.
+void AddFigure(std::vector<Figure>& out, const std::string& label, const nlohmann::json& value, const std::string& unit,
+               int digits = 4);
+
 using PipelineFunction = std::function<void(PipelineRun&)>;
 
 struct PipelineEntry {
@@ -131,10 +142,15 @@ struct PipelineEntry {
   // The run's headline figures in one sentence, from its metrics (errors against the truth, what
   // was relit); empty when there is nothing to say. summary.json "headline", the CLI's last lines.
   std::function<std::string(const nlohmann::json& metrics)> headline;
+  // Its key figures with labels and units, from its metrics (the report's table).
+  std::function<std::vector<Figure>(const nlohmann::json& metrics)> figures;
   // The stage names its AddKnobsToKey calls use (knobs.h); with "plan", "report" and "none", the
   // only tags its knobs may name.
   std::vector<std::string> stage_tags;
 };
+
+// j[key] when j is an object holding key, else null: reading a summary that may lack a figure.
+const nlohmann::json& Field(const nlohmann::json& j, const std::string& key);
 
 // "12.3 %" (one decimal; "n/a" for a missing or non-numeric value).
 std::string PercentText(const nlohmann::json& fraction);

@@ -101,11 +101,22 @@ void RunRadiancePipeline(PipelineRun& run) {
 
 std::string RadianceHeadline(const nlohmann::json& m) {
   if (!m.contains("brackets")) return "";
-  std::string text = std::to_string(m["brackets"].size()) + " bracket(s) linearised";
+  std::string text = std::to_string(Field(m, "brackets").size()) + " bracket(s) linearised";
   if (m.contains("truth_relative_rms_max")) {
-    text += "; against the truth: worst relative RMS " + PercentText(m["truth_relative_rms_max"]);
+    text += "; against the truth: worst relative RMS " + PercentText(Field(m, "truth_relative_rms_max"));
   }
   return text;
+}
+
+std::vector<Figure> RadianceFigures(const nlohmann::json& m) {
+  std::vector<Figure> f;
+  if (!m.contains("brackets")) return f;
+  for (const nlohmann::json& b : Field(m, "brackets")) {
+    const std::string name = b.value("device", "") + " at " + b.value("utc", "");
+    AddFigure(f, name + ": relative RMS against the truth", b.value("truth_relative_rms", nlohmann::json()), "%");
+    AddFigure(f, name + ": sun elevation", b.value("sun_elevation_deg", nlohmann::json()), "deg", 3);
+  }
+  return f;
 }
 
 }  // namespace
@@ -117,6 +128,7 @@ const std::vector<PipelineEntry>& Pipelines() {
        RunRadiancePipeline,
        WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>()),
        RadianceHeadline,
+       RadianceFigures,
        {"radiance"}},
       ShPipelineEntry(),
       IrmPipelineEntry(),

@@ -1026,17 +1026,17 @@ namespace {
 
 std::string RadiosityHeadline(const nlohmann::json& m) {
   if (!m.contains("reflectance")) return "";
-  const nlohmann::json& r = m["reflectance"];
+  const nlohmann::json& r = Field(m, "reflectance");
   std::string text = std::to_string(m.value("patches", 0)) + " patches, " +
                      (r.value("converged", false) ? "converged" : "NOT converged") + " after " +
                      std::to_string(r.value("iterations", 0)) + " iteration(s)";
   if (r.contains("truth_after") && r["truth_after"].contains("materials")) {
     double sum = 0.0, worst = 0.0;
     int n = 0;
-    for (const nlohmann::json& mat : r["truth_after"]["materials"]) {
-      if (!mat["error_of_mean"].is_number()) continue;
-      sum += mat["error_of_mean"].get<double>();
-      worst = std::max(worst, mat["error_of_mean"].get<double>());
+    for (const nlohmann::json& mat : Field(Field(r, "truth_after"), "materials")) {
+      if (!Field(mat, "error_of_mean").is_number()) continue;
+      sum += Field(mat, "error_of_mean").get<double>();
+      worst = std::max(worst, Field(mat, "error_of_mean").get<double>());
       ++n;
     }
     if (n > 0) {
@@ -1049,6 +1049,32 @@ std::string RadiosityHeadline(const nlohmann::json& m) {
   return text;
 }
 
+std::vector<Figure> RadiosityFigures(const nlohmann::json& m) {
+  std::vector<Figure> f;
+  AddFigure(f, "patches", m.value("patches", nlohmann::json()), "", 9);
+  if (m.contains("indirect_share")) {
+    AddFigure(f, "indirect light, estimated share of the direct", Field(Field(m, "indirect_share"), "estimate"), "%");
+  }
+  if (m.contains("reflectance")) {
+    const nlohmann::json& r = Field(m, "reflectance");
+    AddFigure(f, "reflectance iterations", r.value("iterations", nlohmann::json()), "", 4);
+    AddFigure(f, "converged", r.value("converged", nlohmann::json()), "");
+    if (r.contains("truth_after") && r["truth_after"].contains("materials")) {
+      for (const nlohmann::json& mat : Field(Field(r, "truth_after"), "materials")) {
+        AddFigure(f, "albedo error of the mean, " + mat.value("material", std::string("?")),
+                  mat.value("error_of_mean", nlohmann::json()), "(albedo)", 3);
+      }
+    }
+  }
+  if (m.contains("relight")) {
+    AddFigure(f, "relit vs truth, per pixel (relative RMS)",
+              Field(m, "relight").value("truth_relative_rms_per_pixel", nlohmann::json()), "%");
+    AddFigure(f, "relit vs truth, per patch",
+              Field(m, "relight").value("truth_relative_rms_per_patch", nlohmann::json()), "%");
+  }
+  return f;
+}
+
 }  // namespace
 
 PipelineEntry RadiosityPipelineEntry() {
@@ -1058,6 +1084,7 @@ PipelineEntry RadiosityPipelineEntry() {
           RunRadiosityPipeline,
           WithRadianceKnobs(DescribeKnobs<Knobs>()),
           RadiosityHeadline,
+          RadiosityFigures,
           {"radiance", "geometry", "observe", "scale", "reflectance", "relight"}};
 }
 

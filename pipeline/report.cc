@@ -15,6 +15,7 @@
 #include "capture/durable_file.h"
 #include "capture/rgbd_geometry.h"
 #include "core/error.h"
+#include "pipeline/pipeline.h"
 
 namespace relume::pipeline {
 namespace fs = std::filesystem;
@@ -352,6 +353,18 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
            << Escape(action) << "</td><td>" << Escape(d.value("reason", "")) << "</td></tr>\n";
     }
     html << "</table></details>\n";
+    // Key figures, labelled, with units (the pipeline's own selection of its metrics).
+    for (const PipelineEntry& entry : Pipelines()) {
+      if (entry.name != p.name || !entry.figures) continue;
+      const std::vector<Figure> key_figures = entry.figures(p.summary["metrics"]);
+      if (key_figures.empty()) break;
+      html << "<table class=\"key-figures\"><tr><th>figure</th><th>value</th><th>unit</th></tr>\n";
+      for (const Figure& kf : key_figures) {
+        html << "<tr><td>" << Escape(kf.label) << "</td><td>" << Escape(kf.value) << "</td><td>" << Escape(kf.unit)
+             << "</td></tr>\n";
+      }
+      html << "</table>\n";
+    }
     std::vector<std::pair<std::string, std::string>> figures;
     if (p.summary.contains("metrics")) Flatten(p.summary["metrics"], "", figures);
     if (!figures.empty()) {

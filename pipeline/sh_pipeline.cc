@@ -1095,29 +1095,46 @@ void RunShPipeline(PipelineRun& run) {
 
 std::string ShHeadline(const nlohmann::json& m) {
   if (!m.contains("frames")) return "";
-  std::string text = std::to_string(m["frames"].size()) + " frame(s), relit to " + m.value("destination", "?");
+  std::string text = std::to_string(Field(m, "frames").size()) + " frame(s), relit to " + m.value("destination", "?");
   if (!m.value("sh_fits_scene", true)) {
-    text +=
-        "; SH DOES NOT FIT this scene (fit residual " + PercentText(m["fit_residual_median"]) + ", see the warning)";
+    text += "; SH DOES NOT FIT this scene (fit residual " + PercentText(Field(m, "fit_residual_median")) +
+            ", see the warning)";
   }
   if (m.contains("relit_relative_rms_mean")) {
     text += "; against the truth (" + std::to_string(m.value("compared_frames", 0)) + " frames): relit " +
-            PercentText(m["relit_relative_rms_mean"]) + " (not relit " + PercentText(m["baseline_relative_rms_mean"]) +
-            ")";
+            PercentText(Field(m, "relit_relative_rms_mean")) + " (not relit " +
+            PercentText(Field(m, "baseline_relative_rms_mean")) + ")";
   }
   if (m.contains("irradiance_relative_rms_mean")) {
-    text += ", fitted irradiance " + PercentText(m["irradiance_relative_rms_mean"]);
+    text += ", fitted irradiance " + PercentText(Field(m, "irradiance_relative_rms_mean"));
   }
   return text;
+}
+
+std::vector<Figure> ShFigures(const nlohmann::json& m) {
+  std::vector<Figure> f;
+  const auto get = [&](const char* key) { return Field(m, key); };
+  AddFigure(f, "relit vs truth (mean over frames, signal-relative RMS)", get("relit_relative_rms_mean"), "%");
+  AddFigure(f, "not relit vs truth (the same frames)", get("baseline_relative_rms_mean"), "%");
+  AddFigure(f, "fitted irradiance vs truth (mean)", get("irradiance_relative_rms_mean"), "%");
+  AddFigure(f, "fit residual (median over frames)", get("fit_residual_median"), "%");
+  AddFigure(f, "SH describes the scene's light", get("sh_fits_scene"), "");
+  AddFigure(f, "frames compared with the truth", get("compared_frames"), "", 6);
+  AddFigure(f, "pixels relit", get("relit_pixels"), "", 9);
+  AddFigure(f, "pixels not divided (irradiance too low)", get("guarded_pixels"), "", 9);
+  return f;
 }
 
 }  // namespace
 
 PipelineEntry ShPipelineEntry() {
-  return {
-      "sh",          "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
-      RunShPipeline, WithRadianceKnobs(DescribeKnobs<Knobs>()),
-      ShHeadline,    {"radiance", "geometry", "fit", "relight"}};
+  return {"sh",
+          "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
+          RunShPipeline,
+          WithRadianceKnobs(DescribeKnobs<Knobs>()),
+          ShHeadline,
+          ShFigures,
+          {"radiance", "geometry", "fit", "relight"}};
 }
 
 }  // namespace relume::pipeline

@@ -364,6 +364,8 @@ TEST(ProcessCliTest, OutputIsShortAndEndsWithTheHeadlineFigures) {
     EXPECT_NE(dom.find(alt, results), std::string::npos) << alt;
   }
   EXPECT_NE(dom.find("class=\"blink\"", results), std::string::npos);
+  // Each pipeline's key figures, labelled with units.
+  EXPECT_NE(dom.find("<td>relit vs truth, lit (per-pixel relative RMS)</td>"), std::string::npos);
   EXPECT_EQ(dom.find("cannot be read"), std::string::npos);
 
   // Unchanged rerun: the stages are counted as reused; --verbose lists them and every file.
