@@ -83,13 +83,17 @@ TEST(StageCacheTest, ResultsOfOtherCodeAreRecomputed) {
 }
 
 // The relume program and this test were built from the same sources: a stage the program
+// Records tests/data/rigs/sim-tiny-irm.yaml (two DSLR brackets of a small outdoor scene) into `session`.
+void CaptureTinyIrmSession(const fs::path& session) {
+  const testing::CliResult capture = testing::RunRelume("capture --rig " + std::string(RELUME_SOURCE_DIR) +
+                                                        "/tests/data/rigs/sim-tiny-irm.yaml --out " + session.string());
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+}
+
 // computed carries the code version this test computes.
 TEST(ProcessCliTest, TheProgramAndTheLibraryShareTheCodeVersion) {
   const fs::path dir = TempDir("shared_code");
-  const testing::CliResult capture =
-      testing::RunRelume("capture --rig " + std::string(RELUME_SOURCE_DIR) +
-                         "/tests/data/rigs/sim-tiny-irm.yaml --out " + (dir / "session").string());
-  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  ASSERT_NO_FATAL_FAILURE(CaptureTinyIrmSession(dir / "session"));
   const testing::CliResult run = testing::RunRelume("process " + (dir / "session").string() +
                                                     " --pipeline radiance --out " + (dir / "out").string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
@@ -294,12 +298,6 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   fs::remove_all(dir);
 }
 
-}  // namespace
-}  // namespace relume::pipeline
-
-namespace relume::pipeline {
-namespace {
-
 // Knobs are declared once: `--list --pipeline` shows them with their defaults, a typo is refused
 // before anything runs (no output folder made), with the closest knob's name.
 TEST(ProcessCliTest, KnobsAreListedAndATypoIsRefusedBeforeAnythingRuns) {
@@ -321,21 +319,12 @@ TEST(ProcessCliTest, KnobsAreListedAndATypoIsRefusedBeforeAnythingRuns) {
   fs::remove_all(dir);
 }
 
-}  // namespace
-}  // namespace relume::pipeline
-
-namespace relume::pipeline {
-namespace {
-
 // The command's output fits on a screen: decisions that shape the result (alike ones grouped),
 // stage cache events counted, files only with --verbose, and each pipeline's headline figures
 // at the end (issue 24).
 TEST(ProcessCliTest, OutputIsShortAndEndsWithTheHeadlineFigures) {
   const fs::path dir = TempDir("short_output");
-  const testing::CliResult capture =
-      testing::RunRelume("capture --rig " + std::string(RELUME_SOURCE_DIR) +
-                         "/tests/data/rigs/sim-tiny-irm.yaml --out " + (dir / "session").string());
-  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  ASSERT_NO_FATAL_FAILURE(CaptureTinyIrmSession(dir / "session"));
   const std::string command = "process " + (dir / "session").string() + " --out " + (dir / "out").string();
   const testing::CliResult quiet = testing::RunRelume(command);
   ASSERT_EQ(quiet.exit_code, 0) << quiet.output;
