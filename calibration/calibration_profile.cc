@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -84,6 +85,11 @@ std::string ProfileToJson(const CalibrationProfile& profile) {
               {"mean_delta_e_2000", profile.fit.mean_delta_e},
               {"max_delta_e_2000", profile.fit.max_delta_e},
               {"reason", profile.fit.reason}};
+  if (!profile.fit.patch_delta_e.empty()) {
+    json per_patch = json::array();  // null for a patch the fit did not use
+    for (double de : profile.fit.patch_delta_e) per_patch.push_back(std::isfinite(de) ? json(de) : json());
+    j["fit"]["patch_delta_e_2000"] = per_patch;
+  }
   return j.dump(1) + "\n";
 }
 
@@ -142,6 +148,12 @@ CalibrationProfile ProfileFromJson(const std::string& text, const std::string& p
     p.fit.mean_delta_e = f.value("mean_delta_e_2000", 0.0);
     p.fit.max_delta_e = f.value("max_delta_e_2000", 0.0);
     p.fit.reason = f.value("reason", std::string());
+    // Profiles written before 2026-12-02 have no per-patch values.
+    if (f.contains("patch_delta_e_2000") && f["patch_delta_e_2000"].is_array()) {
+      for (const json& de : f["patch_delta_e_2000"]) {
+        p.fit.patch_delta_e.push_back(de.is_number() ? de.get<double>() : std::numeric_limits<double>::quiet_NaN());
+      }
+    }
   }
   std::string why;
   if (!p.IsValid(&why)) throw ConfigError(path, 0, "", why);

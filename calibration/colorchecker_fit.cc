@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
@@ -250,12 +251,14 @@ ColorFit FitColorChecker(const std::vector<PatchSample>& patches, const ColorChe
                     "): the matrix is held near identity by the ridge term");
   }
   double sq = 0.0, sum_de = 0.0;
+  s.patch_delta_e.assign(24, std::numeric_limits<double>::quiet_NaN());
   for (int k = 0; k < 24; ++k) {
     PatchFit& p = fit.patches[k];
     p.corrected = fit.Correct(p.measured);
     p.corrected_lab = LabD50FromLinearRgb(p.corrected.cwiseMax(0.0));
     if (!p.used) continue;
     p.delta_e = DeltaE2000(p.corrected_lab, reference.patches[k].lab_d50);
+    s.patch_delta_e[static_cast<std::size_t>(k)] = p.delta_e;
     sum_de += p.delta_e;
     s.max_delta_e = std::max(s.max_delta_e, p.delta_e);
     sq += (p.corrected - reference.patches[k].linear_rgb).squaredNorm();

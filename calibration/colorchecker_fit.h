@@ -64,6 +64,8 @@ struct ColorFitSummary {
   double residual_rms = 0.0;  // linear RGB, over used patches
   double mean_delta_e = 0.0;  // over used patches
   double max_delta_e = 0.0;
+  // Delta E 2000 of each patch after the fit, 24 in reading order; NaN for a patch not used.
+  std::vector<double> patch_delta_e;
   std::string reason;
   std::string BriefReport() const;
 };

@@ -281,6 +281,19 @@ TEST(CalibrationProfileTest, JsonRoundTripAndApply) {
   EXPECT_EQ(loaded.gain.x[1], profile.gain.x[1]);
   ASSERT_TRUE(loaded.response.has_value());
   EXPECT_NEAR(loaded.fit.mean_delta_e, fit.summary.mean_delta_e, 1e-12);
+  // Each patch's Delta E 2000 (NaN where the fit did not use the patch) survives the file.
+  ASSERT_EQ(fit.summary.patch_delta_e.size(), 24u);
+  ASSERT_EQ(loaded.fit.patch_delta_e.size(), 24u);
+  for (std::size_t k = 0; k < 24; ++k) {
+    const double de = fit.summary.patch_delta_e[k];
+    EXPECT_EQ(std::isfinite(de), fit.patches[k].used) << k;
+    if (std::isfinite(de)) {
+      EXPECT_DOUBLE_EQ(de, fit.patches[k].delta_e) << k;
+      EXPECT_NEAR(loaded.fit.patch_delta_e[k], de, 1e-12) << k;
+    } else {
+      EXPECT_TRUE(std::isnan(loaded.fit.patch_delta_e[k])) << k;
+    }
+  }
   // Applied to the chart's radiance, the white patch comes out at its reference.
   RadianceImage radiance;
   radiance.pixels = image.values;

@@ -321,6 +321,22 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
           html << "</tr>";
         }
         html << "</table>\n";
+        if (profile.fit.patch_delta_e.size() == 24) {
+          // The chart as it lies (4 rows of 6, reading order): each patch's Delta E 2000 after the
+          // fit; green below 2 (hard to see), orange below 5, red from 5; "-" not used.
+          html << "<table class=\"patches\"><tr><th colspan=\"6\">&#916;E2000 per patch</th></tr>";
+          for (int r = 0; r < 4; ++r) {
+            html << "<tr>";
+            for (int k = 0; k < 6; ++k) {
+              const double de = profile.fit.patch_delta_e[static_cast<std::size_t>(r * 6 + k)];
+              const char* colour = !std::isfinite(de) ? "#eee" : de < 2.0 ? "#cfc" : de < 5.0 ? "#fd9" : "#f99";
+              html << "<td style=\"background:" << colour << "\">" << (std::isfinite(de) ? Fixed(de, 2) : "-")
+                   << "</td>";
+            }
+            html << "</tr>";
+          }
+          html << "</table>\n";
+        }
       }
       if (profile.response && !profile.response->sensor_linear) {
         const std::string name = "calibration-" + std::to_string(c.id) + "-response.png";

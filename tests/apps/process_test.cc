@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "capture/session.h"
 #include "core/error.h"
@@ -259,6 +260,18 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
   EXPECT_NE(applied.output.find("applying colour profile (calibration " + std::to_string(stored[0].id) + ")"),
             std::string::npos)
       << applied.output;
+  // The report shows the chart's patches with their Delta E 2000 (24 cells, the fit's values).
+  {
+    std::ostringstream page;
+    page << std::ifstream(dir / "p" / "report.html").rdbuf();
+    const std::string html = page.str();
+    const std::size_t grid = html.find("&#916;E2000 per patch");
+    ASSERT_NE(grid, std::string::npos);
+    const std::size_t end = html.find("</table>", grid);
+    int cells = 0;
+    for (std::size_t at = html.find("<td style=", grid); at < end; at = html.find("<td style=", at + 1)) ++cells;
+    EXPECT_EQ(cells, 24);
+  }
 
   // An EV-only camera's response, recovered from one bracket and stored: later brackets of that
   // camera are linearised with it instead of recovering their own.
