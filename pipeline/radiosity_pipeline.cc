@@ -376,6 +376,7 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
 
 // ---- the pipeline --------------------------------------------------------------------------
 
+// The radiosity-geometry stage's result.
 struct Geometry {
   RadiosityScene scene;
   std::unique_ptr<radiosity::PatchHierarchy> hierarchy;
@@ -496,8 +497,22 @@ std::string Percent(double x) {
   return text;
 }
 
-void RunRadiosityPipeline(PipelineRun& run) {
-  const Knobs knobs = ReadRadiosityKnobs(run);
+// ---- the stages ------------------------------------------------------------------------------
+
+// What every stage reads: the knobs, the session's stored world, and the one camera's spec and
+// still brackets.
+struct RadiosityInputs {
+  Knobs knobs;
+  const sim::World* world = nullptr;
+  const sim::SimDeviceSpec* spec = nullptr;
+  std::string device;
+  std::vector<std::vector<capture::FrameRecord>> brackets;
+};
+
+// The knobs, the world and the camera, checked before any stage runs.
+RadiosityInputs ReadRadiosityInputs(PipelineRun& run) {
+  RadiosityInputs in;
+  in.knobs = ReadRadiosityKnobs(run);
   const rig::RigConfig* rig = run.rig();
   if (rig == nullptr || !rig->world) {
     throw InvalidArgumentError(
@@ -509,167 +524,196 @@ void RunRadiosityPipeline(PipelineRun& run) {
         "--mesh is not supported by the radiosity pipeline yet: it takes the geometry and "
         "lamps from the session's stored world");
   }
-  const auto brackets = StillBrackets(run.session(), run.request().source);
-  if (brackets.empty()) throw InvalidArgumentError("the session has no still-camera frames to estimate albedo from");
-  const std::string device = brackets.front().front().device_id;
-  for (const auto& b : brackets) {
-    if (b.front().device_id != device) {
-      throw InvalidArgumentError("the radiosity pipeline takes one camera; the frames come from " + device + " and " +
-                                 b.front().device_id + ": pick one with --source " + device + ":still");
+  in.brackets = StillBrackets(run.session(), run.request().source);
+  if (in.brackets.empty()) throw InvalidArgumentError("the session has no still-camera frames to estimate albedo from");
+  in.device = in.brackets.front().front().device_id;
+  for (const auto& b : in.brackets) {
+    if (b.front().device_id != in.device) {
+      throw InvalidArgumentError("the radiosity pipeline takes one camera; the frames come from " + in.device +
+                                 " and " + b.front().device_id + ": pick one with --source " + in.device + ":still");
     }
   }
-  const sim::SimDeviceSpec* spec = FindDeviceSpec(rig, device);
-  if (spec == nullptr) throw InvalidArgumentError("no simulated camera spec for " + device + " in the session's rig");
-  const sim::World& world = *rig->world;
-  run.Decide("radiosity", "plan",
-             std::to_string(brackets.size()) + " bracket(s) of " + device +
-                 "; patches <= " + std::to_string(knobs.patch_edge_m) + " m, " + std::to_string(knobs.iterations) +
-                 " iteration(s) at most, tolerance " + std::to_string(knobs.tolerance));
-  if (run.request().explain) {
-    run.Decide("radiosity", "note", "the indirect-share test (skip or run radiosity) needs the radiance: not run here");
-    return;
+  in.spec = FindDeviceSpec(rig, in.device);
+  if (in.spec == nullptr) {
+    throw InvalidArgumentError("no simulated camera spec for " + in.device + " in the session's rig");
   }
-  if (world.options().indirect_bounces == 0) {
-    run.Decide("radiosity", "note",
-               "the session's world rendered direct light only (render.indirect_bounces 0): its photographs have no "
-               "interreflection, so albedo from a radiosity model is biased low; compare with the skipped result");
-  }
+  in.world = rig->world.get();
+  return in;
+}
 
-  // Geometry: patches and the pixel -> patch map.
+// patches.csv: per patch its object, centroid, normal and area.
+void WritePatchesCsv(const fs::path& path, const radiosity::PatchHierarchy& h) {
+  std::ofstream out(path);
+  out << "patch,object,centroid_x_m,centroid_y_m,centroid_z_m,normal_x,normal_y,normal_z,area_m2\n";
+  for (int p = 0; p < h.LeafCount(); ++p) {
+    const radiosity::Node& node = h.leaf(p);
+    char line[256];
+    std::snprintf(line, sizeof(line), "%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.8f\n", p,
+                  h.mesh().materials[node.material].name.c_str(), node.centroid.x(), node.centroid.y(),
+                  node.centroid.z(), node.normal.x(), node.normal.y(), node.normal.z(), node.area_m2);
+    out << line;
+  }
+}
+
+// Stage radiosity-geometry: the patches, and per pixel its patch and surface point.
+Geometry RunGeometryStage(PipelineRun& run, const RadiosityInputs& in) {
   Geometry geo;
-  geo.scene = RadiositySceneFromWorld(world.scene(), knobs.material_groups);
+  geo.scene = RadiositySceneFromWorld(in.world->scene(), in.knobs.material_groups);
   radiosity::HierarchyOptions hopt;
-  hopt.max_patch_edge_m = knobs.patch_edge_m;
+  hopt.max_patch_edge_m = in.knobs.patch_edge_m;
   geo.hierarchy = std::make_unique<radiosity::PatchHierarchy>(geo.scene.mesh, hopt);
   geo.caster = std::make_unique<RayCaster>(radiosity::ToTriangleMesh(geo.scene.mesh));
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
-  const int n = h.LeafCount();
   geo.key.Add("stage", "radiosity-geometry-v3")
       .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
       .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
-      .Add("device", device);
-  AddKnobsToKey(geo.key, knobs, "geometry");
-  const StageCache::Result geometry_stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
+      .Add("device", in.device);
+  AddKnobsToKey(geo.key, in.knobs, "geometry");
+  const StageCache::Result stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
     cv::Mat points_m;
-    WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, spec->camera, &points_m));
+    WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, in.spec->camera, &points_m));
     WritePixelMap(dir / "pixel_points_m.bin", points_m);
-    std::ofstream out(dir / "patches.csv");
-    out << "patch,object,centroid_x_m,centroid_y_m,centroid_z_m,normal_x,normal_y,normal_z,area_m2\n";
-    for (int p = 0; p < n; ++p) {
-      const radiosity::Node& node = h.leaf(p);
-      char line[256];
-      std::snprintf(line, sizeof(line), "%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.8f\n", p,
-                    h.mesh().materials[node.material].name.c_str(), node.centroid.x(), node.centroid.y(),
-                    node.centroid.z(), node.normal.x(), node.normal.y(), node.normal.z(), node.area_m2);
-      out << line;
-    }
+    WritePatchesCsv(dir / "patches.csv", h);
   });
-  geo.ids = ReadPixelMap(geometry_stage.dir / "patch_ids.bin", CV_32SC1, "patch id map");
-  geo.points_m = ReadPixelMap(geometry_stage.dir / "pixel_points_m.bin", CV_32FC3, "pixel point map");
+  geo.ids = ReadPixelMap(stage.dir / "patch_ids.bin", CV_32SC1, "patch id map");
+  geo.points_m = ReadPixelMap(stage.dir / "pixel_points_m.bin", CV_32FC3, "pixel point map");
   if (geo.points_m.size() != geo.ids.size()) {
-    throw IoError((geometry_stage.dir / "pixel_points_m.bin").string(),
-                  "size differs from the patch ids (rerun with --force)");
+    throw IoError((stage.dir / "pixel_points_m.bin").string(), "size differs from the patch ids (rerun with --force)");
   }
-  run.metrics()["patches"] = n;
+  run.metrics()["patches"] = h.LeafCount();
   run.metrics()["mesh_triangles"] = h.mesh().TriangleCount();
+  return geo;
+}
 
-  // Per bracket: linear radiance, then the mean radiance of each patch the camera saw.
-  std::vector<radiosity::RadianceObservation> observations;
-  std::vector<StageKey> observation_keys;
+// The observe stages' results: per bracket its radiance, its observation (the mean radiance per
+// patch; absolute once the scale stage has run) and the observe stage's key.
+struct Observations {
   std::vector<BracketRadiance> radiance;
-  std::vector<bool> seen(n, false);
-  for (const auto& bracket : brackets) {
-    if (knobs.input == "truth") {
-      radiance.push_back(TruthRadiance(run, bracket, *spec));
-    } else {
-      radiance.push_back(LinearRadiance(run, bracket));
+  std::vector<radiosity::RadianceObservation> patches;
+  std::vector<StageKey> keys;
+  std::vector<bool> seen;  // per patch: observed in any bracket
+};
+
+// Stage radiosity-observe for one bracket: the mean radiance of each patch the camera saw with at
+// least min_patch_pixels good pixels (NaN elsewhere), and the bracket's lamps.
+radiosity::RadianceObservation ObserveBracket(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
+                                              const BracketRadiance& r, StageKey* key) {
+  const int n = geo.hierarchy->LeafCount();
+  key->Add("stage", "radiosity-observe-v2").AddKey("radiance", r.key).AddKey("geometry", geo.key);
+  AddKnobsToKey(*key, in.knobs, "observe");
+  const StageCache::Result stage = run.RunStage("radiosity-observe", *key, [&](const fs::path& dir) {
+    std::vector<Rgb> sum(n, Rgb::Zero());
+    std::vector<int> count(n, 0);
+    for (int y = 0; y < geo.ids.rows; ++y) {
+      const int* id = geo.ids.ptr<int>(y);
+      const auto* px = r.radiance.pixels.ptr<cv::Vec3f>(y);
+      const std::uint8_t* status = r.status.empty() ? nullptr : r.status.ptr<std::uint8_t>(y);
+      for (int x = 0; x < geo.ids.cols; ++x) {
+        if (id[x] < 0 || (status && status[x] != 0)) continue;
+        const Rgb v(px[x][0], px[x][1], px[x][2]);
+        if (!v.allFinite()) continue;
+        sum[id[x]] += v;
+        ++count[id[x]];
+      }
     }
-    const BracketRadiance& r = radiance.back();
+    std::vector<Rgb> mean(n, Rgb::Constant(std::numeric_limits<double>::quiet_NaN()));
+    for (int p = 0; p < n; ++p) {
+      if (count[p] >= in.knobs.min_patch_pixels) mean[p] = sum[p] / count[p];
+    }
+    WritePatchRgb(dir / "observation.csv", "radiance", mean, &count);
+  });
+  radiosity::RadianceObservation obs;
+  obs.radiance = ReadPatchRgb(stage.dir / "observation.csv", n);
+  if (in.knobs.direct_at_pixels) obs.pixel_points = PixelPointsPerPatch(geo, r, obs.radiance);
+  obs.lighting = LightingAt(*in.world, r.utc);
+  obs.camera_position_m = in.spec->camera.world_from_camera.translation();
+  return obs;
+}
+
+// Per bracket: its linear radiance (or the world's, input=truth), then its radiosity-observe stage.
+Observations ObserveBrackets(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo) {
+  const int n = geo.hierarchy->LeafCount();
+  Observations out;
+  out.seen = std::vector<bool>(n, false);
+  for (const auto& bracket : in.brackets) {
+    if (in.knobs.input == "truth") {
+      out.radiance.push_back(TruthRadiance(run, bracket, *in.spec));
+    } else {
+      out.radiance.push_back(LinearRadiance(run, bracket));
+    }
+    const BracketRadiance& r = out.radiance.back();
     if (r.radiance.width() != geo.ids.cols || r.radiance.height() != geo.ids.rows) {
       throw InvalidArgumentError("bracket image " + std::to_string(r.radiance.width()) + "x" +
-                                 std::to_string(r.radiance.height()) + " does not match the camera of " + device);
+                                 std::to_string(r.radiance.height()) + " does not match the camera of " + in.device);
     }
     StageKey key;
-    key.Add("stage", "radiosity-observe-v2").AddKey("radiance", r.key).AddKey("geometry", geo.key);
-    AddKnobsToKey(key, knobs, "observe");
-    const StageCache::Result stage = run.RunStage("radiosity-observe", key, [&](const fs::path& dir) {
-      std::vector<Rgb> sum(n, Rgb::Zero());
-      std::vector<int> count(n, 0);
-      for (int y = 0; y < geo.ids.rows; ++y) {
-        const int* id = geo.ids.ptr<int>(y);
-        const auto* px = r.radiance.pixels.ptr<cv::Vec3f>(y);
-        const std::uint8_t* status = r.status.empty() ? nullptr : r.status.ptr<std::uint8_t>(y);
-        for (int x = 0; x < geo.ids.cols; ++x) {
-          if (id[x] < 0 || (status && status[x] != 0)) continue;
-          const Rgb v(px[x][0], px[x][1], px[x][2]);
-          if (!v.allFinite()) continue;
-          sum[id[x]] += v;
-          ++count[id[x]];
-        }
-      }
-      std::vector<Rgb> mean(n, Rgb::Constant(std::numeric_limits<double>::quiet_NaN()));
-      for (int p = 0; p < n; ++p) {
-        if (count[p] >= knobs.min_patch_pixels) mean[p] = sum[p] / count[p];
-      }
-      WritePatchRgb(dir / "observation.csv", "radiance", mean, &count);
-    });
-    radiosity::RadianceObservation obs;
-    obs.radiance = ReadPatchRgb(stage.dir / "observation.csv", n);
-    if (knobs.direct_at_pixels) obs.pixel_points = PixelPointsPerPatch(geo, r, obs.radiance);
-    obs.lighting = LightingAt(world, r.utc);
-    obs.camera_position_m = spec->camera.world_from_camera.translation();
-    for (int p = 0; p < n; ++p) seen[p] = seen[p] || obs.radiance[p].allFinite();
-    observations.push_back(std::move(obs));
-    observation_keys.push_back(key);
+    radiosity::RadianceObservation obs = ObserveBracket(run, in, geo, r, &key);
+    for (int p = 0; p < n; ++p) out.seen[p] = out.seen[p] || obs.radiance[p].allFinite();
+    out.patches.push_back(std::move(obs));
+    out.keys.push_back(key);
   }
-  run.metrics()["patches_seen"] = std::count(seen.begin(), seen.end(), true);
+  run.metrics()["patches_seen"] = std::count(out.seen.begin(), out.seen.end(), true);
+  return out;
+}
 
-  // Absolute scale: an EV-only camera's radiance is relative (and differs per bracket, which the
-  // reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from the
-  // simulated world's rendered radiance (standing in for a radiometric calibration), or stays 1.
-  StageKey scale_key;
-  scale_key.Add("stage", "radiosity-scale-v3").AddKey("radiance", radiance.front().key);
-  AddKnobsToKey(scale_key, knobs, "scale");
-  scale_key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
-  const StageCache::Result scale_stage = run.RunStage("radiosity-scale", scale_key, [&](const fs::path& dir) {
+// The radiosity-scale stage's result: bracket 0's absolute scale.
+struct AbsoluteScale {
+  StageKey key;
+  double k = 1.0;
+};
+
+// Bracket 0's absolute scale against the world's rendered radiance, into `j`: the median of
+// truth / measured over well-exposed pixels and channels (robust to the few very bright pixels, a
+// lamp's hot spot, that dominate a least-squares scale), and the ratio's relative spread.
+void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, nlohmann::json* j) {
+  const sim::GroundTruth truth = in.world->Render(in.spec->camera, r.utc);
+  std::vector<double> ratios;
+  for (int y = 0; y < r.radiance.height(); ++y) {
+    for (int x = 0; x < r.radiance.width(); ++x) {
+      if (!r.status.empty() && r.status.at<std::uint8_t>(y, x) != 0) continue;
+      const cv::Vec3f m = r.radiance.pixels.at<cv::Vec3f>(y, x), t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        if (std::isfinite(m[c]) && std::isfinite(t[c]) && m[c] > 0.0f && t[c] > 0.0f) ratios.push_back(t[c] / m[c]);
+      }
+    }
+  }
+  if (ratios.empty()) {
+    throw InvalidArgumentError("cannot fix the absolute scale: bracket 0 has no well-exposed pixel on a surface");
+  }
+  const auto mid = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
+  std::nth_element(ratios.begin(), mid, ratios.end());
+  const double k = *mid;
+  // Spread of the ratio (robust): half the 16th-84th percentile range, relative.
+  const auto lo = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 16 / 100);
+  std::nth_element(ratios.begin(), lo, ratios.end());
+  const double p16 = *lo;
+  const auto hi = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 84 / 100);
+  std::nth_element(ratios.begin(), hi, ratios.end());
+  (*j)["scale"] = k;
+  (*j)["samples"] = ratios.size();
+  (*j)["relative_spread"] = 0.5 * (*hi - p16) / k;
+}
+
+// Stage radiosity-scale: an EV-only camera's radiance is relative (and differs per bracket, which
+// the reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from the
+// simulated world's rendered radiance (standing in for a radiometric calibration), or stays 1.
+AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const BracketRadiance& bracket0) {
+  const Knobs& knobs = in.knobs;
+  AbsoluteScale out;
+  out.key.Add("stage", "radiosity-scale-v3").AddKey("radiance", bracket0.key);
+  AddKnobsToKey(out.key, knobs, "scale");
+  out.key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
+  const StageCache::Result stage = run.RunStage("radiosity-scale", out.key, [&](const fs::path& dir) {
     nlohmann::json j = {{"mode", knobs.scale}, {"scale", 1.0}};
     if (knobs.input == "truth") {
       j["mode"] = "input=truth: already absolute";
     } else if (knobs.scale == "truth") {
-      const BracketRadiance& r = radiance.front();
-      const sim::GroundTruth truth = world.Render(spec->camera, r.utc);
-      // The median of truth / measured over well-exposed pixels and channels: robust to the few
-      // very bright pixels (a lamp's hot spot) that dominate a least-squares scale.
-      std::vector<double> ratios;
-      for (int y = 0; y < r.radiance.height(); ++y) {
-        for (int x = 0; x < r.radiance.width(); ++x) {
-          if (!r.status.empty() && r.status.at<std::uint8_t>(y, x) != 0) continue;
-          const cv::Vec3f m = r.radiance.pixels.at<cv::Vec3f>(y, x), t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
-          for (int c = 0; c < 3; ++c) {
-            if (std::isfinite(m[c]) && std::isfinite(t[c]) && m[c] > 0.0f && t[c] > 0.0f) ratios.push_back(t[c] / m[c]);
-          }
-        }
-      }
-      if (ratios.empty()) {
-        throw InvalidArgumentError("cannot fix the absolute scale: bracket 0 has no well-exposed pixel on a surface");
-      }
-      const auto mid = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
-      std::nth_element(ratios.begin(), mid, ratios.end());
-      const double k = *mid;
-      // Spread of the ratio (robust): half the 16th-84th percentile range, relative.
-      const auto lo = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 16 / 100);
-      std::nth_element(ratios.begin(), lo, ratios.end());
-      const double p16 = *lo;
-      const auto hi = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 84 / 100);
-      std::nth_element(ratios.begin(), hi, ratios.end());
-      j["scale"] = k;
-      j["samples"] = ratios.size();
-      j["relative_spread"] = 0.5 * (*hi - p16) / k;
+      AddScaleFromTruth(in, bracket0, &j);
     }
     WriteJson(dir / "scale.json", j);
   });
-  const nlohmann::json scale = ReadJson(scale_stage.dir / "scale.json");
-  const double k_abs = scale["scale"].get<double>();
+  const nlohmann::json scale = ReadJson(stage.dir / "scale.json");
+  out.k = scale["scale"].get<double>();
   run.metrics()["absolute_scale"] = scale;
   run.Decide("radiosity-scale", "choose",
              knobs.input == "truth" ? "input=truth: the world's radiance is absolute (W m^-2 sr^-1); no camera"
@@ -677,41 +721,50 @@ void RunRadiosityPipeline(PipelineRun& run) {
                  ? "bracket 0's absolute scale from the simulated world's radiance (a stand-in for radiometric "
                    "calibration; the EV-only camera gives relative radiance only)"
                  : "scale=none: albedo is relative (bracket 0's units), not absolute");
-  for (auto& obs : observations) {
-    for (Rgb& v : obs.radiance) v *= k_abs;
-  }
+  return out;
+}
 
-  // Planner: the indirect share, from a direct-only albedo of bracket 0 and triangle-level form
-  // factors. Below the tolerance the radiosity iterations cannot change the albedo by more.
-  const radiosity::DirectLight direct0 = radiosity::ComputeDirectLight(h, *geo.caster, observations.front().lighting,
-                                                                       ReflectanceOptionsFrom(knobs, false).direct);
+// Loscos's first estimate from bracket 0: direct light plus one ambient term (the mean observed
+// radiosity); patches bracket 0 did not observe take the observed patches' mean.
+std::vector<Rgb> FirstAlbedoEstimate(const radiosity::PatchHierarchy& h, const radiosity::RadianceObservation& obs,
+                                     const radiosity::DirectLight& direct) {
+  const int n = h.LeafCount();
   std::vector<Rgb> albedo0(n, Rgb::Constant(0.5));
-  {
-    // Loscos's first estimate: direct light plus one ambient term (the mean observed radiosity).
-    Rgb ambient = Rgb::Zero();
-    double area = 0.0;
+  Rgb ambient = Rgb::Zero();
+  double area = 0.0;
+  for (int p = 0; p < n; ++p) {
+    if (!obs.radiance[p].allFinite()) continue;
+    ambient += h.leaf(p).area_m2 * std::numbers::pi * obs.radiance[p];
+    area += h.leaf(p).area_m2;
+  }
+  if (area > 0.0) ambient /= area;
+  Rgb sum = Rgb::Zero();
+  int count = 0;
+  for (int p = 0; p < n; ++p) {
+    const Rgb& l = obs.radiance[p];
+    const Rgb e = direct.irradiance[p] + ambient;
+    if (!l.allFinite() || !(e.minCoeff() > 0.0)) continue;
+    albedo0[p] = (std::numbers::pi * l).cwiseQuotient(e).cwiseMin(1.0).cwiseMax(0.0);
+    sum += albedo0[p];
+    ++count;
+  }
+  if (count > 0) {
     for (int p = 0; p < n; ++p) {
-      if (!observations.front().radiance[p].allFinite()) continue;
-      ambient += h.leaf(p).area_m2 * std::numbers::pi * observations.front().radiance[p];
-      area += h.leaf(p).area_m2;
-    }
-    if (area > 0.0) ambient /= area;
-    Rgb sum = Rgb::Zero();
-    int count = 0;
-    for (int p = 0; p < n; ++p) {
-      const Rgb& l = observations.front().radiance[p];
-      const Rgb e = direct0.irradiance[p] + ambient;
-      if (!l.allFinite() || !(e.minCoeff() > 0.0)) continue;
-      albedo0[p] = (std::numbers::pi * l).cwiseQuotient(e).cwiseMin(1.0).cwiseMax(0.0);
-      sum += albedo0[p];
-      ++count;
-    }
-    if (count > 0) {
-      for (int p = 0; p < n; ++p) {
-        if (!observations.front().radiance[p].allFinite()) albedo0[p] = sum / count;
-      }
+      if (!obs.radiance[p].allFinite()) albedo0[p] = sum / count;
     }
   }
+  return albedo0;
+}
+
+// The planner: the indirect share, from a direct-only albedo of bracket 0 and triangle-level form
+// factors. Below the tolerance the radiosity iterations cannot change the albedo by more, and
+// they are skipped (returns true).
+bool DecideSkipRadiosity(PipelineRun& run, const Knobs& knobs, const Geometry& geo,
+                         const radiosity::RadianceObservation& bracket0) {
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  const radiosity::DirectLight direct0 =
+      radiosity::ComputeDirectLight(h, *geo.caster, bracket0.lighting, ReflectanceOptionsFrom(knobs, false).direct);
+  const std::vector<Rgb> albedo0 = FirstAlbedoEstimate(h, bracket0, direct0);
   const radiosity::IndirectShareEstimate share = radiosity::EstimateIndirectShare(
       h, *geo.caster, albedo0, direct0.irradiance, knobs.tolerance, knobs.form_factor_rays);
   const bool skip = share.indirect_share < knobs.tolerance;
@@ -725,212 +778,350 @@ void RunRadiosityPipeline(PipelineRun& run) {
                  Percent(share.first_bounce_ratio) + ", enclosure " + std::to_string(share.mean_enclosure) + ") " +
                  (skip ? "is below" : "exceeds") + " the tolerance " + Percent(knobs.tolerance) +
                  (skip ? ": albedo from direct light only" : ": reflectance iterated with radiosity"));
+  return skip;
+}
 
-  // Reflectance iterations.
-  const MaterialGroups groups = GroupPatches(h, geo.scene, world.scene());
-  StageKey reflectance_key;
-  reflectance_key.Add("stage", "radiosity-reflectance-v4").AddKey("geometry", geo.key).AddKey("scale", scale_key);
-  for (size_t s = 0; s < observation_keys.size(); ++s) {
-    reflectance_key.AddKey("observation", observation_keys[s]).Add("utc", FormatIso8601(radiance[s].utc));
+// albedo.csv: per patch its object, whether seen and estimated, its confidence, its albedo and
+// iteration 0's.
+void WriteAlbedoCsv(const fs::path& path, const radiosity::PatchHierarchy& h,
+                    const radiosity::ReflectanceResult& result, const std::vector<bool>& seen) {
+  std::ofstream out(path);
+  out << "patch,object,seen,estimated,confidence,albedo_r,albedo_g,albedo_b,initial_r,initial_g,initial_b\n";
+  for (int p = 0; p < h.LeafCount(); ++p) {
+    char line[256];
+    const Rgb& a = result.albedo[p];
+    const Rgb& i = result.initial_albedo[p];
+    std::snprintf(line, sizeof(line), "%d,%s,%d,%d,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", p,
+                  h.mesh().materials[h.leaf(p).material].name.c_str(), seen[p] ? 1 : 0, result.estimated[p] ? 1 : 0,
+                  result.confidence[p], a.x(), a.y(), a.z(), i.x(), i.y(), i.z());
+    out << line;
   }
-  AddKnobsToKey(reflectance_key, knobs, "reflectance").Add("skip_radiosity", skip);
-  const StageCache::Result refl_stage =
-      run.RunStage("radiosity-reflectance", reflectance_key, [&](const fs::path& dir) {
-        radiosity::ReflectanceOptions options = ReflectanceOptionsFrom(knobs, skip);
-        nlohmann::json per_iteration = nlohmann::json::array();
-        options.on_iteration = [&](int iteration, const std::vector<Rgb>& albedo, const std::vector<double>& scales) {
-          nlohmann::json it = {{"iteration", iteration}, {"image_scale", scales}};
-          if (knobs.compare_truth) it["truth"] = AlbedoErrors(groups, albedo, seen);
-          per_iteration.push_back(it);
-          run.Progress("reflectance", iteration, knobs.iterations);
-        };
-        const radiosity::ReflectanceResult result =
-            radiosity::EstimateReflectance(h, *geo.caster, observations, options);
-        if (per_iteration.size() < static_cast<size_t>(knobs.iterations) + 1) std::fprintf(stderr, "\n");
+}
 
-        // albedo.csv and the reflectance map.
-        {
-          std::ofstream out(dir / "albedo.csv");
-          out << "patch,object,seen,estimated,confidence,albedo_r,albedo_g,albedo_b,initial_r,initial_g,initial_b\n";
-          for (int p = 0; p < n; ++p) {
-            char line[256];
-            const Rgb& a = result.albedo[p];
-            const Rgb& i = result.initial_albedo[p];
-            std::snprintf(line, sizeof(line), "%d,%s,%d,%d,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", p,
-                          h.mesh().materials[h.leaf(p).material].name.c_str(), seen[p] ? 1 : 0,
-                          result.estimated[p] ? 1 : 0, result.confidence[p], a.x(), a.y(), a.z(), i.x(), i.y(), i.z());
-            out << line;
-          }
-        }
-        // The reflectance map per pixel (each pixel's own direct light, its patch's indirect).
-        const RadianceImage albedo_image = PixelReflectance(geo, radiance, observations, result, k_abs, options.direct);
-        calibration::SaveRadianceExr(albedo_image, (dir / "reflectance.exr").string());
-        calibration::SaveImage(AlbedoPreview(albedo_image), (dir / "reflectance.png").string());
-        calibration::SaveImage(AlbedoPreview(PaintPatches(geo.ids, result.albedo)),
-                               (dir / "reflectance_patches.png").string());
+// The converged solution under bracket 0's lamps, as radiosity.csv and rendered from the camera
+// (radiosity.exr/.png); returns its relative RMS against bracket 0's photograph per observed patch.
+double WriteBracket0Solution(const fs::path& dir, const Geometry& geo, const radiosity::RadiositySolution& solution,
+                             const radiosity::RadianceObservation& bracket0) {
+  const int n = geo.hierarchy->LeafCount();
+  WritePatchRgb(dir / "radiosity.csv", "radiosity_w_m2", solution.radiosity);
+  std::vector<Rgb> radiance_patch(n);
+  for (int p = 0; p < n; ++p) radiance_patch[p] = solution.radiosity[p] / std::numbers::pi;
+  RadianceImage rendering = PaintPatches(geo.ids, radiance_patch);
+  rendering.unit = RadianceUnit::kWattsPerSqmPerSr;
+  calibration::SaveRadianceExr(rendering, (dir / "radiosity.exr").string());
+  calibration::SaveImage(RadiancePreview(rendering), (dir / "radiosity.png").string());
+  double num = 0.0, den = 0.0;
+  for (int p = 0; p < n; ++p) {
+    const Rgb& l = bracket0.radiance[p];
+    if (!l.allFinite()) continue;
+    num += (radiance_patch[p] - l).squaredNorm();
+    den += l.squaredNorm();
+  }
+  return den > 0.0 ? std::sqrt(num / den) : 0.0;
+}
 
-        // The converged radiosity solution under bracket 0's lamps (absolute units).
-        radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
-        const radiosity::DirectLight direct =
-            radiosity::ComputeDirectLight(h, *geo.caster, observations.front().lighting, options.direct);
-        radiosity::RadiositySolution solution;
-        const radiosity::RadiositySummary summary =
-            solver.Solve(result.albedo, direct.irradiance, h.LeafEmission(), &solution);
-        WritePatchRgb(dir / "radiosity.csv", "radiosity_w_m2", solution.radiosity);
-        std::vector<Rgb> radiance_patch(n);
-        for (int p = 0; p < n; ++p) radiance_patch[p] = solution.radiosity[p] / std::numbers::pi;
-        RadianceImage rendering = PaintPatches(geo.ids, radiance_patch);
-        rendering.unit = RadianceUnit::kWattsPerSqmPerSr;
-        calibration::SaveRadianceExr(rendering, (dir / "radiosity.exr").string());
-        calibration::SaveImage(RadiancePreview(rendering), (dir / "radiosity.png").string());
-        // How well the solution reproduces bracket 0's photograph (per patch, observed patches).
-        double num = 0.0, den = 0.0;
-        for (int p = 0; p < n; ++p) {
-          const Rgb& l = observations.front().radiance[p];
-          if (!l.allFinite()) continue;
-          num += (radiance_patch[p] - l).squaredNorm();
-          den += l.squaredNorm();
-        }
+// Mean and standard deviation of (model / photograph - 1) over patches and channels.
+class RelativeDifference {
+ public:
+  void Add(const Rgb& ratio) {
+    for (int c = 0; c < 3; ++c) {
+      sum_ += ratio[c] - 1.0;
+      sum2_ += (ratio[c] - 1.0) * (ratio[c] - 1.0);
+    }
+    count_ += 3;
+  }
+  nlohmann::json ToJson() const {
+    const double mean = count_ > 0 ? sum_ / count_ : 0.0;
+    return {{"mean_relative_difference", mean},
+            {"sd_relative_difference", count_ > 0 ? std::sqrt(std::max(0.0, sum2_ / count_ - mean * mean)) : 0.0},
+            {"samples", count_}};
+  }
 
-        // The model's own floor: the radiosity solution with the TRUE albedo against bracket 0's
-        // photograph, per observed patch. What remains here (Monte Carlo noise and bounce truncation
-        // of the simulated photographs, patch discretisation, camera) no albedo can remove.
-        nlohmann::json model_gap;
-        if (knobs.compare_truth) {
-          std::vector<Rgb> truth_albedo(n, Rgb::Constant(0.5));
-          for (int p = 0; p < n; ++p) truth_albedo[p] = groups.truth[groups.group_of_patch[p]];
-          radiosity::RadiositySolution truth_solution;
-          solver.Solve(truth_albedo, direct.irradiance, h.LeafEmission(), &truth_solution);
-          double sum = 0.0, sum2 = 0.0;
-          int count = 0;
-          for (int p = 0; p < n; ++p) {
-            const Rgb& l = observations.front().radiance[p];
-            if (!l.allFinite() || !(l.minCoeff() > 0.0)) continue;
-            const Rgb ratio = (truth_solution.radiosity[p] / std::numbers::pi).cwiseQuotient(l);
-            for (int c = 0; c < 3; ++c) {
-              sum += ratio[c] - 1.0;
-              sum2 += (ratio[c] - 1.0) * (ratio[c] - 1.0);
-            }
-            count += 3;
-          }
-          const double mean = count > 0 ? sum / count : 0.0;
-          model_gap = {
-              {"mean_relative_difference", mean},
-              {"sd_relative_difference", count > 0 ? std::sqrt(std::max(0.0, sum2 / count - mean * mean)) : 0.0},
-              {"samples", count}};
-          // The same with the direct light averaged over the pixels' own points (what the
-          // estimate divides by when direct_at_pixels is on): what is left is the indirect
-          // light's error (patch-constant, Monte Carlo noise of the photographs).
-          if (!observations.front().pixel_points.empty()) {
-            const radiosity::DirectLightAtPoints at = radiosity::ComputeDirectLightAtPoints(
-                h, *geo.caster, observations.front().lighting, observations.front().pixel_points, options.direct);
-            double psum = 0.0, psum2 = 0.0;
-            int pcount = 0;
-            for (int p = 0; p < n; ++p) {
-              const Rgb& l = observations.front().radiance[p];
-              if (!at.has_points[p] || !l.allFinite() || !(l.minCoeff() > 0.0)) continue;
-              const Rgb model = truth_albedo[p].cwiseProduct(at.irradiance[p] + truth_solution.indirect_irradiance[p]) /
-                                std::numbers::pi;
-              const Rgb ratio = model.cwiseQuotient(l);
-              for (int c = 0; c < 3; ++c) {
-                psum += ratio[c] - 1.0;
-                psum2 += (ratio[c] - 1.0) * (ratio[c] - 1.0);
-              }
-              pcount += 3;
-            }
-            const double pmean = pcount > 0 ? psum / pcount : 0.0;
-            model_gap["at_pixels"] = {
-                {"mean_relative_difference", pmean},
-                {"sd_relative_difference", pcount > 0 ? std::sqrt(std::max(0.0, psum2 / pcount - pmean * pmean)) : 0.0},
-                {"samples", pcount}};
-          }
-        }
+ private:
+  double sum_ = 0.0, sum2_ = 0.0;
+  int count_ = 0;
+};
 
-        // Convergence: CSV and chart.
-        std::vector<double> change{std::numeric_limits<double>::quiet_NaN()}, error, spread;
-        for (double c : result.max_change) change.push_back(c);
-        {
-          std::ofstream out(dir / "convergence.csv");
-          out << "iteration,max_albedo_change,mean_albedo_change,mean_abs_error,max_spread_sd\n";
-          for (size_t i = 0; i < per_iteration.size(); ++i) {
-            const double mc = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.max_change[i - 1];
-            const double mean_c = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.mean_change[i - 1];
-            const nlohmann::json& t = per_iteration[i].contains("truth") ? per_iteration[i]["truth"] : nlohmann::json();
-            const double e = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["mean_abs_error"].get<double>();
-            const double sd = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["max_spread_sd"].get<double>();
-            error.push_back(e);
-            spread.push_back(sd);
-            char line[160];
-            std::snprintf(line, sizeof(line), "%zu,%.6g,%.6g,%.6g,%.6g\n", i, mc, mean_c, e, sd);
-            out << line;
-          }
-        }
-        std::vector<std::pair<std::string, std::vector<double>>> series = {{"max albedo change", change}};
-        if (knobs.compare_truth) {
-          series.push_back({"mean |albedo - truth|", error});
-          series.push_back({"max spread (sd) per material", spread});
-        }
-        calibration::SaveImage(LogChart(series, "reflectance iterations (Loscos)"), (dir / "convergence.png").string());
+// The model's own floor: the radiosity solution with the TRUE albedo against bracket 0's
+// photograph, per observed patch. What remains here (Monte Carlo noise and bounce truncation of
+// the simulated photographs, patch discretisation, camera) no albedo can remove. `solver` is the
+// reflectance stage's (its links refined by the converged solution).
+nlohmann::json ModelGap(const Geometry& geo, const MaterialGroups& groups, radiosity::RadiositySolver& solver,
+                        const radiosity::DirectLight& direct, const radiosity::RadianceObservation& bracket0,
+                        const radiosity::DirectLightOptions& direct_options) {
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  const int n = h.LeafCount();
+  std::vector<Rgb> truth_albedo(n, Rgb::Constant(0.5));
+  for (int p = 0; p < n; ++p) truth_albedo[p] = groups.truth[groups.group_of_patch[p]];
+  radiosity::RadiositySolution truth_solution;
+  solver.Solve(truth_albedo, direct.irradiance, h.LeafEmission(), &truth_solution);
+  RelativeDifference per_patch;
+  for (int p = 0; p < n; ++p) {
+    const Rgb& l = bracket0.radiance[p];
+    if (!l.allFinite() || !(l.minCoeff() > 0.0)) continue;
+    per_patch.Add((truth_solution.radiosity[p] / std::numbers::pi).cwiseQuotient(l));
+  }
+  nlohmann::json model_gap = per_patch.ToJson();
+  // The same with the direct light averaged over the pixels' own points (what the estimate
+  // divides by when direct_at_pixels is on): what is left is the indirect light's error
+  // (patch-constant, Monte Carlo noise of the photographs).
+  if (!bracket0.pixel_points.empty()) {
+    const radiosity::DirectLightAtPoints at =
+        radiosity::ComputeDirectLightAtPoints(h, *geo.caster, bracket0.lighting, bracket0.pixel_points, direct_options);
+    RelativeDifference at_pixels;
+    for (int p = 0; p < n; ++p) {
+      const Rgb& l = bracket0.radiance[p];
+      if (!at.has_points[p] || !l.allFinite() || !(l.minCoeff() > 0.0)) continue;
+      const Rgb model =
+          truth_albedo[p].cwiseProduct(at.irradiance[p] + truth_solution.indirect_irradiance[p]) / std::numbers::pi;
+      at_pixels.Add(model.cwiseQuotient(l));
+    }
+    model_gap["at_pixels"] = at_pixels.ToJson();
+  }
+  return model_gap;
+}
 
-        nlohmann::json m;
-        m["iterations"] = result.iterations;
-        m["converged"] = result.converged;
-        m["reason"] = result.reason;
-        m["radiosity_skipped"] = result.radiosity_skipped;
-        m["image_scale"] = result.image_scale;
-        m["scale_samples"] = result.scale_samples;
-        m["max_change"] = result.max_change;
-        m["clamped"] = result.clamped;
-        m["seconds"] = result.time_s;
-        m["per_iteration"] = per_iteration;
-        if (knobs.compare_truth && !per_iteration.empty()) {
-          m["truth_before"] = per_iteration.front()["truth"];
-          m["truth_after"] = per_iteration.back()["truth"];
-          m["truth_pixels"] = PixelAlbedoErrors(groups, geo.ids, albedo_image);
-        }
-        m["solution"] = {{"summary", summary.BriefReport()},
-                         {"converged", summary.converged},
-                         {"links", summary.links},
-                         {"relative_rms_vs_bracket0", den > 0.0 ? std::sqrt(num / den) : 0.0}};
-        if (!model_gap.is_null()) m["model_gap_true_albedo_vs_bracket0"] = model_gap;
-        WriteJson(dir / "metrics.json", m);
-      });
-  const nlohmann::json refl = ReadJson(refl_stage.dir / "metrics.json");
+// convergence.csv and convergence.png: the albedo change per iteration and, with compare_truth,
+// the error and the largest spread per material against the truth.
+void WriteConvergence(const fs::path& dir, const radiosity::ReflectanceResult& result,
+                      const nlohmann::json& per_iteration, bool compare_truth) {
+  std::vector<double> change{std::numeric_limits<double>::quiet_NaN()}, error, spread;
+  for (double c : result.max_change) change.push_back(c);
+  {
+    std::ofstream out(dir / "convergence.csv");
+    out << "iteration,max_albedo_change,mean_albedo_change,mean_abs_error,max_spread_sd\n";
+    for (size_t i = 0; i < per_iteration.size(); ++i) {
+      const double mc = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.max_change[i - 1];
+      const double mean_c = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.mean_change[i - 1];
+      const nlohmann::json& t = per_iteration[i].contains("truth") ? per_iteration[i]["truth"] : nlohmann::json();
+      const double e = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["mean_abs_error"].get<double>();
+      const double sd = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["max_spread_sd"].get<double>();
+      error.push_back(e);
+      spread.push_back(sd);
+      char line[160];
+      std::snprintf(line, sizeof(line), "%zu,%.6g,%.6g,%.6g,%.6g\n", i, mc, mean_c, e, sd);
+      out << line;
+    }
+  }
+  std::vector<std::pair<std::string, std::vector<double>>> series = {{"max albedo change", change}};
+  if (compare_truth) {
+    series.push_back({"mean |albedo - truth|", error});
+    series.push_back({"max spread (sd) per material", spread});
+  }
+  calibration::SaveImage(LogChart(series, "reflectance iterations (Loscos)"), (dir / "convergence.png").string());
+}
+
+// The reflectance result's part of the stage's metrics.json.
+nlohmann::json ReflectanceMetrics(const radiosity::ReflectanceResult& result, const nlohmann::json& per_iteration) {
+  nlohmann::json m;
+  m["iterations"] = result.iterations;
+  m["converged"] = result.converged;
+  m["reason"] = result.reason;
+  m["radiosity_skipped"] = result.radiosity_skipped;
+  m["image_scale"] = result.image_scale;
+  m["scale_samples"] = result.scale_samples;
+  m["max_change"] = result.max_change;
+  m["clamped"] = result.clamped;
+  m["seconds"] = result.time_s;
+  m["per_iteration"] = per_iteration;
+  return m;
+}
+
+// The radiosity-reflectance stage's work in `dir`: the reflectance iterations, albedo.csv, the
+// reflectance maps, the converged solution, the model's floor, convergence and metrics.json.
+void ComputeReflectance(PipelineRun& run, const fs::path& dir, const Knobs& knobs, const Geometry& geo,
+                        const MaterialGroups& groups, const Observations& observed, double k_abs, bool skip) {
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  const radiosity::RadianceObservation& bracket0 = observed.patches.front();
+  radiosity::ReflectanceOptions options = ReflectanceOptionsFrom(knobs, skip);
+  nlohmann::json per_iteration = nlohmann::json::array();
+  options.on_iteration = [&](int iteration, const std::vector<Rgb>& albedo, const std::vector<double>& scales) {
+    nlohmann::json it = {{"iteration", iteration}, {"image_scale", scales}};
+    if (knobs.compare_truth) it["truth"] = AlbedoErrors(groups, albedo, observed.seen);
+    per_iteration.push_back(it);
+    run.Progress("reflectance", iteration, knobs.iterations);
+  };
+  const radiosity::ReflectanceResult result = radiosity::EstimateReflectance(h, *geo.caster, observed.patches, options);
+  if (per_iteration.size() < static_cast<size_t>(knobs.iterations) + 1) std::fprintf(stderr, "\n");
+
+  WriteAlbedoCsv(dir / "albedo.csv", h, result, observed.seen);
+  // The reflectance map per pixel (each pixel's own direct light, its patch's indirect).
+  const RadianceImage albedo_image =
+      PixelReflectance(geo, observed.radiance, observed.patches, result, k_abs, options.direct);
+  calibration::SaveRadianceExr(albedo_image, (dir / "reflectance.exr").string());
+  calibration::SaveImage(AlbedoPreview(albedo_image), (dir / "reflectance.png").string());
+  calibration::SaveImage(AlbedoPreview(PaintPatches(geo.ids, result.albedo)),
+                         (dir / "reflectance_patches.png").string());
+
+  // The converged radiosity solution under bracket 0's lamps (absolute units).
+  radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
+  const radiosity::DirectLight direct =
+      radiosity::ComputeDirectLight(h, *geo.caster, bracket0.lighting, options.direct);
+  radiosity::RadiositySolution solution;
+  const radiosity::RadiositySummary summary =
+      solver.Solve(result.albedo, direct.irradiance, h.LeafEmission(), &solution);
+  const double relative_rms = WriteBracket0Solution(dir, geo, solution, bracket0);
+  nlohmann::json model_gap;
+  if (knobs.compare_truth) model_gap = ModelGap(geo, groups, solver, direct, bracket0, options.direct);
+  WriteConvergence(dir, result, per_iteration, knobs.compare_truth);
+
+  nlohmann::json m = ReflectanceMetrics(result, per_iteration);
+  if (knobs.compare_truth && !per_iteration.empty()) {
+    m["truth_before"] = per_iteration.front()["truth"];
+    m["truth_after"] = per_iteration.back()["truth"];
+    m["truth_pixels"] = PixelAlbedoErrors(groups, geo.ids, albedo_image);
+  }
+  m["solution"] = {{"summary", summary.BriefReport()},
+                   {"converged", summary.converged},
+                   {"links", summary.links},
+                   {"relative_rms_vs_bracket0", relative_rms}};
+  if (!model_gap.is_null()) m["model_gap_true_albedo_vs_bracket0"] = model_gap;
+  WriteJson(dir / "metrics.json", m);
+}
+
+// The radiosity-reflectance stage's result.
+struct ReflectanceStage {
+  StageKey key;
+  fs::path dir;
+};
+
+// Stage radiosity-reflectance: albedo per patch (iterated with radiosity unless the planner
+// skipped it), its decision and outputs.
+ReflectanceStage RunReflectanceStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
+                                     const Observations& observed, const AbsoluteScale& scale, bool skip) {
+  const MaterialGroups groups = GroupPatches(*geo.hierarchy, geo.scene, in.world->scene());
+  ReflectanceStage out;
+  out.key.Add("stage", "radiosity-reflectance-v4").AddKey("geometry", geo.key).AddKey("scale", scale.key);
+  for (size_t s = 0; s < observed.keys.size(); ++s) {
+    out.key.AddKey("observation", observed.keys[s]).Add("utc", FormatIso8601(observed.radiance[s].utc));
+  }
+  AddKnobsToKey(out.key, in.knobs, "reflectance").Add("skip_radiosity", skip);
+  const StageCache::Result stage = run.RunStage("radiosity-reflectance", out.key, [&](const fs::path& dir) {
+    ComputeReflectance(run, dir, in.knobs, geo, groups, observed, scale.k, skip);
+  });
+  out.dir = stage.dir;
+  const nlohmann::json refl = ReadJson(out.dir / "metrics.json");
   run.metrics()["reflectance"] = refl;
   run.Decide("radiosity-reflectance", refl["converged"].get<bool>() ? "note" : "warn",
              std::string(refl["converged"].get<bool>() ? "converged" : "not converged") + " after " +
                  std::to_string(refl["iterations"].get<int>()) + " iteration(s): " + refl["reason"].get<std::string>());
-  run.AddOutput(refl_stage.dir / "albedo.csv", "albedo per patch (and iteration 0's)");
-  run.AddOutput(refl_stage.dir / "reflectance.png",
+  run.AddOutput(out.dir / "albedo.csv", "albedo per patch (and iteration 0's)");
+  run.AddOutput(out.dir / "reflectance.png",
                 "reflectance map per pixel (each pixel's own direct light, its patch's indirect light)");
-  run.AddOutput(refl_stage.dir / "reflectance_patches.png", "albedo per patch, as the radiosity solution uses it");
-  run.AddOutput(refl_stage.dir / "radiosity.csv", "converged radiosity per patch, bracket 0's lamps, W/m^2");
-  run.AddOutput(refl_stage.dir / "radiosity.png", "radiosity solution rendered from the camera");
-  run.AddOutput(refl_stage.dir / "convergence.png", "convergence of the reflectance iterations");
-  run.AddOutput(refl_stage.dir / "convergence.csv", "albedo change and error per iteration");
+  run.AddOutput(out.dir / "reflectance_patches.png", "albedo per patch, as the radiosity solution uses it");
+  run.AddOutput(out.dir / "radiosity.csv", "converged radiosity per patch, bracket 0's lamps, W/m^2");
+  run.AddOutput(out.dir / "radiosity.png", "radiosity solution rendered from the camera");
+  run.AddOutput(out.dir / "convergence.png", "convergence of the reflectance iterations");
+  run.AddOutput(out.dir / "convergence.csv", "albedo change and error per iteration");
+  return out;
+}
 
-  // Relight: every recorded lamp off, one point lamp where the command line puts it.
-  StageKey relight_key;
-  relight_key.Add("stage", "radiosity-relight-v4").AddKey("reflectance", reflectance_key);
-  AddKnobsToKey(relight_key, knobs, "relight");
-  const StageCache::Result relight_stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
-    std::vector<Rgb> albedo;
-    {
-      std::ifstream in(refl_stage.dir / "albedo.csv");
-      std::string line;
-      std::getline(in, line);
-      while (std::getline(in, line)) {
-        std::vector<std::string> f;
-        std::stringstream ss(line);
-        std::string field;
-        while (std::getline(ss, field, ',')) f.push_back(field);
-        if (f.size() < 8) throw IoError((refl_stage.dir / "albedo.csv").string(), "malformed line '" + line + "'");
-        albedo.emplace_back(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));
+// The albedo columns of the reflectance stage's albedo.csv (n patches).
+std::vector<Rgb> ReadAlbedoCsv(const fs::path& path, int n) {
+  std::vector<Rgb> albedo;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    std::string field;
+    while (std::getline(ss, field, ',')) f.push_back(field);
+    if (f.size() < 8) throw IoError(path.string(), "malformed line '" + line + "'");
+    albedo.emplace_back(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));
+  }
+  if (static_cast<int>(albedo.size()) != n) throw IoError(path.string(), "patch count differs; rerun with --force");
+  return albedo;
+}
+
+// Per pixel: the patch's albedo times the new lamp's direct light at the pixel's own point plus
+// the patch's indirect light from the solution (what the patches average, the pixels resolve:
+// the lamp's falloff and its shadow edges).
+RadianceImage RelitPixels(const Geometry& geo, const radiosity::Lighting& lighting, const std::vector<Rgb>& albedo,
+                          const radiosity::RadiositySolution& solution,
+                          const radiosity::DirectLightOptions& direct_options) {
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  RadianceImage relit = MakeRadianceImage(geo.ids.cols, geo.ids.rows);
+  relit.unit = RadianceUnit::kWattsPerSqmPerSr;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int y = 0; y < geo.ids.rows; ++y) {
+    for (int x = 0; x < geo.ids.cols; ++x) {
+      const int p = geo.ids.at<int>(y, x);
+      const cv::Vec3f xyz = geo.points_m.at<cv::Vec3f>(y, x);
+      Rgb v = Rgb::Constant(nan);
+      if (p >= 0 && std::isfinite(xyz[0])) {
+        const Rgb e = radiosity::DirectIrradianceAtPoint(*geo.caster, lighting, Eigen::Vector3d(xyz[0], xyz[1], xyz[2]),
+                                                         h.leaf(p).normal, direct_options);
+        v = albedo[p].cwiseProduct(e + solution.indirect_irradiance[p]) / std::numbers::pi;
       }
-      if (static_cast<int>(albedo.size()) != n) {
-        throw IoError((refl_stage.dir / "albedo.csv").string(), "patch count differs; rerun with --force");
-      }
+      relit.pixels.at<cv::Vec3f>(y, x) =
+          cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
     }
+  }
+  return relit;
+}
+
+// The relit rendering against the same lamp in the simulated world (its renderer, its
+// interreflection settings) at bracket 0's time, into `m`; writes relit_truth.png. Per patch (the
+// means of the relit and the truth's pixels on it): pixels carry the renderer's Monte Carlo
+// noise, patches average it. Per pixel as well.
+void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const RadianceImage& relit, UtcTime utc,
+                           const fs::path& dir, nlohmann::json* m) {
+  const int n = geo.hierarchy->LeafCount();
+  sim::Scene scene = in.world->scene();
+  sim::Lamp lamp;
+  lamp.name = "relight";
+  lamp.position = in.knobs.light_m;
+  lamp.intensity_w_sr = Eigen::Vector3d::Constant(in.knobs.light_intensity_w_sr);
+  scene.lamps = {lamp};
+  const sim::World truth_world(scene, in.world->options());
+  const sim::GroundTruth truth = truth_world.Render(in.spec->camera, utc);
+  std::vector<Rgb> sum(n, Rgb::Zero()), relit_sum(n, Rgb::Zero());
+  std::vector<int> count(n, 0);
+  double pixel_num = 0.0, pixel_den = 0.0;
+  for (int y = 0; y < geo.ids.rows; ++y) {
+    for (int x = 0; x < geo.ids.cols; ++x) {
+      const int id = geo.ids.at<int>(y, x);
+      const cv::Vec3f t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
+      const cv::Vec3f r = relit.pixels.at<cv::Vec3f>(y, x);
+      if (id < 0 || !std::isfinite(t[0]) || !std::isfinite(r[0])) continue;
+      sum[id] += Rgb(t[0], t[1], t[2]);
+      relit_sum[id] += Rgb(r[0], r[1], r[2]);
+      ++count[id];
+      pixel_num += (Rgb(r[0], r[1], r[2]) - Rgb(t[0], t[1], t[2])).squaredNorm();
+      pixel_den += Rgb(t[0], t[1], t[2]).squaredNorm();
+    }
+  }
+  double num = 0.0, den = 0.0, model = 0.0, truth_total = 0.0;
+  int patches = 0;
+  for (int p = 0; p < n; ++p) {
+    if (count[p] < in.knobs.min_patch_pixels) continue;
+    const Rgb t = sum[p] / count[p];
+    const Rgb l = relit_sum[p] / count[p];
+    num += (l - t).squaredNorm();
+    den += t.squaredNorm();
+    model += l.sum();
+    truth_total += t.sum();
+    ++patches;
+  }
+  (*m)["truth_relative_rms_per_patch"] = den > 0.0 ? std::sqrt(num / den) : 0.0;
+  (*m)["truth_relative_rms_per_pixel"] = pixel_den > 0.0 ? std::sqrt(pixel_num / pixel_den) : 0.0;
+  (*m)["truth_mean_ratio"] = truth_total > 0.0 ? model / truth_total : 0.0;
+  (*m)["truth_patches"] = patches;
+  calibration::SaveImage(RadiancePreview(truth.radiance), (dir / "relit_truth.png").string());
+}
+
+// Stage radiosity-relight: every recorded lamp off, one point lamp where the command line puts
+// it; the radiosity solution with the estimated albedo, rendered per pixel.
+void RunRelightStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo, const ReflectanceStage& refl,
+                     bool skip, UtcTime bracket0_utc) {
+  const Knobs& knobs = in.knobs;
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  StageKey relight_key;
+  relight_key.Add("stage", "radiosity-relight-v4").AddKey("reflectance", refl.key);
+  AddKnobsToKey(relight_key, knobs, "relight");
+  const StageCache::Result stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
+    const std::vector<Rgb> albedo = ReadAlbedoCsv(refl.dir / "albedo.csv", h.LeafCount());
     radiosity::Lighting lighting;
     lighting.point_lights.push_back({knobs.light_m, Rgb::Constant(knobs.light_intensity_w_sr)});
     const radiosity::DirectLight direct =
@@ -938,86 +1129,47 @@ void RunRadiosityPipeline(PipelineRun& run) {
     radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
     radiosity::RadiositySolution solution;
     const radiosity::RadiositySummary summary = solver.Solve(albedo, direct.irradiance, h.LeafEmission(), &solution);
-    // Per pixel: the patch's albedo times the new lamp's direct light at the pixel's own point
-    // plus the patch's indirect light from the solution (what the patches average, the pixels
-    // resolve: the lamp's falloff and its shadow edges).
-    RadianceImage relit = MakeRadianceImage(geo.ids.cols, geo.ids.rows);
-    relit.unit = RadianceUnit::kWattsPerSqmPerSr;
-    {
-      const float nan = std::numeric_limits<float>::quiet_NaN();
-      const radiosity::DirectLightOptions direct_options = ReflectanceOptionsFrom(knobs, skip).direct;
-      for (int y = 0; y < geo.ids.rows; ++y) {
-        for (int x = 0; x < geo.ids.cols; ++x) {
-          const int p = geo.ids.at<int>(y, x);
-          const cv::Vec3f xyz = geo.points_m.at<cv::Vec3f>(y, x);
-          Rgb v = Rgb::Constant(nan);
-          if (p >= 0 && std::isfinite(xyz[0])) {
-            const Rgb e = radiosity::DirectIrradianceAtPoint(
-                *geo.caster, lighting, Eigen::Vector3d(xyz[0], xyz[1], xyz[2]), h.leaf(p).normal, direct_options);
-            v = albedo[p].cwiseProduct(e + solution.indirect_irradiance[p]) / std::numbers::pi;
-          }
-          relit.pixels.at<cv::Vec3f>(y, x) =
-              cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
-        }
-      }
-    }
+    const RadianceImage relit =
+        RelitPixels(geo, lighting, albedo, solution, ReflectanceOptionsFrom(knobs, skip).direct);
     calibration::SaveRadianceExr(relit, (dir / "relit.exr").string());
     calibration::SaveImage(RadiancePreview(relit), (dir / "relit.png").string());
     WritePatchRgb(dir / "relit_radiosity.csv", "radiosity_w_m2", solution.radiosity);
     nlohmann::json m = {{"light_m", {knobs.light_m.x(), knobs.light_m.y(), knobs.light_m.z()}},
                         {"light_intensity_w_sr", knobs.light_intensity_w_sr},
                         {"solution", summary.BriefReport()}};
-    if (knobs.compare_truth) {
-      // The same lamp in the simulated world (its renderer, its interreflection settings).
-      sim::Scene scene = world.scene();
-      sim::Lamp lamp;
-      lamp.name = "relight";
-      lamp.position = knobs.light_m;
-      lamp.intensity_w_sr = Eigen::Vector3d::Constant(knobs.light_intensity_w_sr);
-      scene.lamps = {lamp};
-      const sim::World truth_world(scene, world.options());
-      const sim::GroundTruth truth = truth_world.Render(spec->camera, radiance.front().utc);
-      // Per patch (the means of the relit and the truth's pixels on it): pixels carry the
-      // renderer's Monte Carlo noise, patches average it. Per pixel as well.
-      std::vector<Rgb> sum(n, Rgb::Zero()), relit_sum(n, Rgb::Zero());
-      std::vector<int> count(n, 0);
-      double pixel_num = 0.0, pixel_den = 0.0;
-      for (int y = 0; y < geo.ids.rows; ++y) {
-        for (int x = 0; x < geo.ids.cols; ++x) {
-          const int id = geo.ids.at<int>(y, x);
-          const cv::Vec3f t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
-          const cv::Vec3f r = relit.pixels.at<cv::Vec3f>(y, x);
-          if (id < 0 || !std::isfinite(t[0]) || !std::isfinite(r[0])) continue;
-          sum[id] += Rgb(t[0], t[1], t[2]);
-          relit_sum[id] += Rgb(r[0], r[1], r[2]);
-          ++count[id];
-          pixel_num += (Rgb(r[0], r[1], r[2]) - Rgb(t[0], t[1], t[2])).squaredNorm();
-          pixel_den += Rgb(t[0], t[1], t[2]).squaredNorm();
-        }
-      }
-      double num = 0.0, den = 0.0, model = 0.0, truth_total = 0.0;
-      int patches = 0;
-      for (int p = 0; p < n; ++p) {
-        if (count[p] < knobs.min_patch_pixels) continue;
-        const Rgb t = sum[p] / count[p];
-        const Rgb l = relit_sum[p] / count[p];
-        num += (l - t).squaredNorm();
-        den += t.squaredNorm();
-        model += l.sum();
-        truth_total += t.sum();
-        ++patches;
-      }
-      m["truth_relative_rms_per_patch"] = den > 0.0 ? std::sqrt(num / den) : 0.0;
-      m["truth_relative_rms_per_pixel"] = pixel_den > 0.0 ? std::sqrt(pixel_num / pixel_den) : 0.0;
-      m["truth_mean_ratio"] = truth_total > 0.0 ? model / truth_total : 0.0;
-      m["truth_patches"] = patches;
-      calibration::SaveImage(RadiancePreview(truth.radiance), (dir / "relit_truth.png").string());
-    }
+    if (knobs.compare_truth) CompareRelitWithTruth(in, geo, relit, bracket0_utc, dir, &m);
     WriteJson(dir / "metrics.json", m);
   });
-  run.metrics()["relight"] = ReadJson(relight_stage.dir / "metrics.json");
-  run.AddOutput(relight_stage.dir / "relit.png", "relit rendering under the new lamp");
-  run.AddOutput(relight_stage.dir / "relit.exr", "relit radiance, W m^-2 sr^-1");
+  run.metrics()["relight"] = ReadJson(stage.dir / "metrics.json");
+  run.AddOutput(stage.dir / "relit.png", "relit rendering under the new lamp");
+  run.AddOutput(stage.dir / "relit.exr", "relit radiance, W m^-2 sr^-1");
+}
+
+void RunRadiosityPipeline(PipelineRun& run) {
+  const RadiosityInputs in = ReadRadiosityInputs(run);
+  const Knobs& knobs = in.knobs;
+  run.Decide("radiosity", "plan",
+             std::to_string(in.brackets.size()) + " bracket(s) of " + in.device +
+                 "; patches <= " + std::to_string(knobs.patch_edge_m) + " m, " + std::to_string(knobs.iterations) +
+                 " iteration(s) at most, tolerance " + std::to_string(knobs.tolerance));
+  if (run.request().explain) {
+    run.Decide("radiosity", "note", "the indirect-share test (skip or run radiosity) needs the radiance: not run here");
+    return;
+  }
+  if (in.world->options().indirect_bounces == 0) {
+    run.Decide("radiosity", "note",
+               "the session's world rendered direct light only (render.indirect_bounces 0): its photographs have no "
+               "interreflection, so albedo from a radiosity model is biased low; compare with the skipped result");
+  }
+  const Geometry geo = RunGeometryStage(run, in);
+  Observations observed = ObserveBrackets(run, in, geo);
+  const AbsoluteScale scale = RunScaleStage(run, in, observed.radiance.front());
+  for (auto& obs : observed.patches) {
+    for (Rgb& v : obs.radiance) v *= scale.k;
+  }
+  const bool skip = DecideSkipRadiosity(run, knobs, geo, observed.patches.front());
+  const ReflectanceStage reflectance = RunReflectanceStage(run, in, geo, observed, scale, skip);
+  RunRelightStage(run, in, geo, reflectance, skip, observed.radiance.front().utc);
 }
 
 }  // namespace
