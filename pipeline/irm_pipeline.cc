@@ -794,6 +794,183 @@ std::pair<std::optional<std::string>, std::optional<std::string>> SourceAndTarge
 
 namespace {
 
+// The two photographs as the build, relight and truth stages read them.
+struct ViewPair {
+  const BracketRadiance& source_radiance;
+  const BracketRadiance& target_radiance;
+  const irm::View& source;
+  const irm::View& target;
+  const irm::ViewGeometry& source_geometry;
+  const irm::ViewGeometry& target_geometry;
+  const StageKey& source_view_key;
+  const StageKey& target_view_key;
+  const LazyCaster& caster;
+};
+
+// Stage irm-build's result.
+struct BuildStage {
+  StageKey key;
+  irm::IrmSet irms;
+  irm::RelightSummary summary;
+};
+
+// Stage irm-build: the IRMs (one, or four when samples both images see are in cast shadow), the
+// decision and the maps as outputs.
+BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair& v) {
+  const irm::RelightOptions& options = knobs.relight;
+  BuildStage b;
+  b.key.Add("stage", "irm-build-v4").AddKey("source_view", v.source_view_key).AddKey("target_view", v.target_view_key);
+  AddKnobsToKey(b.key, knobs, "build");
+  b.key.AddKey("source_radiance", v.source_radiance.key).AddKey("target_radiance", v.target_radiance.key);
+  b.key.Add("lit", static_cast<double>(options.irm.lit_threshold));
+  b.key.Add("shadow", static_cast<double>(options.irm.shadow_threshold));
+  b.key.Add("min_samples", options.irm.min_samples_per_bin).Add("trim", static_cast<double>(options.irm.trim_fraction));
+  b.key.Add("fill", irm::ToString(options.irm.fill));
+  b.summary.preprocess_s = v.source_geometry.seconds + v.target_geometry.seconds;
+  const StageCache::Result build = run.RunStage("irm-build", b.key, [&](const fs::path& dir) {
+    b.irms = irm::BuildIrmsFromViews(v.caster.get(), v.source, v.target, v.source_geometry, v.target_geometry, options,
+                                     &b.summary);
+    WriteJsonFile(dir / "irms.json", IrmSetToJson(b.irms));
+    WriteJsonFile(dir / "build.json", SummaryJson(b.summary));
+    for (int k = 0; k < 4; ++k) {
+      if (b.irms.single_map && k > 0) break;
+      SaveMapImages(b.irms.maps[static_cast<std::size_t>(k)],
+                    std::string("irm_") + irm::ToString(static_cast<irm::MapKind>(k)), dir);
+    }
+  });
+  if (build.reused) {
+    b.irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"));
+    b.summary = SummaryFromJson(ReadJsonFile(build.dir / "build.json"));
+  }
+  // The decision is the library's (irm::BuildIrms: a sample seen in both images in cast shadow
+  // in either), reported as built; the per-view counts are context.
+  run.Decide("irm-build", "choose",
+             std::string(b.irms.single_map ? "one IRM (lit to lit): no sample seen in both images is in cast shadow"
+                                           : "four IRMs: samples seen in both images are in cast shadow") +
+                 " (visible vertices in cast shadow: " + std::to_string(v.source_geometry.visible_in_cast_shadow) +
+                 " in the source, " + std::to_string(v.target_geometry.visible_in_cast_shadow) + " in the target)");
+  run.Decide("irm-build", "note", b.irms.summary);
+  for (int k = 0; k < 4; ++k) {
+    if (b.irms.single_map && k > 0) break;
+    const std::string name = std::string("irm_") + irm::ToString(static_cast<irm::MapKind>(k));
+    run.AddOutput(build.dir / (name + ".exr"), "IRM " + std::string(irm::ToString(static_cast<irm::MapKind>(k))) +
+                                                   " (ratios per octahedral normal bin; " + name +
+                                                   "_count.png: samples per bin)");
+  }
+  return b;
+}
+
+// Stage irm-relight's result: its key, folder and relight.json.
+struct RelightStage {
+  StageKey key;
+  fs::path dir;
+  nlohmann::json json;
+};
+
+// Stage irm-relight: the source relit per pixel to the target's light with the IRMs, previews,
+// the status and sun images, and the seam against the target.
+RelightStage RunRelightStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair& v, const BuildStage& b) {
+  RelightStage r;
+  r.key.Add("stage", "irm-relight-v2").AddKey("build", b.key);
+  AddKnobsToKey(r.key, knobs, "relight");
+  const StageCache::Result relight = run.RunStage("irm-relight", r.key, [&](const fs::path& dir) {
+    const irm::RelightResult result = irm::RelightPixels(v.caster.get(), v.source, v.target, v.source_geometry,
+                                                         v.target_geometry, b.irms, knobs.relight, b.summary);
+    const double white = WhiteOf(*v.target.image);
+    calibration::SaveRadianceExr(result.relit, (dir / "relit.exr").string());
+    calibration::SaveImage(RadiancePreview(result.relit, white), (dir / "relit.png").string());
+    calibration::SaveImage(RadiancePreview(*v.target.image, white), (dir / "target.png").string());
+    calibration::SaveImage(RadiancePreview(*v.source.image, white), (dir / "source.png").string());
+    calibration::SaveImage(result.status, (dir / "status.png").string());
+    calibration::SaveRadianceExr(SunImage(result.source_sun), (dir / "source_sun.exr").string());
+    calibration::SaveRadianceExr(SunImage(result.target_sun), (dir / "target_sun.exr").string());
+    const SeamResult seam = Seam(v.caster.get(), v.source, v.target, result);
+    calibration::SaveRadianceExr(seam.image, (dir / "seam_difference.exr").string());
+    r.json = SummaryJson(result.summary);
+    r.json["seam"] = {{"overlap_pixels", seam.overlap_pixels},
+                      {"overlap_relative_rms_before", seam.overlap_before},
+                      {"overlap_relative_rms_after", seam.overlap_after},
+                      {"seam_pixels", seam.seam_pixels},
+                      {"seam_relative_rms_before", seam.seam_before},
+                      {"seam_relative_rms_after", seam.seam_after}};
+    r.json["preview_white"] = white;
+    WriteJsonFile(dir / "relight.json", r.json);
+  });
+  r.dir = relight.dir;
+  if (relight.reused) r.json = ReadJsonFile(relight.dir / "relight.json");
+  run.AddOutput(relight.dir / "relit.exr", "the source relit to the target's light (linear float RGB)");
+  run.AddOutput(relight.dir / "relit.png",
+                "preview with the target's exposure (target.png, source.png beside it with the same one)");
+  run.AddOutput(relight.dir / "status.png",
+                "per pixel: 0 no geometry (untouched), 1 relit, 2 no ratio "
+                "(untouched), 3 masked: badly exposed (untouched)");
+  run.AddOutput(relight.dir / "seam_difference.exr",
+                "relative difference to the target where both see a surface: R before, G after, B 1 on the seam");
+  return r;
+}
+
+// The run's "irm" metrics: the relighting's summary, the mesh, the views' counts and sky shapes.
+void AddIrmMetrics(PipelineRun& run, const SceneGeometry& geometry, const MeshStage& mesh, const ViewPair& v,
+                   const irm::IrmSet& irms, const nlohmann::json& relight_json) {
+  nlohmann::json& m = run.metrics();
+  m["irm"] = relight_json;
+  m["irm"]["mesh"] = {{"origin", geometry.origin}, {"vertices", mesh.vertices}, {"triangles", mesh.triangles}};
+  m["irm"]["visible_in_cast_shadow"] = {{"source", v.source_geometry.visible_in_cast_shadow},
+                                        {"target", v.target_geometry.visible_in_cast_shadow}};
+  m["irm"]["single_map"] = irms.single_map;
+  auto sky_json = [](const irm::SkyShape& shape) {
+    return nlohmann::json{
+        {"measured", shape.measured},
+        {"gradient", VecJson(shape.gradient)},
+        {"pixels", shape.pixels},
+        {"elevation_deg",
+         {shape.min_elevation_rad * 180.0 / std::numbers::pi, shape.max_elevation_rad * 180.0 / std::numbers::pi}},
+        {"rms_relative_residual", shape.rms_relative_residual},
+        {"reason", shape.reason}};
+  };
+  m["irm"]["sky_shape"] = {{"source", sky_json(v.source_geometry.sky_shape)},
+                           {"target", sky_json(v.target_geometry.sky_shape)}};
+}
+
+// Stage irm-truth: against the simulated world's truth, the source camera under the target's
+// sun. A stage of its own (it renders the world twice and casts shadow rays per pixel), keyed by
+// the relit result and the stored world.
+void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& relight, const StageKey& mesh_key) {
+  StageKey truth_key;
+  truth_key.Add("stage", "irm-truth-v1").AddKey("relight", relight.key).AddKey("mesh", mesh_key);
+  truth_key.AddKey("source_radiance", v.source_radiance.key).AddKey("target_radiance", v.target_radiance.key);
+  truth_key.Add("world", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+  truth_key.Add("source_utc", FormatIso8601(v.source_radiance.utc))
+      .Add("target_utc", FormatIso8601(v.target_radiance.utc));
+  AddCamera(truth_key, "camera", v.source.camera);
+  for (int k = 0; k < 3; ++k) {
+    truth_key.Add("source_sun", static_cast<double>(v.source.sun_dir[k]));
+    truth_key.Add("target_sun", static_cast<double>(v.target.sun_dir[k]));
+  }
+  const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
+    WriteJsonFile(dir / "truth.json",
+                  CompareIrmWithTruth(*run.rig()->world, v.caster.get(), v.source, v.target, v.source_radiance.utc,
+                                      v.target_radiance.utc, relight.dir, dir / "truth_error.png"));
+  });
+  fs::copy_file(truth.dir / "truth_error.png", run.out_dir() / "truth_error.png", fs::copy_options::overwrite_existing);
+  run.AddOutput(run.out_dir() / "truth_error.png",
+                "relative error of the relit source against the truth (white at 10%; blue tint: shadow, red: "
+                "penumbra)");
+  nlohmann::json& m = run.metrics();
+  m["truth"] = ReadJsonFile(truth.dir / "truth.json");
+  const auto figure = [&](const char* which, const char* region) {
+    const nlohmann::json& value = m["truth"][which]["relative_rms_" + std::string(region)];
+    return value.is_number() ? value.get<double>() : std::numeric_limits<double>::quiet_NaN();
+  };
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "relit vs truth: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
+                "relighting: %.4f, %.4f, %.4f)",
+                figure("relit", "lit"), figure("relit", "shadow"), figure("relit", "penumbra"),
+                figure("no_relighting", "lit"), figure("no_relighting", "shadow"), figure("no_relighting", "penumbra"));
+  run.Decide("truth", "note", text);
+}
+
 void RunIrmPipeline(PipelineRun& run) {
   const auto [source_selector, target_selector] = SourceAndTarget(run);
   const auto source_bracket = OneBracket(run, source_selector, "source");
@@ -835,144 +1012,12 @@ void RunIrmPipeline(PipelineRun& run) {
       ViewStage(run, "source", caster, mesh, source, knobs, geometry.key, source_radiance.key, &source_view_key);
   const irm::ViewGeometry target_geometry =
       ViewStage(run, "target", caster, mesh, target, knobs, geometry.key, target_radiance.key, &target_view_key);
-  // IRM build.
-  StageKey build_key;
-  build_key.Add("stage", "irm-build-v4").AddKey("source_view", source_view_key).AddKey("target_view", target_view_key);
-  AddKnobsToKey(build_key, knobs, "build");
-  build_key.AddKey("source_radiance", source_radiance.key).AddKey("target_radiance", target_radiance.key);
-  build_key.Add("lit", static_cast<double>(options.irm.lit_threshold));
-  build_key.Add("shadow", static_cast<double>(options.irm.shadow_threshold));
-  build_key.Add("min_samples", options.irm.min_samples_per_bin)
-      .Add("trim", static_cast<double>(options.irm.trim_fraction));
-  build_key.Add("fill", irm::ToString(options.irm.fill));
-  irm::IrmSet irms;
-  irm::RelightSummary summary;
-  summary.preprocess_s = source_geometry.seconds + target_geometry.seconds;
-  const StageCache::Result build = run.RunStage("irm-build", build_key, [&](const fs::path& dir) {
-    irms = irm::BuildIrmsFromViews(caster.get(), source, target, source_geometry, target_geometry, options, &summary);
-    WriteJsonFile(dir / "irms.json", IrmSetToJson(irms));
-    WriteJsonFile(dir / "build.json", SummaryJson(summary));
-    for (int k = 0; k < 4; ++k) {
-      if (irms.single_map && k > 0) break;
-      SaveMapImages(irms.maps[static_cast<std::size_t>(k)],
-                    std::string("irm_") + irm::ToString(static_cast<irm::MapKind>(k)), dir);
-    }
-  });
-  if (build.reused) {
-    irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"));
-    summary = SummaryFromJson(ReadJsonFile(build.dir / "build.json"));
-  }
-  // The decision is the library's (irm::BuildIrms: a sample seen in both images in cast shadow
-  // in either), reported as built; the per-view counts are context.
-  run.Decide("irm-build", "choose",
-             std::string(irms.single_map ? "one IRM (lit to lit): no sample seen in both images is in cast shadow"
-                                         : "four IRMs: samples seen in both images are in cast shadow") +
-                 " (visible vertices in cast shadow: " + std::to_string(source_geometry.visible_in_cast_shadow) +
-                 " in the source, " + std::to_string(target_geometry.visible_in_cast_shadow) + " in the target)");
-  run.Decide("irm-build", "note", irms.summary);
-  for (int k = 0; k < 4; ++k) {
-    if (irms.single_map && k > 0) break;
-    const std::string name = std::string("irm_") + irm::ToString(static_cast<irm::MapKind>(k));
-    run.AddOutput(build.dir / (name + ".exr"), "IRM " + std::string(irm::ToString(static_cast<irm::MapKind>(k))) +
-                                                   " (ratios per octahedral normal bin; " + name +
-                                                   "_count.png: samples per bin)");
-  }
-
-  // Per-pixel relighting.
-  StageKey relight_key;
-  relight_key.Add("stage", "irm-relight-v2").AddKey("build", build_key);
-  AddKnobsToKey(relight_key, knobs, "relight");
-  nlohmann::json relight_json;
-  const StageCache::Result relight = run.RunStage("irm-relight", relight_key, [&](const fs::path& dir) {
-    const irm::RelightResult result =
-        irm::RelightPixels(caster.get(), source, target, source_geometry, target_geometry, irms, options, summary);
-    const double white = WhiteOf(*target.image);
-    calibration::SaveRadianceExr(result.relit, (dir / "relit.exr").string());
-    calibration::SaveImage(RadiancePreview(result.relit, white), (dir / "relit.png").string());
-    calibration::SaveImage(RadiancePreview(*target.image, white), (dir / "target.png").string());
-    calibration::SaveImage(RadiancePreview(*source.image, white), (dir / "source.png").string());
-    calibration::SaveImage(result.status, (dir / "status.png").string());
-    calibration::SaveRadianceExr(SunImage(result.source_sun), (dir / "source_sun.exr").string());
-    calibration::SaveRadianceExr(SunImage(result.target_sun), (dir / "target_sun.exr").string());
-    const SeamResult seam = Seam(caster.get(), source, target, result);
-    calibration::SaveRadianceExr(seam.image, (dir / "seam_difference.exr").string());
-    relight_json = SummaryJson(result.summary);
-    relight_json["seam"] = {{"overlap_pixels", seam.overlap_pixels},
-                            {"overlap_relative_rms_before", seam.overlap_before},
-                            {"overlap_relative_rms_after", seam.overlap_after},
-                            {"seam_pixels", seam.seam_pixels},
-                            {"seam_relative_rms_before", seam.seam_before},
-                            {"seam_relative_rms_after", seam.seam_after}};
-    relight_json["preview_white"] = white;
-    WriteJsonFile(dir / "relight.json", relight_json);
-  });
-  if (relight.reused) relight_json = ReadJsonFile(relight.dir / "relight.json");
-  run.AddOutput(relight.dir / "relit.exr", "the source relit to the target's light (linear float RGB)");
-  run.AddOutput(relight.dir / "relit.png",
-                "preview with the target's exposure (target.png, source.png beside it with the same one)");
-  run.AddOutput(relight.dir / "status.png",
-                "per pixel: 0 no geometry (untouched), 1 relit, 2 no ratio "
-                "(untouched), 3 masked: badly exposed (untouched)");
-  run.AddOutput(relight.dir / "seam_difference.exr",
-                "relative difference to the target where both see a surface: R before, G after, B 1 on the seam");
-  nlohmann::json& m = run.metrics();
-  m["irm"] = relight_json;
-  m["irm"]["mesh"] = {{"origin", geometry.origin}, {"vertices", mesh.vertices}, {"triangles", mesh.triangles}};
-  m["irm"]["visible_in_cast_shadow"] = {{"source", source_geometry.visible_in_cast_shadow},
-                                        {"target", target_geometry.visible_in_cast_shadow}};
-  m["irm"]["single_map"] = irms.single_map;
-  auto sky_json = [](const irm::SkyShape& shape) {
-    return nlohmann::json{
-        {"measured", shape.measured},
-        {"gradient", VecJson(shape.gradient)},
-        {"pixels", shape.pixels},
-        {"elevation_deg",
-         {shape.min_elevation_rad * 180.0 / std::numbers::pi, shape.max_elevation_rad * 180.0 / std::numbers::pi}},
-        {"rms_relative_residual", shape.rms_relative_residual},
-        {"reason", shape.reason}};
-  };
-  m["irm"]["sky_shape"] = {{"source", sky_json(source_geometry.sky_shape)},
-                           {"target", sky_json(target_geometry.sky_shape)}};
-
-  // Against the simulated world's truth: the source camera under the target's sun. A stage of its
-  // own (it renders the world twice and casts shadow rays per pixel), keyed by the relit result
-  // and the stored world.
-  if (compare_truth && run.rig() != nullptr && run.rig()->world) {
-    StageKey truth_key;
-    truth_key.Add("stage", "irm-truth-v1").AddKey("relight", relight_key).AddKey("mesh", geometry.key);
-    truth_key.AddKey("source_radiance", source_radiance.key).AddKey("target_radiance", target_radiance.key);
-    truth_key.Add("world", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
-    truth_key.Add("source_utc", FormatIso8601(source_radiance.utc))
-        .Add("target_utc", FormatIso8601(target_radiance.utc));
-    AddCamera(truth_key, "camera", source.camera);
-    for (int k = 0; k < 3; ++k) {
-      truth_key.Add("source_sun", static_cast<double>(source.sun_dir[k]));
-      truth_key.Add("target_sun", static_cast<double>(target.sun_dir[k]));
-    }
-    const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
-      WriteJsonFile(dir / "truth.json",
-                    CompareIrmWithTruth(*run.rig()->world, caster.get(), source, target, source_radiance.utc,
-                                        target_radiance.utc, relight.dir, dir / "truth_error.png"));
-    });
-    fs::copy_file(truth.dir / "truth_error.png", run.out_dir() / "truth_error.png",
-                  fs::copy_options::overwrite_existing);
-    run.AddOutput(run.out_dir() / "truth_error.png",
-                  "relative error of the relit source against the truth (white at 10%; blue tint: shadow, red: "
-                  "penumbra)");
-    m["truth"] = ReadJsonFile(truth.dir / "truth.json");
-    const auto figure = [&](const char* which, const char* region) {
-      const nlohmann::json& v = m["truth"][which]["relative_rms_" + std::string(region)];
-      return v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
-    };
-    char text[160];
-    std::snprintf(text, sizeof(text),
-                  "relit vs truth: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
-                  "relighting: %.4f, %.4f, %.4f)",
-                  figure("relit", "lit"), figure("relit", "shadow"), figure("relit", "penumbra"),
-                  figure("no_relighting", "lit"), figure("no_relighting", "shadow"),
-                  figure("no_relighting", "penumbra"));
-    run.Decide("truth", "note", text);
-  }
+  const ViewPair views{source_radiance, target_radiance, source,          target, source_geometry,
+                       target_geometry, source_view_key, target_view_key, caster};
+  const BuildStage build = RunBuildStage(run, knobs, views);
+  const RelightStage relight = RunRelightStage(run, knobs, views, build);
+  AddIrmMetrics(run, geometry, mesh, views, build.irms, relight.json);
+  if (compare_truth && run.rig() != nullptr && run.rig()->world) RunTruthStage(run, views, relight, geometry.key);
 }
 
 std::string IrmHeadline(const nlohmann::json& m) {
