@@ -401,6 +401,36 @@ double ChangedFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, d
   return considered == 0 ? 0.0 : static_cast<double>(changed) / considered;
 }
 
+// The world's true normals seen from `camera` at `utc`, in the camera frame, and where they are
+// valid (diagnostic: --set true_normals=true).
+void TrueNormalsInCamera(const sim::World& world, const PinholeCamera& camera, UtcTime utc, cv::Mat* normals,
+                         cv::Mat* valid) {
+  const sim::GroundTruth truth = world.Render(camera, utc);
+  const Eigen::Matrix3f camera_from_world = camera.world_from_camera.rotation().transpose().cast<float>();
+  *normals = cv::Mat(truth.normal_in_world.size(), CV_32FC3);
+  *valid = cv::Mat::zeros(normals->size(), CV_8UC1);
+  for (int y = 0; y < normals->rows; ++y) {
+    for (int x = 0; x < normals->cols; ++x) {
+      const cv::Vec3f n = truth.normal_in_world.at<cv::Vec3f>(y, x);
+      const Eigen::Vector3f c = camera_from_world * Eigen::Vector3f(n[0], n[1], n[2]);
+      normals->at<cv::Vec3f>(y, x) = cv::Vec3f(c.x(), c.y(), c.z());
+      if (std::isfinite(c.x())) valid->at<std::uint8_t>(y, x) = 255;
+    }
+  }
+}
+
+// `valid` without the pixels that have no depth (not finite or not positive).
+cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth) {
+  cv::Mat mask = valid.clone();
+  for (int y = 0; y < mask.rows; ++y) {
+    const float* z = depth.ptr<float>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (!(std::isfinite(z[x]) && z[x] > 0.0f)) mask.at<std::uint8_t>(y, x) = 0;
+    }
+  }
+  return mask;
+}
+
 FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeCamera& camera,
                        const FrameGeometry* previous) {
   FrameGeometry g;
@@ -442,18 +472,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     cv::Mat normals, valid;
     if (k.true_normals) {
       if (!run.rig()->world) throw InvalidArgumentError("--set true_normals=true needs a simulated session (a world)");
-      const sim::GroundTruth truth = run.rig()->world->Render(camera, pair.color.utc);
-      const Eigen::Matrix3f camera_from_world = camera.world_from_camera.rotation().transpose().cast<float>();
-      normals = cv::Mat(truth.normal_in_world.size(), CV_32FC3);
-      valid = cv::Mat::zeros(normals.size(), CV_8UC1);
-      for (int y = 0; y < normals.rows; ++y) {
-        for (int x = 0; x < normals.cols; ++x) {
-          const cv::Vec3f n = truth.normal_in_world.at<cv::Vec3f>(y, x);
-          const Eigen::Vector3f c = camera_from_world * Eigen::Vector3f(n[0], n[1], n[2]);
-          normals.at<cv::Vec3f>(y, x) = cv::Vec3f(c.x(), c.y(), c.z());
-          if (std::isfinite(c.x())) valid.at<std::uint8_t>(y, x) = 255;
-        }
-      }
+      TrueNormalsInCamera(*run.rig()->world, camera, pair.color.utc, &normals, &valid);
       info["normals_from_frame"] = pair.color.id;
       info["normals_from_truth"] = true;
     } else if (reuse) {
@@ -469,13 +488,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
       info["normals_cross"] = map.cross_count;
       info["normals_invalid"] = map.invalid_count;
     }
-    cv::Mat mask = valid.clone();
-    for (int y = 0; y < mask.rows; ++y) {
-      const float* z = filtered.ptr<float>(y);
-      for (int x = 0; x < mask.cols; ++x) {
-        if (!(std::isfinite(z[x]) && z[x] > 0.0f)) mask.at<std::uint8_t>(y, x) = 0;
-      }
-    }
+    const cv::Mat mask = MaskWithDepth(valid, filtered);
     info["mask_pixels"] = cv::countNonZero(mask);
     SaveFloat(bilateral, dir / "bilateral.exr");
     SaveFloat(filtered, dir / "depth.exr");
@@ -946,34 +959,52 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
   return ReadJson(stage.dir / "truth.json");
 }
 
-void RunShPipeline(PipelineRun& run) {
-  Knobs k = ReadKnobs(run);
-  const std::vector<RgbdPair> pairs = PairFrames(run, k.pair_max_gap_ms);
-  if (pairs.empty()) {
+// What the SH stages share: the RGB-D pairs, the colour camera, the frames to relight and the
+// albedo choice.
+struct ShInputs {
+  std::vector<RgbdPair> pairs;
+  std::string device;
+  const sim::SimDeviceSpec* spec = nullptr;  // none for a session recorded from a real sensor
+  PinholeCamera camera;
+  std::vector<bool> is_source;  // per pair: relit (--source, default all)
+  bool has_world = false;
+  bool known_albedo = false;
+};
+
+// The session's RGB-D pairs, their colour camera (the rig's, or the session's recorded
+// geometry) and the frames --source picks to relight.
+ShInputs ReadShInputs(PipelineRun& run, const Knobs& k) {
+  ShInputs in;
+  in.pairs = PairFrames(run, k.pair_max_gap_ms);
+  if (in.pairs.empty()) {
     throw InvalidArgumentError("session " + run.session().dir().string() +
                                " has no RGB-D frames (depth + color streams); the SH pipeline needs an RGB-D "
                                "sensor's frames (a rig with an rgbd_sensor, see tests/data/rigs/sim-sh-*.yaml)");
   }
-  const std::string device = pairs.front().color.device_id;
-  const sim::SimDeviceSpec* spec = FindDeviceSpec(run.rig(), device);
-  PinholeCamera camera;
-  if (spec != nullptr) {
-    camera = ColorCamera(*spec, pairs.front().color);
+  in.device = in.pairs.front().color.device_id;
+  in.spec = FindDeviceSpec(run.rig(), in.device);
+  if (in.spec != nullptr) {
+    in.camera = ColorCamera(*in.spec, in.pairs.front().color);
   } else {
     std::string how;
-    camera = ColorCameraFromSession(run, pairs.front(), &how);
+    in.camera = ColorCameraFromSession(run, in.pairs.front(), &how);
     run.Decide("geometry", "choose", how);
   }
   // Frames relit: --source (default all); the fits run on every pair (temporal filter chain).
-  std::vector<bool> is_source(pairs.size(), !run.request().source.has_value());
+  in.is_source.assign(in.pairs.size(), !run.request().source.has_value());
   if (run.request().source) {
     for (const capture::FrameRecord& f : SelectFrames(run.session(), *run.request().source)) {
-      for (std::size_t i = 0; i < pairs.size(); ++i) {
-        if (f.id == pairs[i].color.id || f.id == pairs[i].depth.id) is_source[i] = true;
+      for (std::size_t i = 0; i < in.pairs.size(); ++i) {
+        if (f.id == in.pairs[i].color.id || f.id == in.pairs[i].depth.id) in.is_source[i] = true;
       }
     }
   }
-  const bool has_world = run.rig() != nullptr && run.rig()->world != nullptr;
+  in.has_world = run.rig() != nullptr && run.rig()->world != nullptr;
+  return in;
+}
+
+// Known albedo (from the rig's world) or unknown (fitted with the light), and the decision.
+bool ChooseAlbedo(PipelineRun& run, const Knobs& k, bool has_world) {
   if (k.true_normals && !has_world) {
     throw InvalidArgumentError("--set true_normals=true needs a simulated session (a world to give the normals)");
   }
@@ -984,95 +1015,108 @@ void RunShPipeline(PipelineRun& run) {
              known_albedo
                  ? "known: per-pixel albedo from the rig's world (Ogura et al., colour SH with known reflectance)"
                  : "unknown: k-means segments + alternating light/albedo fit (Ogura & Saito)");
-  if (!HasResponse(run.session(), device)) {
+  return known_albedo;
+}
+
+// Without a recorded response: how the colour frames become radiance.
+void DecideRadianceModel(PipelineRun& run, const ShInputs& in) {
+  if (!HasResponse(run.session(), in.device)) {
     run.Decide(
         "radiance", "choose",
-        "no response recorded for " + device +
-            (spec != nullptr ? std::string(": inverting the simulated sensor's own colour model")
-                             : std::string(": assuming the sRGB transfer curve, divided by the recorded exposure "
-                                           "where there is one (record a response with `relume calibrate "
-                                           "response` for an exact one)")));
+        "no response recorded for " + in.device +
+            (in.spec != nullptr ? std::string(": inverting the simulated sensor's own colour model")
+                                : std::string(": assuming the sRGB transfer curve, divided by the recorded exposure "
+                                              "where there is one (record a response with `relume calibrate "
+                                              "response` for an exact one)")));
   }
-  run.Decide("sh", "plan", std::to_string(pairs.size()) + " RGB-D frame pair(s) of " + device);
-  if (k.filter_depth && k.depth_noise_skip_below_m > 0.0) {
-    // One decision for the whole sequence (the temporal filter chains the frames), from the
-    // first depth frame's own noise.
-    const processing::DepthNoiseEstimate noise =
-        processing::EstimateDepthNoise(run.session().LoadDepth(pairs.front().depth));
-    const std::string measured =
-        "depth noise of frame " + std::to_string(pairs.front().depth.id) + ": " + noise.Describe();
-    if (noise.NoiseFree(k.depth_noise_skip_below_m)) {
-      k.filter_depth = false;
-      run.Decide("denoise", "skip",
-                 measured + ": below " + Number(k.depth_noise_skip_below_m * 1e3) +
-                     " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
-                     "round creases and silhouettes");
-    } else {
-      run.Decide("denoise", "run", measured);
-    }
-  }
-  const Destination dst = ChooseDestination(run, pairs, camera);
-  if (run.request().explain) return;
+}
 
+// One decision for the whole sequence (the temporal filter chains the frames), from the first
+// depth frame's own noise: noise-free depth is not filtered (clears k->filter_depth).
+void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
+  const processing::DepthNoiseEstimate noise = processing::EstimateDepthNoise(run.session().LoadDepth(first.depth));
+  const std::string measured = "depth noise of frame " + std::to_string(first.depth.id) + ": " + noise.Describe();
+  if (noise.NoiseFree(k->depth_noise_skip_below_m)) {
+    k->filter_depth = false;
+    run.Decide("denoise", "skip",
+               measured + ": below " + Number(k->depth_noise_skip_below_m * 1e3) +
+                   " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
+                   "round creases and silhouettes");
+  } else {
+    run.Decide("denoise", "run", measured);
+  }
+}
+
+// Per pair, in capture order: the radiance, geometry and SH fit stages' results.
+struct FrameStages {
   std::vector<FrameRadiance> radiance;
   std::vector<FrameGeometry> geometry;
   std::vector<FrameFit> fits;
-  for (std::size_t i = 0; i < pairs.size(); ++i) {
-    const RgbdPair& pair = pairs[i];
-    radiance.push_back(ColorRadiance(run, pair, spec, camera));
-    geometry.push_back(Geometry(run, k, pair, camera, i == 0 ? nullptr : &geometry.back()));
-    fits.push_back(Fit(run, k, known_albedo, pair, camera, radiance.back(), geometry.back()));
-    run.AddOutput(fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));
-    run.AddOutput(fits.back().dir / "latlong.png", "SH light of frame " + std::to_string(pair.color.id) + ", lat-long");
-    run.AddOutput(fits.back().dir / "cube.png", "SH light of frame " + std::to_string(pair.color.id) + ", cube cross");
-    run.Progress("sh fit", static_cast<std::int64_t>(i + 1), static_cast<std::int64_t>(pairs.size()));
-  }
-  CheckShFitsTheScene(run, k, fits);
-  const ShRgb dst_light = dst.kind == "frame" ? fits[*dst.frame_index].light : dst.light;
-  {
-    nlohmann::json dst_json = ShLightToJson(dst_light, 2);
-    dst_json["source"] = dst.description;
-    WriteJson(run.out_dir() / "target_light.json", dst_json);
-    run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
-  }
+};
 
-  nlohmann::json& frames_json = run.metrics()["frames"];
-  frames_json = nlohmann::json::array();
+// The radiance, geometry (chained to the previous frame's) and SH fit stages of every pair.
+FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
+  FrameStages f;
+  for (std::size_t i = 0; i < in.pairs.size(); ++i) {
+    const RgbdPair& pair = in.pairs[i];
+    f.radiance.push_back(ColorRadiance(run, pair, in.spec, in.camera));
+    f.geometry.push_back(Geometry(run, k, pair, in.camera, i == 0 ? nullptr : &f.geometry.back()));
+    f.fits.push_back(Fit(run, k, in.known_albedo, pair, in.camera, f.radiance.back(), f.geometry.back()));
+    run.AddOutput(f.fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));
+    run.AddOutput(f.fits.back().dir / "latlong.png",
+                  "SH light of frame " + std::to_string(pair.color.id) + ", lat-long");
+    run.AddOutput(f.fits.back().dir / "cube.png",
+                  "SH light of frame " + std::to_string(pair.color.id) + ", cube cross");
+    run.Progress("sh fit", static_cast<std::int64_t>(i + 1), static_cast<std::int64_t>(in.pairs.size()));
+  }
+  return f;
+}
+
+// The figures over all frames that the run's metrics report.
+struct FrameTotals {
   std::vector<double> relit_errors, baseline_errors, irradiance_errors, relit8, base8;
-  std::optional<sim::GroundTruth> dst_frame_truth;
   std::int64_t guarded = 0;
   std::int64_t relit_pixels = 0;
-  const bool compare = k.compare_truth && has_world;
-  for (std::size_t i = 0; i < pairs.size(); ++i) {
-    const std::string id = std::to_string(pairs[i].color.id);
-    nlohmann::json m = {{"color_frame", pairs[i].color.id},
-                        {"depth_frame", pairs[i].depth.id},
-                        {"fit", fits[i].summary},
-                        {"normals_from_frame", geometry[i].normals_from_frame}};
-    const bool is_destination = dst.kind == "frame" && *dst.frame_index == i;
-    if (is_source[i] && is_destination)
-      run.Decide("relight", "skip", "frame " + id + " is the destination light's own frame");
-    std::optional<Relit> relit;
-    if (is_source[i] && !is_destination) {
-      relit = Relight(run, k, pairs[i], radiance[i], geometry[i], fits[i], dst_light);
-      m["relight"] = relit->summary;
-      guarded += relit->summary["guarded"].get<std::int64_t>();
-      relit_pixels += relit->summary["relit"].get<std::int64_t>();
-    }
-    if (compare) {
-      const TruthInputs in{&pairs, &camera, &dst, &dst_frame_truth, known_albedo};
-      m.update(CompareWithTruth(run, in, i, radiance[i], geometry[i], fits[i], relit ? &*relit : nullptr));
-      if (m.contains("irradiance_relative_rms"))
-        irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
-      if (m.contains("compared_pixels") && m["compared_pixels"].get<int>() > 0) {
-        relit_errors.push_back(m["relit_relative_rms"].get<double>());
-        baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
-        relit8.push_back(m["relit_rms_8bit"].get<double>());
-        base8.push_back(m["baseline_rms_8bit"].get<double>());
-      }
-    }
-    frames_json.push_back(m);
+};
+
+// Frame i's entry in the metrics' "frames": its fit, its relighting to the destination light (a
+// source frame other than the destination's own) and, with compare_truth, its errors against the
+// world's truth; adds its figures to `totals`.
+nlohmann::json RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in, const FrameStages& f, std::size_t i,
+                            const Destination& dst, const ShRgb& dst_light,
+                            std::optional<sim::GroundTruth>* dst_frame_truth, FrameTotals* totals) {
+  const std::string id = std::to_string(in.pairs[i].color.id);
+  nlohmann::json m = {{"color_frame", in.pairs[i].color.id},
+                      {"depth_frame", in.pairs[i].depth.id},
+                      {"fit", f.fits[i].summary},
+                      {"normals_from_frame", f.geometry[i].normals_from_frame}};
+  const bool is_destination = dst.kind == "frame" && *dst.frame_index == i;
+  if (in.is_source[i] && is_destination)
+    run.Decide("relight", "skip", "frame " + id + " is the destination light's own frame");
+  std::optional<Relit> relit;
+  if (in.is_source[i] && !is_destination) {
+    relit = Relight(run, k, in.pairs[i], f.radiance[i], f.geometry[i], f.fits[i], dst_light);
+    m["relight"] = relit->summary;
+    totals->guarded += relit->summary["guarded"].get<std::int64_t>();
+    totals->relit_pixels += relit->summary["relit"].get<std::int64_t>();
   }
+  if (k.compare_truth && in.has_world) {
+    const TruthInputs truth{&in.pairs, &in.camera, &dst, dst_frame_truth, in.known_albedo};
+    m.update(CompareWithTruth(run, truth, i, f.radiance[i], f.geometry[i], f.fits[i], relit ? &*relit : nullptr));
+    if (m.contains("irradiance_relative_rms"))
+      totals->irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
+    if (m.contains("compared_pixels") && m["compared_pixels"].get<int>() > 0) {
+      totals->relit_errors.push_back(m["relit_relative_rms"].get<double>());
+      totals->baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
+      totals->relit8.push_back(m["relit_rms_8bit"].get<double>());
+      totals->base8.push_back(m["baseline_rms_8bit"].get<double>());
+    }
+  }
+  return m;
+}
+
+// The run's summary metrics: the destination, the albedo choice, pixel counts and mean errors.
+void AddShMetrics(PipelineRun& run, const Destination& dst, bool known_albedo, const FrameTotals& t) {
   const auto mean = [](const std::vector<double>& v) {
     double s = 0.0;
     for (double x : v) s += x;
@@ -1081,16 +1125,45 @@ void RunShPipeline(PipelineRun& run) {
   nlohmann::json& metrics = run.metrics();
   metrics["destination"] = dst.description;
   metrics["albedo"] = known_albedo ? "known" : "unknown";
-  metrics["guarded_pixels"] = guarded;
-  metrics["relit_pixels"] = relit_pixels;
-  if (!irradiance_errors.empty()) metrics["irradiance_relative_rms_mean"] = mean(irradiance_errors);
-  if (!relit_errors.empty()) {
-    metrics["relit_relative_rms_mean"] = mean(relit_errors);
-    metrics["baseline_relative_rms_mean"] = mean(baseline_errors);
-    metrics["relit_rms_8bit_mean"] = mean(relit8);
-    metrics["baseline_rms_8bit_mean"] = mean(base8);
-    metrics["compared_frames"] = static_cast<int>(relit_errors.size());
+  metrics["guarded_pixels"] = t.guarded;
+  metrics["relit_pixels"] = t.relit_pixels;
+  if (!t.irradiance_errors.empty()) metrics["irradiance_relative_rms_mean"] = mean(t.irradiance_errors);
+  if (!t.relit_errors.empty()) {
+    metrics["relit_relative_rms_mean"] = mean(t.relit_errors);
+    metrics["baseline_relative_rms_mean"] = mean(t.baseline_errors);
+    metrics["relit_rms_8bit_mean"] = mean(t.relit8);
+    metrics["baseline_rms_8bit_mean"] = mean(t.base8);
+    metrics["compared_frames"] = static_cast<int>(t.relit_errors.size());
   }
+}
+
+void RunShPipeline(PipelineRun& run) {
+  Knobs k = ReadKnobs(run);
+  ShInputs in = ReadShInputs(run, k);
+  in.known_albedo = ChooseAlbedo(run, k, in.has_world);
+  DecideRadianceModel(run, in);
+  run.Decide("sh", "plan", std::to_string(in.pairs.size()) + " RGB-D frame pair(s) of " + in.device);
+  if (k.filter_depth && k.depth_noise_skip_below_m > 0.0) DecideDenoise(run, in.pairs.front(), &k);
+  const Destination dst = ChooseDestination(run, in.pairs, in.camera);
+  if (run.request().explain) return;
+
+  const FrameStages frames = FitFrames(run, k, in);
+  CheckShFitsTheScene(run, k, frames.fits);
+  const ShRgb dst_light = dst.kind == "frame" ? frames.fits[*dst.frame_index].light : dst.light;
+  {
+    nlohmann::json dst_json = ShLightToJson(dst_light, 2);
+    dst_json["source"] = dst.description;
+    WriteJson(run.out_dir() / "target_light.json", dst_json);
+    run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
+  }
+  nlohmann::json& frames_json = run.metrics()["frames"];
+  frames_json = nlohmann::json::array();
+  std::optional<sim::GroundTruth> dst_frame_truth;
+  FrameTotals totals;
+  for (std::size_t i = 0; i < in.pairs.size(); ++i) {
+    frames_json.push_back(RelightFrame(run, k, in, frames, i, dst, dst_light, &dst_frame_truth, &totals));
+  }
+  AddShMetrics(run, dst, in.known_albedo, totals);
 }
 
 std::string ShHeadline(const nlohmann::json& m) {
