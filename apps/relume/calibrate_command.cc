@@ -249,74 +249,95 @@ void RunCalibrateResponse(const CalibrateResponseArgs& args_in, std::ostream& ou
   out << "wrote " << args.out << ", " << plot << ", " << report << "\n";
 }
 
-void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
+namespace {
+
+// The chart report's folder: --report-dir, or the profile's path with "_report".
+std::string ChartReportDir(const CalibrateChartArgs& args) {
+  return args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
+}
+
+// --corners has 8 numbers, and no output would overwrite an input.
+void CheckChartArgs(const CalibrateChartArgs& args) {
   if (!args.corners.empty() && args.corners.size() != 8) {
     throw InvalidArgumentError("--corners: give 8 numbers x0,y0,x1,y1,x2,y2,x3,y3");
   }
-  {
-    const std::string dir = args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
-    const std::string session_db =
-        args.source.session.empty()
-            ? ""
-            : (std::filesystem::path(args.source.session) / capture::kSessionDatabaseName).string();
-    CheckOutputs({{"--out", args.out},
-                  {"--report-dir", dir + "/chart_detected.png"},
-                  {"--report-dir", dir + "/swatches.png"},
-                  {"--report-dir", dir + "/chart_report.json"}},
-                 {args.image, args.profile, args.reference, args.corners_file, session_db});
-  }
-  const ColorCheckerReference reference = LoadColorCheckerReference(args.reference);
-  std::optional<CalibrationProfile> base;
-  if (!args.profile.empty()) base = LoadProfile(args.profile);
-  // What the patches are measured on, and an 8-bit preview to detect and draw on.
+  const std::string dir = ChartReportDir(args);
+  const std::string session_db =
+      args.source.session.empty()
+          ? ""
+          : (std::filesystem::path(args.source.session) / capture::kSessionDatabaseName).string();
+  CheckOutputs({{"--out", args.out},
+                {"--report-dir", dir + "/chart_detected.png"},
+                {"--report-dir", dir + "/swatches.png"},
+                {"--report-dir", dir + "/chart_report.json"}},
+               {args.image, args.profile, args.reference, args.corners_file, session_db});
+}
+
+// What the patches are measured on, and an 8-bit preview to detect and draw on.
+struct ChartInput {
   ChartImage chart;
   cv::Mat preview;
   std::string gain_input = "radiance";
+  std::vector<capture::FrameRecord> records;  // the session's frames; none for an image file
+};
+
+// The chart from a session's frames, merged to radiance with the profile's response, else the
+// session's recorded one.
+ChartInput ChartFromSession(const CalibrateChartArgs& args, const std::optional<CalibrationProfile>& base,
+                            std::ostream& out) {
+  ChartInput in;
+  const capture::SessionReader reader(args.source.session);
+  in.records = SessionFrames(reader, args.source);
+  std::optional<CameraResponse> response;
+  if (base && base->response) {
+    response = base->response;
+  } else if (const auto recorded = pipeline::SessionCalibration(reader, in.records.front().device_id, "response")) {
+    response = recorded->first.response;
+  }
+  const pipeline::LinearisedBracket linear =
+      pipeline::LineariseBracket(reader, in.records, response, std::nullopt, HdrMergeOptions{}, ResponseOptions{});
+  out << "chart image: " << in.records.size() << " frame(s) of " << in.records.front().device_id << " merged ("
+      << linear.response_source << " response)\n";
+  in.chart.values = linear.radiance.pixels;
+  in.preview = PreviewLinear(linear.radiance.pixels);
+  return in;
+}
+
+// The chart from an image file: EXR radiance, or a camera frame linearised with the profile's
+// response (or its exposure when sensor-linear; else gains apply to normalised codes).
+ChartInput ChartFromImage(const CalibrateChartArgs& args, const std::optional<CalibrationProfile>& base) {
+  ChartInput in;
   const std::string ext = std::filesystem::path(args.image).extension().string();
-  std::vector<capture::FrameRecord> records;
-  if (!args.source.session.empty()) {
-    if (!args.image.empty()) throw InvalidArgumentError("calibrate chart: give an image or --session, not both");
-    const capture::SessionReader reader(args.source.session);
-    records = SessionFrames(reader, args.source);
-    std::optional<CameraResponse> response;
-    if (base && base->response) {
-      response = base->response;
-    } else if (const auto recorded = pipeline::SessionCalibration(reader, records.front().device_id, "response")) {
-      response = recorded->first.response;
-    }
-    const pipeline::LinearisedBracket linear =
-        pipeline::LineariseBracket(reader, records, response, std::nullopt, HdrMergeOptions{}, ResponseOptions{});
-    out << "chart image: " << records.size() << " frame(s) of " << records.front().device_id << " merged ("
-        << linear.response_source << " response)\n";
-    chart.values = linear.radiance.pixels;
-    preview = PreviewLinear(linear.radiance.pixels);
-  } else if (args.image.empty()) {
-    throw InvalidArgumentError("calibrate chart: give the chart image, or --session DIR --frames SELECTOR");
-  } else if (ext == ".exr" || ext == ".EXR") {
+  if (ext == ".exr" || ext == ".EXR") {
     const RadianceImage radiance = LoadRadianceExr(args.image);
     if (radiance.pixels.channels() != 3) throw InvalidArgumentError(args.image + ": the chart image must be RGB");
-    chart.values = radiance.pixels;
-    preview = PreviewLinear(radiance.pixels);
-  } else {
-    const CameraImage image = LoadFrame(args.image).image;
-    if (image.layout != ColorLayout::kRgb) throw InvalidArgumentError(args.image + ": the chart image must be RGB");
-    chart = ChartImageFromCamera(image);
-    if (base && base->response) {
-      CalibrationProfile linearise;
-      linearise.response = base->response;
-      chart.values = ApplyProfile(linearise, image, args.exposure_s).pixels;
-    } else if (image.encoding == SampleEncoding::kSensorLinear) {
-      chart.values = chart.values / args.exposure_s;
-    } else {
-      gain_input = "normalized_code";
-    }
-    if (image.pixels.depth() == CV_8U) {
-      preview = image.pixels;
-    } else {
-      image.pixels.convertTo(preview, CV_8U, 255.0 / image.white_level);
-    }
+    in.chart.values = radiance.pixels;
+    in.preview = PreviewLinear(radiance.pixels);
+    return in;
   }
-  ChartLocation location;
+  const CameraImage image = LoadFrame(args.image).image;
+  if (image.layout != ColorLayout::kRgb) throw InvalidArgumentError(args.image + ": the chart image must be RGB");
+  in.chart = ChartImageFromCamera(image);
+  if (base && base->response) {
+    CalibrationProfile linearise;
+    linearise.response = base->response;
+    in.chart.values = ApplyProfile(linearise, image, args.exposure_s).pixels;
+  } else if (image.encoding == SampleEncoding::kSensorLinear) {
+    in.chart.values = in.chart.values / args.exposure_s;
+  } else {
+    in.gain_input = "normalized_code";
+  }
+  if (image.pixels.depth() == CV_8U) {
+    in.preview = image.pixels;
+  } else {
+    image.pixels.convertTo(in.preview, CV_8U, 255.0 / image.white_level);
+  }
+  return in;
+}
+
+// The chart's corners from --corners or --corners-file, else the detector's.
+ChartLocation LocateChart(const CalibrateChartArgs& args, const cv::Mat& preview,
+                          const ColorCheckerReference& reference) {
   std::vector<cv::Point2f> corners;
   if (!args.corners.empty()) {
     if (args.corners.size() != 8) throw InvalidArgumentError("--corners: give 8 numbers x0,y0,x1,y1,x2,y2,x3,y3");
@@ -326,41 +347,27 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   } else if (!args.corners_file.empty()) {
     corners = CornersFromYaml(args.corners_file);
   }
-  if (!corners.empty()) {
-    location = ChartFromCorners(corners, preview, reference);
-  } else {
-    ChartDetectOptions options;
-    options.detector = ChartDetectorFromString(args.detector);
-    location = DetectColorChecker(preview, reference, options);
-    if (!location.found) {
-      throw InvalidArgumentError("no ColorChecker found in " + args.image + " (" + location.reason +
-                                 "); give its corners with --corners x0,y0,...");
-    }
+  if (!corners.empty()) return ChartFromCorners(corners, preview, reference);
+  ChartDetectOptions options;
+  options.detector = ChartDetectorFromString(args.detector);
+  ChartLocation location = DetectColorChecker(preview, reference, options);
+  if (!location.found) {
+    throw InvalidArgumentError("no ColorChecker found in " + args.image + " (" + location.reason +
+                               "); give its corners with --corners x0,y0,...");
   }
-  out << "chart: found by " << location.method << ", orientation score " << location.orientation_score << "\n";
-  const std::vector<PatchSample> patches = SamplePatches(chart, location);
-  ColorFitOptions fit_options;
-  fit_options.white_preserving = args.white_preserving;
-  const ColorFit fit = FitColorChecker(patches, reference, fit_options);
-  out << "fit: " << fit.summary.BriefReport() << "\n";
-  if (!fit.summary.usable) throw InvalidArgumentError("the chart fit failed: " + fit.summary.reason);
+  return location;
+}
 
-  CalibrationProfile profile = base.value_or(CalibrationProfile{});
-  if (!records.empty()) profile.camera = records.front().device_id;
-  if (profile.camera.empty()) profile.camera = std::filesystem::path(args.image).stem().string();
-  profile.gain_input = gain_input;
-  profile.gain = fit.gain;
-  profile.ccm = fit.ccm;
-  profile.fit = fit.summary;
-  SaveProfile(profile, args.out);
-  if (!records.empty()) StoreEverywhere(args.source, "profile", profile, records, out);
-
-  const std::string dir = args.report_dir.empty() ? WithoutJson(args.out) + "_report" : args.report_dir;
+// The report in `dir`: chart_detected.png, swatches.png and chart_report.json (detection, fit,
+// per patch its measurement and colour error).
+void WriteChartReport(const std::string& dir, const std::string& image, const cv::Mat& preview,
+                      const ChartLocation& location, const std::vector<PatchSample>& patches, const ColorFit& fit,
+                      const ColorCheckerReference& reference) {
   std::filesystem::create_directories(dir);
   SaveImage(DrawChart(preview, location, patches), dir + "/chart_detected.png");
   SaveImage(DrawSwatches(fit, reference), dir + "/swatches.png");
   nlohmann::json j;
-  j["image"] = args.image;
+  j["image"] = image;
   j["detection"] = {
       {"method", location.method}, {"orientation_score", location.orientation_score}, {"reason", location.reason}};
   for (const auto& c : location.corners) j["detection"]["corners"].push_back({c.x, c.y});
@@ -385,6 +392,45 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
          {"delta_e_2000", p.delta_e}});
   }
   std::ofstream(dir + "/chart_report.json") << j.dump(1) << "\n";
+}
+
+}  // namespace
+
+void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
+  CheckChartArgs(args);
+  const ColorCheckerReference reference = LoadColorCheckerReference(args.reference);
+  std::optional<CalibrationProfile> base;
+  if (!args.profile.empty()) base = LoadProfile(args.profile);
+  ChartInput input;
+  if (!args.source.session.empty()) {
+    if (!args.image.empty()) throw InvalidArgumentError("calibrate chart: give an image or --session, not both");
+    input = ChartFromSession(args, base, out);
+  } else if (args.image.empty()) {
+    throw InvalidArgumentError("calibrate chart: give the chart image, or --session DIR --frames SELECTOR");
+  } else {
+    input = ChartFromImage(args, base);
+  }
+  const ChartLocation location = LocateChart(args, input.preview, reference);
+  out << "chart: found by " << location.method << ", orientation score " << location.orientation_score << "\n";
+  const std::vector<PatchSample> patches = SamplePatches(input.chart, location);
+  ColorFitOptions fit_options;
+  fit_options.white_preserving = args.white_preserving;
+  const ColorFit fit = FitColorChecker(patches, reference, fit_options);
+  out << "fit: " << fit.summary.BriefReport() << "\n";
+  if (!fit.summary.usable) throw InvalidArgumentError("the chart fit failed: " + fit.summary.reason);
+
+  CalibrationProfile profile = base.value_or(CalibrationProfile{});
+  if (!input.records.empty()) profile.camera = input.records.front().device_id;
+  if (profile.camera.empty()) profile.camera = std::filesystem::path(args.image).stem().string();
+  profile.gain_input = input.gain_input;
+  profile.gain = fit.gain;
+  profile.ccm = fit.ccm;
+  profile.fit = fit.summary;
+  SaveProfile(profile, args.out);
+  if (!input.records.empty()) StoreEverywhere(args.source, "profile", profile, input.records, out);
+
+  const std::string dir = ChartReportDir(args);
+  WriteChartReport(dir, args.image, input.preview, location, patches, fit, reference);
   out << "wrote " << args.out << " and " << dir << "/{chart_detected.png, swatches.png, chart_report.json}\n";
 }
 
