@@ -217,107 +217,155 @@ std::size_t RunSunSeries(const SunQuery& query, std::ostream& out) {
   return static_cast<std::size_t>(count);
 }
 
-std::size_t RunSunCsv(const SunQuery& query, std::istream& in, const std::string& source_name, std::ostream& out) {
+namespace {
+
+// Where each input column is in the file (-1: absent), and how many cells the header has.
+struct CsvColumns {
+  std::size_t header_cells = 0;
+  int index[kColumnCount];
+};
+
+// The header line (the first that is not blank): which columns the file has. "time" is required,
+// and lat/lon unless --lat/--lon give them. Counts the lines read in `line_number`.
+CsvColumns ReadSunCsvHeader(const SunQuery& query, std::istream& in, const std::string& source_name, int* line_number) {
   std::string line;
-  int line_number = 0;
-  // Header: skip blank lines.
   while (std::getline(in, line)) {
-    ++line_number;
+    ++*line_number;
     if (line.find_first_not_of(" \t\r") != std::string::npos) break;
   }
-  if (line_number == 0 || line.find_first_not_of(" \t\r") == std::string::npos) {
-    throw ConfigError(source_name, line_number, "",
+  if (*line_number == 0 || line.find_first_not_of(" \t\r") == std::string::npos) {
+    throw ConfigError(source_name, *line_number, "",
                       "empty CSV: expected a header line naming the columns (time, lat, lon, ...)");
   }
   if (line.rfind(kUtf8Bom, 0) == 0) line.erase(0, kUtf8Bom.size());  // spreadsheets write one
-  RejectNul(line, source_name, line_number);
+  RejectNul(line, source_name, *line_number);
   const std::vector<std::string> header = SplitCsvLine(line);
-  int index[kColumnCount];
+  CsvColumns columns;
+  columns.header_cells = header.size();
   for (int c = 0; c < kColumnCount; ++c) {
-    index[c] = -1;
-    for (std::size_t h = 0; h < header.size() && index[c] < 0; ++h) {
+    columns.index[c] = -1;
+    for (std::size_t h = 0; h < header.size() && columns.index[c] < 0; ++h) {
       for (const std::string& name : kColumnNames[static_cast<std::size_t>(c)]) {
-        if (header[h] == name) index[c] = static_cast<int>(h);
+        if (header[h] == name) columns.index[c] = static_cast<int>(h);
       }
     }
   }
-  if (index[kTime] < 0) {
-    throw ConfigError(source_name, line_number, "time", "the header has no 'time' column (ISO 8601 with a zone)");
+  if (columns.index[kTime] < 0) {
+    throw ConfigError(source_name, *line_number, "time", "the header has no 'time' column (ISO 8601 with a zone)");
   }
-  if ((index[kLat] < 0 && !query.latitude_deg) || (index[kLon] < 0 && !query.longitude_deg)) {
-    throw ConfigError(source_name, line_number, "lat/lon",
+  if ((columns.index[kLat] < 0 && !query.latitude_deg) || (columns.index[kLon] < 0 && !query.longitude_deg)) {
+    throw ConfigError(source_name, *line_number, "lat/lon",
                       "no 'lat'/'lon' columns and no --lat/--lon flags: the site is unknown");
   }
+  return columns;
+}
 
+// One data row's cells by column; errors name the file, the line and the column.
+class SunCsvRow {
+ public:
+  SunCsvRow(std::vector<std::string> cells, const CsvColumns& columns, const std::string& source_name, int line_number)
+      : cells_(std::move(cells)), columns_(columns), source_name_(source_name), line_number_(line_number) {}
+
+  // The column's cell, or null when the file has no such column or the cell is empty.
+  const std::string* Cell(Column c) const {
+    const int index = columns_.index[c];
+    if (index < 0 || static_cast<std::size_t>(index) >= cells_.size() ||
+        cells_[static_cast<std::size_t>(index)].empty()) {
+      return nullptr;
+    }
+    return &cells_[static_cast<std::size_t>(index)];
+  }
+
+  // The column's number, or `fallback` (a flag's value) when the cell is empty.
+  double Number(Column c, std::optional<double> fallback) const {
+    const std::string* text = Cell(c);
+    if (!text) {
+      if (fallback) return *fallback;
+      throw ConfigError(source_name_, line_number_, kColumnNames[c][0], "value missing and no flag gives a default");
+    }
+    double value = 0.0;
+    const auto result = std::from_chars(text->data(), text->data() + text->size(), value);
+    if (result.ec != std::errc() || result.ptr != text->data() + text->size() || !std::isfinite(value)) {
+      throw ConfigError(source_name_, line_number_, kColumnNames[c][0], "'" + *text + "' is not a finite number");
+    }
+    return value;
+  }
+
+  const std::string& source_name() const { return source_name_; }
+  int line_number() const { return line_number_; }
+
+ private:
+  std::vector<std::string> cells_;
+  const CsvColumns& columns_;
+  const std::string& source_name_;
+  int line_number_;
+};
+
+// The sun for one data row, appended to `buffer` as a CSV row: the row's time, its site and
+// atmosphere from its cells or the flags. `tracks` holds one SunTrack per distinct site and
+// atmosphere, so that series of rows reuse the slowly varying terms. Bounded: a file with a new
+// site on every row falls back to fresh tracks.
+void AppendSunRow(const SunQuery& query, const SunCsvRow& row, std::map<SiteKey, std::unique_ptr<SunTrack>>* tracks,
+                  std::string& buffer) {
+  const std::string& source_name = row.source_name();
+  const int line_number = row.line_number();
+  const std::string* time_text = row.Cell(kTime);
+  if (!time_text) throw ConfigError(source_name, line_number, "time", "value missing");
+  const UtcTime time = ParseIso8601(*time_text).utc;
+  SunTrackOptions options;
+  options.sun = query.options;
+  const std::optional<double> default_delta_t =
+      std::isnan(query.options.delta_t_s) ? std::nullopt : std::optional<double>(query.options.delta_t_s);
+  options.sun.delta_t_s =
+      row.Cell(kDeltaT) ? row.Number(kDeltaT, std::nullopt) : (default_delta_t ? *default_delta_t : NAN);
+  options.sun.pressure_hpa = row.Number(kPressure, query.options.pressure_hpa);
+  options.sun.temperature_c = row.Number(kTemperature, query.options.temperature_c);
+  const Site site{DegToRad(row.Number(kLat, query.latitude_deg)), DegToRad(row.Number(kLon, query.longitude_deg)),
+                  row.Number(kHeight, query.height_m)};
+  std::string why;
+  if (!site.IsValid(&why)) throw ConfigError(source_name, line_number, "site", why);
+  if (!options.sun.IsValid(&why)) throw ConfigError(source_name, line_number, "options", why);
+
+  const SiteKey key{site.latitude_rad,
+                    site.longitude_rad,
+                    site.height_m,
+                    std::isnan(options.sun.delta_t_s) ? -1e300 : options.sun.delta_t_s,
+                    options.sun.pressure_hpa,
+                    options.sun.temperature_c};
+  auto it = tracks->find(key);
+  if (it == tracks->end()) {
+    if (tracks->size() >= 256) tracks->clear();
+    it = tracks->emplace(key, std::make_unique<SunTrack>(site, options)).first;
+  }
+  const SunPosition sun = it->second->At(time);
+  AppendCsvRow(buffer, time, site, sun);
+}
+
+}  // namespace
+
+std::size_t RunSunCsv(const SunQuery& query, std::istream& in, const std::string& source_name, std::ostream& out) {
+  int line_number = 0;
+  const CsvColumns columns = ReadSunCsvHeader(query, in, source_name, &line_number);
   out << kCsvHeader;
-  // One SunTrack per distinct site and atmosphere, so that series of rows reuse the slowly
-  // varying terms. Bounded: a file with a new site on every row falls back to fresh tracks.
   std::map<SiteKey, std::unique_ptr<SunTrack>> tracks;
+  std::string line;
   std::string buffer;
   std::size_t rows = 0;
   while (std::getline(in, line)) {
     ++line_number;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     RejectNul(line, source_name, line_number);
-    const std::vector<std::string> cells = SplitCsvLine(line);
-    if (cells.size() < header.size()) {
+    std::vector<std::string> cells = SplitCsvLine(line);
+    if (cells.size() < columns.header_cells) {
       // A short row would otherwise take the flags' values for its missing cells, silently.
       throw ConfigError(source_name, line_number, "",
                         "the row has " + std::to_string(cells.size()) + " cells, the header " +
-                            std::to_string(header.size()) + " (leave a cell empty to take the flag's value)");
+                            std::to_string(columns.header_cells) + " (leave a cell empty to take the flag's value)");
     }
-    auto cell = [&](Column c) -> const std::string* {
-      if (index[c] < 0 || static_cast<std::size_t>(index[c]) >= cells.size() ||
-          cells[static_cast<std::size_t>(index[c])].empty()) {
-        return nullptr;
-      }
-      return &cells[static_cast<std::size_t>(index[c])];
-    };
-    auto number = [&](Column c, std::optional<double> fallback) -> double {
-      const std::string* text = cell(c);
-      if (!text) {
-        if (fallback) return *fallback;
-        throw ConfigError(source_name, line_number, kColumnNames[c][0], "value missing and no flag gives a default");
-      }
-      double value = 0.0;
-      const auto result = std::from_chars(text->data(), text->data() + text->size(), value);
-      if (result.ec != std::errc() || result.ptr != text->data() + text->size() || !std::isfinite(value)) {
-        throw ConfigError(source_name, line_number, kColumnNames[c][0], "'" + *text + "' is not a finite number");
-      }
-      return value;
-    };
+    const SunCsvRow row(std::move(cells), columns, source_name, line_number);
     try {
-      const std::string* time_text = cell(kTime);
-      if (!time_text) throw ConfigError(source_name, line_number, "time", "value missing");
-      const UtcTime time = ParseIso8601(*time_text).utc;
-      SunTrackOptions options;
-      options.sun = query.options;
-      const std::optional<double> default_delta_t =
-          std::isnan(query.options.delta_t_s) ? std::nullopt : std::optional<double>(query.options.delta_t_s);
-      options.sun.delta_t_s =
-          cell(kDeltaT) ? number(kDeltaT, std::nullopt) : (default_delta_t ? *default_delta_t : NAN);
-      options.sun.pressure_hpa = number(kPressure, query.options.pressure_hpa);
-      options.sun.temperature_c = number(kTemperature, query.options.temperature_c);
-      const Site site{DegToRad(number(kLat, query.latitude_deg)), DegToRad(number(kLon, query.longitude_deg)),
-                      number(kHeight, query.height_m)};
-      std::string why;
-      if (!site.IsValid(&why)) throw ConfigError(source_name, line_number, "site", why);
-      if (!options.sun.IsValid(&why)) throw ConfigError(source_name, line_number, "options", why);
-
-      const SiteKey key{site.latitude_rad,
-                        site.longitude_rad,
-                        site.height_m,
-                        std::isnan(options.sun.delta_t_s) ? -1e300 : options.sun.delta_t_s,
-                        options.sun.pressure_hpa,
-                        options.sun.temperature_c};
-      auto it = tracks.find(key);
-      if (it == tracks.end()) {
-        if (tracks.size() >= 256) tracks.clear();
-        it = tracks.emplace(key, std::make_unique<SunTrack>(site, options)).first;
-      }
-      const SunPosition sun = it->second->At(time);
       buffer.clear();
-      AppendCsvRow(buffer, time, site, sun);
+      AppendSunRow(query, row, &tracks, buffer);
       out << buffer;
       ++rows;
     } catch (const ConfigError&) {
