@@ -184,9 +184,8 @@ OpenedDevice OpenRigDevice(const std::shared_ptr<drivers::DeviceRegistry>& regis
   return out;
 }
 
-}  // namespace
-
-int RunCapture(const CaptureRequest& request) {
+// The rig, with --duration and --speedup (checked) in place of its own.
+rig::RigConfig LoadCaptureRig(const CaptureRequest& request) {
   rig::RigConfig rig = rig::LoadRigConfig(request.rig_path);
   // Checked before the narrowing to int64 nanoseconds (292 years) below.
   if (!(request.duration_minutes >= 0.0 && request.duration_minutes <= 100.0 * 365.25 * 1440.0)) {
@@ -199,18 +198,22 @@ int RunCapture(const CaptureRequest& request) {
         std::chrono::duration<double, std::ratio<60>>(request.duration_minutes));
   }
   if (request.speedup > 0.0) rig.clock_speedup = request.speedup;
-  std::shared_ptr<Clock> clock;
-  if (rig.host_clock) {
-    clock = std::make_shared<SystemClock>();
-  } else if (rig.clock_speedup > 0.0) {
-    clock = std::make_shared<SimulatedClock>(rig.clock_start, rig.clock_speedup);
-  } else {
-    clock = std::make_shared<ManualClock>(
-        rig.clock_start, "simulated, event-driven, from " + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0));
-  }
-  const std::shared_ptr<drivers::DeviceRegistry> registry = BuildRigRegistry(rig, clock);
-  // Every device is found, opened and set up (camera settings, RGB-D stream) before a session
-  // folder is made: a missing device or a setting the camera refuses leaves nothing behind.
+  return rig;
+}
+
+// The capture's clock: the host's, a simulated one running `clock_speedup` times real time, or
+// an event-driven simulated one.
+std::shared_ptr<Clock> MakeCaptureClock(const rig::RigConfig& rig) {
+  if (rig.host_clock) return std::make_shared<SystemClock>();
+  if (rig.clock_speedup > 0.0) return std::make_shared<SimulatedClock>(rig.clock_start, rig.clock_speedup);
+  return std::make_shared<ManualClock>(
+      rig.clock_start, "simulated, event-driven, from " + FormatIso8601(rig.clock_start, std::chrono::seconds{0}, 0));
+}
+
+// Every device of the rig, found, opened and set up (camera settings, RGB-D stream): the
+// simulated ones, then the registry devices.
+std::vector<OpenedDevice> OpenRigDevices(const std::shared_ptr<drivers::DeviceRegistry>& registry,
+                                         const rig::RigConfig& rig) {
   std::vector<OpenedDevice> opened;
   if (!rig.devices.empty()) {
     for (const auto& backend : registry->backends()) {
@@ -227,15 +230,84 @@ int RunCapture(const CaptureRequest& request) {
         registry, ResolveRigDevice(*registry, spec), [registry, spec]() { return ResolveRigDevice(*registry, spec); },
         &spec, rig));
   }
+  return opened;
+}
+
+// The session folder, with the rig stored beside it (processing finds the geometry and cameras
+// there).
+std::unique_ptr<capture::SessionWriter> CreateSession(const CaptureRequest& request, const rig::RigConfig& rig,
+                                                      const Clock& clock) {
   capture::SessionInfo info;
   info.name = rig.name;
   info.site = rig.site;
   info.rig_config = rig.yaml_text;
   info.software_version = std::string("relume ") + RELUME_VERSION;
-  info.clock_name = clock->name();
-  info.created_utc = clock->NowUtc();
+  info.clock_name = clock.name();
+  info.created_utc = clock.NowUtc();
   std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info, rig.storage);
-  rig::StoreRigWithSession(rig, request.out_dir);  // processing finds the geometry and cameras here
+  rig::StoreRigWithSession(rig, request.out_dir);
+  return writer;
+}
+
+// The recorder's progress line on stderr. On a terminal the line is rewritten in place at every
+// update. Into a log (not a terminal) a line is written when a still frame, bracket or fault is
+// added, and otherwise (RGB-D frames streaming in, the recorder waiting for its next trigger,
+// which on a simulated clock reports many times a second) at most every 10 s of wall time.
+class ProgressLine {
+ public:
+  ProgressLine(bool enabled, bool tty) : enabled_(enabled), tty_(tty) {}
+
+  void Print(const capture::RecorderStatus& s) {
+    if (!enabled_) return;
+    if (!tty_) {
+      const std::array<std::int64_t, 4> counts{s.still_frames, s.brackets, s.partial_brackets, s.faults};
+      const auto now = std::chrono::steady_clock::now();
+      if (counts == last_counts_ && now - last_line_ < std::chrono::seconds(10)) return;
+      last_counts_ = counts;
+      last_line_ = now;
+    }
+    std::fprintf(
+        stderr, "%s%s  frames %lld still + %lld rgbd  brackets %lld (%lld partial)  faults %lld  disk %s  next %s%s",
+        tty_ ? "\r" : "", FormatIso8601(s.now, std::chrono::seconds{0}, 0).c_str(),
+        static_cast<long long>(s.still_frames), static_cast<long long>(s.rgbd_frames),
+        static_cast<long long>(s.brackets), static_cast<long long>(s.partial_brackets),
+        static_cast<long long>(s.faults), HumanBytes(s.bytes_written).c_str(),
+        s.next_trigger ? FormatIso8601(*s.next_trigger, std::chrono::seconds{0}, 0).c_str() : "-", tty_ ? "   " : "\n");
+  }
+
+ private:
+  bool enabled_;
+  bool tty_;
+  std::array<std::int64_t, 4> last_counts_{-1, -1, -1, -1};
+  std::chrono::steady_clock::time_point last_line_ = std::chrono::steady_clock::now();
+};
+
+// What was captured and why it stopped; the exit code (3: storage failed).
+int ReportCapture(const CaptureRequest& request, const capture::RecorderSummary& summary) {
+  const capture::RecorderStatus& s = summary.status;
+  std::cout << "captured " << s.still_frames << " still frames in " << s.brackets << " brackets (" << s.partial_brackets
+            << " partial), " << s.rgbd_frames << " RGB-D frames, " << s.faults << " faults, "
+            << HumanBytes(s.bytes_written) << " -> " << request.out_dir << "\n"
+            << "stopped: " << summary.stop_reason << "\n";
+  if (summary.storage_failed) {
+    std::cerr << "relume: error: " << summary.stop_reason
+              << "\nEvery frame acknowledged before the failure is intact; run `relume session verify "
+              << request.out_dir << "`.\n";
+    return 3;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int RunCapture(const CaptureRequest& request) {
+  const rig::RigConfig rig = LoadCaptureRig(request);
+  const std::shared_ptr<Clock> clock = MakeCaptureClock(rig);
+  const std::shared_ptr<drivers::DeviceRegistry> registry = BuildRigRegistry(rig, clock);
+  // Every device is found, opened and set up (camera settings, RGB-D stream) before a session
+  // folder is made: a missing device or a setting the camera refuses leaves nothing behind.
+  std::vector<OpenedDevice> opened = OpenRigDevices(registry, rig);
+  std::unique_ptr<capture::SessionWriter> writer = CreateSession(request, rig, *clock);
 
   capture::Recorder recorder(*writer, *clock, rig.recorder);
   for (OpenedDevice& device : opened) {
@@ -251,46 +323,14 @@ int RunCapture(const CaptureRequest& request) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   const bool tty = request.progress && isatty(STDERR_FILENO);
-  // On a terminal the line is rewritten in place at every update. Into a log (not a terminal)
-  // a line is written when a still frame, bracket or fault is added, and otherwise (RGB-D
-  // frames streaming in, the recorder waiting for its next trigger, which on a simulated clock
-  // reports many times a second) at most every 10 s of wall time.
-  std::array<std::int64_t, 4> last_counts{-1, -1, -1, -1};
-  auto last_line = std::chrono::steady_clock::now();
-  auto progress = [&](const capture::RecorderStatus& s) {
-    if (!request.progress) return;
-    if (!tty) {
-      const std::array<std::int64_t, 4> counts{s.still_frames, s.brackets, s.partial_brackets, s.faults};
-      const auto now = std::chrono::steady_clock::now();
-      if (counts == last_counts && now - last_line < std::chrono::seconds(10)) return;
-      last_counts = counts;
-      last_line = now;
-    }
-    std::fprintf(
-        stderr, "%s%s  frames %lld still + %lld rgbd  brackets %lld (%lld partial)  faults %lld  disk %s  next %s%s",
-        tty ? "\r" : "", FormatIso8601(s.now, std::chrono::seconds{0}, 0).c_str(),
-        static_cast<long long>(s.still_frames), static_cast<long long>(s.rgbd_frames),
-        static_cast<long long>(s.brackets), static_cast<long long>(s.partial_brackets),
-        static_cast<long long>(s.faults), HumanBytes(s.bytes_written).c_str(),
-        s.next_trigger ? FormatIso8601(*s.next_trigger, std::chrono::seconds{0}, 0).c_str() : "-", tty ? "   " : "\n");
-  };
+  ProgressLine progress(request.progress, tty);
   std::cerr << "relume capture: " << rig.name << " -> " << request.out_dir << " (clock " << clock->name() << ")\n";
-  const capture::RecorderSummary summary = recorder.Run(g_stop, progress);
+  const capture::RecorderSummary summary =
+      recorder.Run(g_stop, [&progress](const capture::RecorderStatus& s) { progress.Print(s); });
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   if (tty) std::cerr << "\n";
-  const capture::RecorderStatus& s = summary.status;
-  std::cout << "captured " << s.still_frames << " still frames in " << s.brackets << " brackets (" << s.partial_brackets
-            << " partial), " << s.rgbd_frames << " RGB-D frames, " << s.faults << " faults, "
-            << HumanBytes(s.bytes_written) << " -> " << request.out_dir << "\n"
-            << "stopped: " << summary.stop_reason << "\n";
-  if (summary.storage_failed) {
-    std::cerr << "relume: error: " << summary.stop_reason
-              << "\nEvery frame acknowledged before the failure is intact; run `relume session verify "
-              << request.out_dir << "`.\n";
-    return 3;
-  }
-  return 0;
+  return ReportCapture(request, summary);
 }
 
 void AddCaptureCommand(CLI::App& app) {
