@@ -186,19 +186,9 @@ void Flatten(const nlohmann::json& j, const std::string& prefix,
   }
 }
 
-}  // namespace
+// ---- report sections, in page order ---------------------------------------------------------
 
-fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_dir,
-                     const std::vector<PipelineReport>& pipelines) {
-  const fs::path assets = out_dir / "report";
-  capture::CreateDirectoryDurably(assets);
-  const capture::SessionInfo& info = session.info();
-  const std::vector<capture::FrameRecord> frames = session.Frames();
-  const std::vector<capture::BracketRecord> brackets = session.Brackets();
-  const std::vector<capture::EventRecord> events = session.Events();
-  const std::vector<capture::CalibrationRecord> calibrations = session.Calibrations();
-
-  std::ostringstream html;
+void WriteHead(std::ostringstream& html, const capture::SessionInfo& info) {
   html << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>relume report: "
        << Escape(info.name)
        << "</title>\n<script>\nwindow.relumeErrors = 0;\nwindow.addEventListener('error', function () { "
@@ -212,44 +202,59 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
           "#results td.images{white-space:nowrap}#results td.result{max-width:420px}#results "
           "figure{margin:2px}.blink{cursor:pointer}img.light{max-width:160px}\n</style>\n</head>\n"
           "<body>\n";
+}
+
+void WriteSessionTable(std::ostringstream& html, const capture::SessionReader& session,
+                       const capture::SessionInfo& info) {
   html << "<h1>relume report: " << Escape(info.name) << "</h1>\n";
   html << "<table id=\"session\"><tr><th>session</th><td>" << Escape(fs::absolute(session.dir()).string())
        << "</td></tr><tr><th>site</th><td>" << Fixed(info.site.latitude_deg(), 6) << "&#176;, "
        << Fixed(info.site.longitude_deg(), 6) << "&#176;, " << Fixed(info.site.height_m, 1)
        << " m</td></tr><tr><th>clock</th><td>" << Escape(info.clock_name) << "</td></tr><tr><th>recorded</th><td>"
        << Escape(FormatIso8601(info.created_utc)) << " by " << Escape(info.software_version) << "</td></tr></table>\n";
+}
 
+// One row of the overview: the pipeline's headline figures and warnings, linked to its section,
+// with its key images (click the relit one to blink it against the source).
+void WriteOverviewRow(std::ostringstream& html, const PipelineReport& p, const fs::path& out_dir) {
+  html << "<tr><td><a href=\"#pipeline-" << Escape(p.name) << "\">" << Escape(p.name)
+       << "</a></td><td class=\"result\">";
+  if (p.summary.is_null()) {
+    html << "<span class=\"skip\">not run: " << Escape(p.error) << "</span></td><td></td></tr>\n";
+    return;
+  }
+  html << Escape(p.summary.value("headline", std::string("done")));
+  for (const nlohmann::json& d : p.summary["decisions"]) {
+    if (d["action"] == "warn")
+      html << "<br><span class=\"error\">" << Escape(d["reason"].get<std::string>()) << "</span>";
+  }
+  html << "</td><td class=\"images\">";
+  const auto images = KeyImages(p);
+  const auto source = std::find_if(images.begin(), images.end(), [](const auto& i) { return i.second == "source"; });
+  for (const auto& [path, caption] : images) {
+    const std::string src = Escape(fs::relative(path, out_dir).string());
+    html << "<figure><img src=\"" << src << "\" alt=\"" << Escape(p.name + " " + caption) << "\"";
+    if (caption == "relit" && source != images.end()) {
+      html << " class=\"blink\" data-a=\"" << src << "\" data-b=\""
+           << Escape(fs::relative(source->first, out_dir).string()) << "\" title=\"click: relit / source\"";
+    }
+    html << "><figcaption>" << Escape(caption) << "</figcaption></figure>";
+  }
+  html << "</td></tr>\n";
+}
+
+void WriteOverview(std::ostringstream& html, const std::vector<PipelineReport>& pipelines, const fs::path& out_dir) {
   // The overview: each pipeline's headline figures and warnings, linked to its section, with its
   // key images (click the relit one to blink it against the source).
   html << "<h2>Results</h2>\n<table id=\"results\"><tr><th>pipeline</th><th>result</th><th>images</th></tr>\n";
-  for (const PipelineReport& p : pipelines) {
-    html << "<tr><td><a href=\"#pipeline-" << Escape(p.name) << "\">" << Escape(p.name)
-         << "</a></td><td class=\"result\">";
-    if (p.summary.is_null()) {
-      html << "<span class=\"skip\">not run: " << Escape(p.error) << "</span></td><td></td></tr>\n";
-      continue;
-    }
-    html << Escape(p.summary.value("headline", std::string("done")));
-    for (const nlohmann::json& d : p.summary["decisions"]) {
-      if (d["action"] == "warn")
-        html << "<br><span class=\"error\">" << Escape(d["reason"].get<std::string>()) << "</span>";
-    }
-    html << "</td><td class=\"images\">";
-    const auto images = KeyImages(p);
-    const auto source = std::find_if(images.begin(), images.end(), [](const auto& i) { return i.second == "source"; });
-    for (const auto& [path, caption] : images) {
-      const std::string src = Escape(fs::relative(path, out_dir).string());
-      html << "<figure><img src=\"" << src << "\" alt=\"" << Escape(p.name + " " + caption) << "\"";
-      if (caption == "relit" && source != images.end()) {
-        html << " class=\"blink\" data-a=\"" << src << "\" data-b=\""
-             << Escape(fs::relative(source->first, out_dir).string()) << "\" title=\"click: relit / source\"";
-      }
-      html << "><figcaption>" << Escape(caption) << "</figcaption></figure>";
-    }
-    html << "</td></tr>\n";
-  }
+  for (const PipelineReport& p : pipelines) WriteOverviewRow(html, p, out_dir);
   html << "</table>\n";
+}
 
+void WriteDevicesAndTimeline(std::ostringstream& html, const capture::SessionReader& session,
+                             const std::vector<capture::FrameRecord>& frames,
+                             const std::vector<capture::BracketRecord>& brackets,
+                             const std::vector<capture::EventRecord>& events) {
   // Devices and frame counts.
   html << "<h2>Devices and frames</h2>\n<table id=\"devices\"><tr><th>device</th><th>model</th><th>frames</th>"
           "<th>brackets (complete / partial)</th></tr>\n";
@@ -266,7 +271,9 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
          << complete << " / " << partial << "</td></tr>\n";
   }
   html << "</table>\n<h2>Timeline</h2>\n" << TimelineSvg(frames, events);
+}
 
+void WriteEvents(std::ostringstream& html, const std::vector<capture::EventRecord>& events) {
   html << "<h2>Events</h2>\n";
   if (events.empty()) {
     html << "<p>No faults, retries or other events.</p>\n";
@@ -280,152 +287,170 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
     html << "</table>\n";
     if (events.size() > 200) html << "<p>" << events.size() - 200 << " more events in the session database.</p>\n";
   }
+}
 
+void WriteCalibration(std::ostringstream& html, const capture::CalibrationRecord& c, const fs::path& assets) {
+  html << "<h3 id=\"calibration-" << c.id << "\">calibration " << c.id << ": " << Escape(c.kind) << " of "
+       << Escape(c.device_id) << "</h3>\n<p>from frames";
+  for (const std::int64_t id : c.source_frame_ids) html << " " << id;
+  html << ", recorded " << Escape(FormatIso8601(c.created_utc)) << "</p>\n";
+  if (c.kind == "rgbd_geometry") {
+    // An RGB-D sensor's intrinsics and registration, stored by the session writer: not a profile.
+    try {
+      drivers::RgbdFrame geometry;
+      capture::ApplyRgbdGeometryJson(c.json, &geometry);
+      const PinholeIntrinsics& k = geometry.color_intrinsics;
+      html << "<p>colour " << k.width << "x" << k.height << ", fx " << Fixed(k.fx, 1) << " px; depth "
+           << (geometry.registered_to_color ? "registered to colour" : "not registered to colour") << "</p>\n";
+    } catch (const Error& e) {
+      html << "<p class=\"error\">cannot be read: " << Escape(e.what()) << "</p>\n";
+    }
+    return;
+  }
+  if (c.kind != "profile" && c.kind != "response") {
+    html << "<p>a calibration of kind " << Escape(c.kind) << " (not shown here)</p>\n";
+    return;
+  }
+  try {
+    const calibration::CalibrationProfile profile = calibration::ProfileFromJson(c.json, "calibration");
+    if (c.kind == "profile") {
+      html << "<p>chart fit: " << profile.fit.patches_used << " patches, mean &#916;E2000 "
+           << Fixed(profile.fit.mean_delta_e, 3) << ", max " << Fixed(profile.fit.max_delta_e, 3) << ", condition "
+           << Fixed(profile.fit.condition, 2) << (profile.fit.low_confidence ? " (low confidence)" : "")
+           << "</p>\n<table><tr><th colspan=\"3\">colour matrix</th></tr>";
+      for (int r = 0; r < 3; ++r) {
+        html << "<tr>";
+        for (int k = 0; k < 3; ++k) html << "<td>" << Fixed(profile.ccm(r, k), 4) << "</td>";
+        html << "</tr>";
+      }
+      html << "</table>\n";
+      if (profile.fit.patch_delta_e.size() == 24) {
+        // The chart as it lies (4 rows of 6, reading order): each patch's Delta E 2000 after the
+        // fit; green below 2 (hard to see), orange below 5, red from 5; "-" not used.
+        html << "<table class=\"patches\"><tr><th colspan=\"6\">&#916;E2000 per patch</th></tr>";
+        for (int r = 0; r < 4; ++r) {
+          html << "<tr>";
+          for (int k = 0; k < 6; ++k) {
+            const double de = profile.fit.patch_delta_e[static_cast<std::size_t>(r * 6 + k)];
+            const char* colour = !std::isfinite(de) ? "#eee" : de < 2.0 ? "#cfc" : de < 5.0 ? "#fd9" : "#f99";
+            html << "<td style=\"background:" << colour << "\">" << (std::isfinite(de) ? Fixed(de, 2) : "-") << "</td>";
+          }
+          html << "</tr>";
+        }
+        html << "</table>\n";
+      }
+    }
+    if (profile.response && !profile.response->sensor_linear) {
+      const std::string name = "calibration-" + std::to_string(c.id) + "-response.png";
+      calibration::SaveImage(calibration::PlotResponse(*profile.response), (assets / name).string());
+      html << "<figure><img src=\"report/" << name << "\" alt=\"inverse response\"><figcaption>inverse response, "
+           << profile.response->levels << " levels</figcaption></figure>\n";
+    }
+  } catch (const Error& e) {
+    html << "<p class=\"error\">cannot be read: " << Escape(e.what()) << "</p>\n";
+  }
+}
+
+void WriteCalibrations(std::ostringstream& html, const std::vector<capture::CalibrationRecord>& calibrations,
+                       const fs::path& assets) {
   html << "<h2>Calibrations</h2>\n";
   if (calibrations.empty()) {
     html << "<p>None recorded: camera-encoded frames are linearised with a response recovered from each bracket, "
             "and no colour correction is applied (<code>relume calibrate chart --session</code> records one).</p>\n";
   }
-  for (const capture::CalibrationRecord& c : calibrations) {
-    html << "<h3 id=\"calibration-" << c.id << "\">calibration " << c.id << ": " << Escape(c.kind) << " of "
-         << Escape(c.device_id) << "</h3>\n<p>from frames";
-    for (const std::int64_t id : c.source_frame_ids) html << " " << id;
-    html << ", recorded " << Escape(FormatIso8601(c.created_utc)) << "</p>\n";
-    if (c.kind == "rgbd_geometry") {
-      // An RGB-D sensor's intrinsics and registration, stored by the session writer: not a profile.
-      try {
-        drivers::RgbdFrame geometry;
-        capture::ApplyRgbdGeometryJson(c.json, &geometry);
-        const PinholeIntrinsics& k = geometry.color_intrinsics;
-        html << "<p>colour " << k.width << "x" << k.height << ", fx " << Fixed(k.fx, 1) << " px; depth "
-             << (geometry.registered_to_color ? "registered to colour" : "not registered to colour") << "</p>\n";
-      } catch (const Error& e) {
-        html << "<p class=\"error\">cannot be read: " << Escape(e.what()) << "</p>\n";
-      }
-      continue;
-    }
-    if (c.kind != "profile" && c.kind != "response") {
-      html << "<p>a calibration of kind " << Escape(c.kind) << " (not shown here)</p>\n";
-      continue;
-    }
-    try {
-      const calibration::CalibrationProfile profile = calibration::ProfileFromJson(c.json, "calibration");
-      if (c.kind == "profile") {
-        html << "<p>chart fit: " << profile.fit.patches_used << " patches, mean &#916;E2000 "
-             << Fixed(profile.fit.mean_delta_e, 3) << ", max " << Fixed(profile.fit.max_delta_e, 3) << ", condition "
-             << Fixed(profile.fit.condition, 2) << (profile.fit.low_confidence ? " (low confidence)" : "")
-             << "</p>\n<table><tr><th colspan=\"3\">colour matrix</th></tr>";
-        for (int r = 0; r < 3; ++r) {
-          html << "<tr>";
-          for (int k = 0; k < 3; ++k) html << "<td>" << Fixed(profile.ccm(r, k), 4) << "</td>";
-          html << "</tr>";
-        }
-        html << "</table>\n";
-        if (profile.fit.patch_delta_e.size() == 24) {
-          // The chart as it lies (4 rows of 6, reading order): each patch's Delta E 2000 after the
-          // fit; green below 2 (hard to see), orange below 5, red from 5; "-" not used.
-          html << "<table class=\"patches\"><tr><th colspan=\"6\">&#916;E2000 per patch</th></tr>";
-          for (int r = 0; r < 4; ++r) {
-            html << "<tr>";
-            for (int k = 0; k < 6; ++k) {
-              const double de = profile.fit.patch_delta_e[static_cast<std::size_t>(r * 6 + k)];
-              const char* colour = !std::isfinite(de) ? "#eee" : de < 2.0 ? "#cfc" : de < 5.0 ? "#fd9" : "#f99";
-              html << "<td style=\"background:" << colour << "\">" << (std::isfinite(de) ? Fixed(de, 2) : "-")
-                   << "</td>";
-            }
-            html << "</tr>";
-          }
-          html << "</table>\n";
-        }
-      }
-      if (profile.response && !profile.response->sensor_linear) {
-        const std::string name = "calibration-" + std::to_string(c.id) + "-response.png";
-        calibration::SaveImage(calibration::PlotResponse(*profile.response), (assets / name).string());
-        html << "<figure><img src=\"report/" << name << "\" alt=\"inverse response\"><figcaption>inverse response, "
-             << profile.response->levels << " levels</figcaption></figure>\n";
-      }
-    } catch (const Error& e) {
-      html << "<p class=\"error\">cannot be read: " << Escape(e.what()) << "</p>\n";
-    }
-  }
+  for (const capture::CalibrationRecord& c : calibrations) WriteCalibration(html, c, assets);
+}
 
-  for (const PipelineReport& p : pipelines) {
-    html << "<h2 id=\"pipeline-" << Escape(p.name) << "\">Pipeline: " << Escape(p.name) << "</h2>\n";
-    if (p.summary.is_null()) {
-      html << "<p class=\"skip\">not run: " << Escape(p.error) << "</p>\n";
-      continue;
+void WriteDecisions(std::ostringstream& html, const PipelineReport& p) {
+  // Decisions collapsed, counted per action.
+  std::map<std::string, int> actions;
+  for (const nlohmann::json& d : p.summary["decisions"]) ++actions[d.value("action", "")];
+  html << "<details class=\"decisions\"><summary>" << p.summary["decisions"].size() << " decisions:";
+  for (const auto& [action, count] : actions) html << " " << count << " " << Escape(action);
+  html << "</summary><table class=\"decisions\"><tr><th>stage</th><th>action</th><th>reason</th></tr>\n";
+  for (const nlohmann::json& d : p.summary["decisions"]) {
+    const std::string action = d.value("action", "");
+    html << "<tr><td>" << Escape(d.value("stage", "")) << "</td><td class=\"" << Escape(action) << "\">"
+         << Escape(action) << "</td><td>" << Escape(d.value("reason", "")) << "</td></tr>\n";
+  }
+  html << "</table></details>\n";
+}
+
+void WriteFigures(std::ostringstream& html, const PipelineReport& p) {
+  // Key figures, labelled, with units (the pipeline's own selection of its metrics).
+  for (const PipelineEntry& entry : Pipelines()) {
+    if (entry.name != p.name || !entry.figures) continue;
+    const std::vector<Figure> key_figures = entry.figures(p.summary["metrics"]);
+    if (key_figures.empty()) break;
+    html << "<table class=\"key-figures\"><tr><th>figure</th><th>value</th><th>unit</th></tr>\n";
+    for (const Figure& kf : key_figures) {
+      html << "<tr><td>" << Escape(kf.label) << "</td><td>" << Escape(kf.value) << "</td><td>" << Escape(kf.unit)
+           << "</td></tr>\n";
     }
-    html << "<p>" << Fixed(p.summary.value("seconds", 0.0), 2) << " s; output in <code>"
-         << Escape(fs::relative(p.out_dir, out_dir).string()) << "</code></p>\n";
-    // Decisions collapsed, counted per action.
-    std::map<std::string, int> actions;
-    for (const nlohmann::json& d : p.summary["decisions"]) ++actions[d.value("action", "")];
-    html << "<details class=\"decisions\"><summary>" << p.summary["decisions"].size() << " decisions:";
-    for (const auto& [action, count] : actions) html << " " << count << " " << Escape(action);
-    html << "</summary><table class=\"decisions\"><tr><th>stage</th><th>action</th><th>reason</th></tr>\n";
-    for (const nlohmann::json& d : p.summary["decisions"]) {
-      const std::string action = d.value("action", "");
-      html << "<tr><td>" << Escape(d.value("stage", "")) << "</td><td class=\"" << Escape(action) << "\">"
-           << Escape(action) << "</td><td>" << Escape(d.value("reason", "")) << "</td></tr>\n";
+    html << "</table>\n";
+  }
+  std::vector<std::pair<std::string, std::string>> figures;
+  if (p.summary.contains("metrics")) Flatten(p.summary["metrics"], "", figures);
+  if (!figures.empty()) {
+    html << "<details><summary>all figures (" << figures.size()
+         << ", as summary.json names them)</summary><table class=\"metrics\">";
+    for (const auto& [key, value] : figures) {
+      html << "<tr><td><code>" << Escape(key) << "</code></td><td>" << Escape(value) << "</td></tr>";
     }
     html << "</table></details>\n";
-    // Key figures, labelled, with units (the pipeline's own selection of its metrics).
-    for (const PipelineEntry& entry : Pipelines()) {
-      if (entry.name != p.name || !entry.figures) continue;
-      const std::vector<Figure> key_figures = entry.figures(p.summary["metrics"]);
-      if (key_figures.empty()) break;
-      html << "<table class=\"key-figures\"><tr><th>figure</th><th>value</th><th>unit</th></tr>\n";
-      for (const Figure& kf : key_figures) {
-        html << "<tr><td>" << Escape(kf.label) << "</td><td>" << Escape(kf.value) << "</td><td>" << Escape(kf.unit)
-             << "</td></tr>\n";
-      }
-      html << "</table>\n";
-    }
-    std::vector<std::pair<std::string, std::string>> figures;
-    if (p.summary.contains("metrics")) Flatten(p.summary["metrics"], "", figures);
-    if (!figures.empty()) {
-      html << "<details><summary>all figures (" << figures.size()
-           << ", as summary.json names them)</summary><table class=\"metrics\">";
-      for (const auto& [key, value] : figures) {
-        html << "<tr><td><code>" << Escape(key) << "</code></td><td>" << Escape(value) << "</td></tr>";
-      }
-      html << "</table></details>\n";
-    }
-    // The light over time (SH): up to 12 of the fits' lat-long maps, evenly spaced.
-    std::vector<std::pair<fs::path, std::string>> lights;
-    for (const nlohmann::json& o : p.summary["outputs"]) {
-      const std::string what = o.value("what", "");
-      const fs::path output = p.out_dir / o.value("path", "");
-      if (output.filename() == "latlong.png" && fs::exists(output)) lights.emplace_back(output, what);
-    }
-    if (lights.size() > 1) {
-      html << "<h3>Light over time</h3>\n<div class=\"lights\">";
-      const std::size_t shown_count = std::min<std::size_t>(12, lights.size());
-      for (std::size_t i = 0; i < shown_count; ++i) {
-        const auto& [path, what] = lights[i * (lights.size() - 1) / std::max<std::size_t>(1, shown_count - 1)];
-        html << "<figure><img class=\"light\" src=\"" << Escape(fs::relative(path, out_dir).string()) << "\" alt=\""
-             << Escape(what) << "\"><figcaption>" << Escape(what) << "</figcaption></figure>";
-      }
-      html << "</div>\n";
-    }
-    // Every output image; more than a dozen (an RGB-D stream's frames) collapsed.
-    std::set<fs::path> shown;
-    std::ostringstream gallery;
-    for (const nlohmann::json& o : p.summary["outputs"]) {
-      const fs::path output = p.out_dir / o.value("path", "");
-      const std::optional<fs::path> image = ShownImage(output);
-      if (!image || !fs::exists(*image) || !shown.insert(*image).second) continue;
-      gallery << "<figure><img src=\"" << Escape(fs::relative(*image, out_dir).string()) << "\" alt=\""
-              << Escape(o.value("what", "")) << "\"><figcaption>" << Escape(o.value("what", ""))
-              << "</figcaption></figure>\n";
-    }
-    if (shown.size() > 12) {
-      html << "<details><summary>all " << shown.size() << " images</summary>\n" << gallery.str() << "</details>\n";
-    } else {
-      html << gallery.str();
-    }
   }
+}
 
+void WriteImages(std::ostringstream& html, const PipelineReport& p, const fs::path& out_dir) {
+  // The light over time (SH): up to 12 of the fits' lat-long maps, evenly spaced.
+  std::vector<std::pair<fs::path, std::string>> lights;
+  for (const nlohmann::json& o : p.summary["outputs"]) {
+    const std::string what = o.value("what", "");
+    const fs::path output = p.out_dir / o.value("path", "");
+    if (output.filename() == "latlong.png" && fs::exists(output)) lights.emplace_back(output, what);
+  }
+  if (lights.size() > 1) {
+    html << "<h3>Light over time</h3>\n<div class=\"lights\">";
+    const std::size_t shown_count = std::min<std::size_t>(12, lights.size());
+    for (std::size_t i = 0; i < shown_count; ++i) {
+      const auto& [path, what] = lights[i * (lights.size() - 1) / std::max<std::size_t>(1, shown_count - 1)];
+      html << "<figure><img class=\"light\" src=\"" << Escape(fs::relative(path, out_dir).string()) << "\" alt=\""
+           << Escape(what) << "\"><figcaption>" << Escape(what) << "</figcaption></figure>";
+    }
+    html << "</div>\n";
+  }
+  // Every output image; more than a dozen (an RGB-D stream's frames) collapsed.
+  std::set<fs::path> shown;
+  std::ostringstream gallery;
+  for (const nlohmann::json& o : p.summary["outputs"]) {
+    const fs::path output = p.out_dir / o.value("path", "");
+    const std::optional<fs::path> image = ShownImage(output);
+    if (!image || !fs::exists(*image) || !shown.insert(*image).second) continue;
+    gallery << "<figure><img src=\"" << Escape(fs::relative(*image, out_dir).string()) << "\" alt=\""
+            << Escape(o.value("what", "")) << "\"><figcaption>" << Escape(o.value("what", ""))
+            << "</figcaption></figure>\n";
+  }
+  if (shown.size() > 12) {
+    html << "<details><summary>all " << shown.size() << " images</summary>\n" << gallery.str() << "</details>\n";
+  } else {
+    html << gallery.str();
+  }
+}
+
+void WritePipelineSection(std::ostringstream& html, const PipelineReport& p, const fs::path& out_dir) {
+  html << "<h2 id=\"pipeline-" << Escape(p.name) << "\">Pipeline: " << Escape(p.name) << "</h2>\n";
+  if (p.summary.is_null()) {
+    html << "<p class=\"skip\">not run: " << Escape(p.error) << "</p>\n";
+    return;
+  }
+  html << "<p>" << Fixed(p.summary.value("seconds", 0.0), 2) << " s; output in <code>"
+       << Escape(fs::relative(p.out_dir, out_dir).string()) << "</code></p>\n";
+  WriteDecisions(html, p);
+  WriteFigures(html, p);
+  WriteImages(html, p, out_dir);
+}
+
+void WriteScript(std::ostringstream& html) {
   html << "<script>\ndocument.querySelectorAll('img.blink').forEach(function (img) {\n"
           "  img.addEventListener('click', function () {\n"
           "    var a = img.getAttribute('data-a'), b = img.getAttribute('data-b');\n"
@@ -441,6 +466,27 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
           "  document.body.setAttribute('data-figures', document.querySelectorAll('svg.figure').length);\n"
           "  document.body.setAttribute('data-script-errors', window.relumeErrors);\n"
           "});\n</script>\n</body>\n</html>\n";
+}
+
+}  // namespace
+
+fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_dir,
+                     const std::vector<PipelineReport>& pipelines) {
+  const fs::path assets = out_dir / "report";
+  capture::CreateDirectoryDurably(assets);
+  const capture::SessionInfo& info = session.info();
+  const std::vector<capture::FrameRecord> frames = session.Frames();
+  const std::vector<capture::BracketRecord> brackets = session.Brackets();
+  const std::vector<capture::EventRecord> events = session.Events();
+  std::ostringstream html;
+  WriteHead(html, info);
+  WriteSessionTable(html, session, info);
+  WriteOverview(html, pipelines, out_dir);
+  WriteDevicesAndTimeline(html, session, frames, brackets, events);
+  WriteEvents(html, events);
+  WriteCalibrations(html, session.Calibrations(), assets);
+  for (const PipelineReport& p : pipelines) WritePipelineSection(html, p, out_dir);
+  WriteScript(html);
   const std::string text = html.str();
   const fs::path page = out_dir / "report.html";
   capture::WriteFileDurably(page, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));

@@ -167,21 +167,23 @@ std::string RegistryDeviceSpec::Describe() const {
   return backend + " device (" + keys + ")" + (line > 0 ? " at line " + std::to_string(line) : "");
 }
 
-RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override) {
-  const YamlFile file(path);
-  const YAML::Node& root = file.root();
-  file.RejectUnknownKeys(root, {"name", "scene", "site", "clock", "schedule", "duration_minutes", "bracket", "retry",
-                                "rgbd_burst_frames", "rgbd_format", "rgbd_depth", "storage_faults", "devices"});
-  RigConfig rig;
-  rig.path = path;
-  rig.name = file.RequireString(root, "name");
-  rig.yaml_text = ReadInputFile(path);
-  // Devices: simulated ones (no `backend:` or `backend: sim`) and registry ones.
+namespace {
+
+// The devices: simulated ones (no `backend:` or `backend: sim`) and registry ones, which a rig
+// may not mix (playback aside), and the one session playback devices come from.
+struct RigDevices {
+  std::vector<YAML::Node> sim_devices;
+  bool real_devices = false;
+  std::optional<std::string> playback_session;
+};
+
+RigDevices ParseRigDevices(const YamlFile& file, const YAML::Node& root, RigConfig& rig) {
+  RigDevices out;
+  std::vector<YAML::Node>& sim_devices = out.sim_devices;
   const YAML::Node devices = root["devices"];
   if (!devices || !devices.IsSequence() || devices.size() == 0) {
     file.Fail(root, "devices", "expected a list of devices");
   }
-  std::vector<YAML::Node> sim_devices;
   for (const YAML::Node& device : devices) {
     if (!device.IsMap()) {
       file.Fail(device, "devices",
@@ -194,23 +196,27 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
       sim_devices.push_back(device);
     }
   }
-  const bool real_devices = std::any_of(rig.registry_devices.begin(), rig.registry_devices.end(),
-                                        [](const RegistryDeviceSpec& d) { return d.backend != "playback"; });
-  if (real_devices && sim_devices.size() > 0) {
+  out.real_devices = std::any_of(rig.registry_devices.begin(), rig.registry_devices.end(),
+                                 [](const RegistryDeviceSpec& d) { return d.backend != "playback"; });
+  if (out.real_devices && sim_devices.size() > 0) {
     file.Fail(devices, "devices",
               "a rig cannot mix simulated and real devices (simulated ones run on a simulated clock, real ones on "
               "the host's); split it into two rigs");
   }
-  std::optional<std::string> playback_session;
   for (const RegistryDeviceSpec& d : rig.registry_devices) {
     if (d.backend != "playback") continue;
-    if (playback_session && *playback_session != d.session) {
+    if (out.playback_session && *out.playback_session != d.session) {
       file.Fail(devices, "devices", "all playback devices of a rig must come from one session");
     }
-    playback_session = d.session;
+    out.playback_session = d.session;
   }
+  return out;
+}
 
-  if (sim_devices.size() > 0 && !root["scene"]) {
+// The simulated world (scene:) and the site (site:, the world's, or the played session's).
+void ParseWorldAndSite(const YamlFile& file, const YAML::Node& root, const std::string& path,
+                       const std::optional<std::string>& scene_override, const RigDevices& devices, RigConfig& rig) {
+  if (devices.sim_devices.size() > 0 && !root["scene"]) {
     file.Fail(root, "scene",
               "simulated devices need the simulated world: name it (e.g. scene: ../scenes/outdoor-building.yaml)");
   }
@@ -227,19 +233,17 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     const std::filesystem::path site_path =
         std::filesystem::path(path).parent_path() / file.RequireString(root, "site");
     rig.site = LoadSiteConfig(site_path.string()).site;
-  } else if (!rig.world && playback_session) {
-    const capture::SessionReader session(*playback_session);
+  } else if (!rig.world && devices.playback_session) {
+    const capture::SessionReader session(*devices.playback_session);
     rig.site = session.info().site;
     rig.clock_start = session.info().created_utc;
   } else if (!rig.world) {
     file.Fail(root, "site", "a rig without a simulated world needs its site: site: ../sites/NAME.yaml");
   }
-  rig.host_clock = real_devices;
-  if (rig.host_clock && root["clock"]) {
-    file.Fail(root["clock"], "clock", "a rig with real devices runs on the host's clock; remove `clock:`");
-  }
+}
 
-  // Simulated clock.
+// clock: (simulated rigs only).
+void ParseClock(const YamlFile& file, const YAML::Node& root, RigConfig& rig) {
   if (const YAML::Node clock = root["clock"]) {
     file.RejectUnknownKeys(clock, {"start", "speedup", "mode"});
     if (clock["mode"] && file.RequireString(clock, "mode") != "event") {
@@ -260,8 +264,10 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
       }
     }
   }
+}
 
-  // Schedule.
+// schedule: and duration_minutes:.
+void ParseSchedule(const YamlFile& file, const YAML::Node& root, RigConfig& rig) {
   capture::ScheduleOptions& schedule = rig.recorder.schedule;
   if (const YAML::Node s = root["schedule"]) {
     file.RejectUnknownKeys(s, {"every_minutes", "start", "end", "count", "sun_elevation_step_deg"});
@@ -290,6 +296,10 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   if (root["duration_minutes"]) {
     rig.recorder.duration = RequireDuration(file, root, "duration_minutes", 60.0);
   }
+}
+
+// bracket: and retry: (the recorder's planner and retry options).
+void ParseRecorderOptions(const YamlFile& file, const YAML::Node& root, RigConfig& rig) {
   if (const YAML::Node b = root["bracket"]) {
     file.RejectUnknownKeys(
         b, {"saturation_fraction", "min_signal_fraction", "overlap_stops", "max_exposures", "unequal_steps"});
@@ -311,6 +321,10 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     std::string why;
     if (!rig.recorder.retry.IsValid(&why)) file.Fail(r, "retry", why);
   }
+}
+
+// rgbd_burst_frames:, rgbd_format:, rgbd_depth: and storage_faults:.
+void ParseStorage(const YamlFile& file, const YAML::Node& root, RigConfig& rig) {
   if (root["rgbd_burst_frames"]) {
     rig.rgbd_burst_frames = file.RequireInt(root, "rgbd_burst_frames", 0, 1'000'000);
   }
@@ -338,13 +352,41 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
     std::string why;
     if (!plan.IsValid(&why)) file.Fail(f, "storage_faults", why);
   }
-  // Parsed from the file's own nodes, so that every error names the device's own line.
+}
+
+// The simulated devices, parsed from the file's own nodes so that every error names the
+// device's own line.
+void ParseSimDevices(const YamlFile& file, const std::vector<YAML::Node>& sim_devices, RigConfig& rig) {
   const sim::SceneCameraLookup scene_camera = [&rig](const std::string& name) { return rig.world->Camera(name); };
   std::set<std::string> sim_ids;
   for (const YAML::Node& device : sim_devices) {
     rig.devices.push_back(sim::ParseSimDevice(file, device, scene_camera));
     if (!sim_ids.insert(rig.devices.back().id).second) file.Fail(device["id"], "id", "device id used twice");
   }
+}
+
+}  // namespace
+
+RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override) {
+  const YamlFile file(path);
+  const YAML::Node& root = file.root();
+  file.RejectUnknownKeys(root, {"name", "scene", "site", "clock", "schedule", "duration_minutes", "bracket", "retry",
+                                "rgbd_burst_frames", "rgbd_format", "rgbd_depth", "storage_faults", "devices"});
+  RigConfig rig;
+  rig.path = path;
+  rig.name = file.RequireString(root, "name");
+  rig.yaml_text = ReadInputFile(path);
+  const RigDevices devices = ParseRigDevices(file, root, rig);
+  ParseWorldAndSite(file, root, path, scene_override, devices, rig);
+  rig.host_clock = devices.real_devices;
+  if (rig.host_clock && root["clock"]) {
+    file.Fail(root["clock"], "clock", "a rig with real devices runs on the host's clock; remove `clock:`");
+  }
+  ParseClock(file, root, rig);
+  ParseSchedule(file, root, rig);
+  ParseRecorderOptions(file, root, rig);
+  ParseStorage(file, root, rig);
+  ParseSimDevices(file, devices.sim_devices, rig);
   std::string why;
   if (!rig.recorder.IsValid(&why)) throw ConfigError(path, 0, "", why);
   return rig;
