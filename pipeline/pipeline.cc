@@ -64,8 +64,8 @@ void PipelineRun::Progress(const std::string& stage, std::int64_t done, std::int
   const double elapsed = std::chrono::duration<double>(now - progress_start_).count();
   const double rate = elapsed > 0.0 ? static_cast<double>(done) / elapsed : 0.0;
   const double left = rate > 0.0 ? static_cast<double>(total - done) / rate : 0.0;
-  std::fprintf(stderr, "\r%-14s %lld/%lld  %.1f/s  %.0f s left   ", stage.c_str(), static_cast<long long>(done),
-               static_cast<long long>(total), rate, left);
+  std::fprintf(stderr, "\r%-14s %lld/%lld  %.1f/s  %.0f s elapsed, %.0f s left   ", stage.c_str(),
+               static_cast<long long>(done), static_cast<long long>(total), rate, elapsed, left);
   if (done >= total) std::fprintf(stderr, "\n");
 }
 

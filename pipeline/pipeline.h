@@ -80,7 +80,8 @@ class PipelineRun {
   // Runs a stage through the cache and records "run" or "reuse" with the key's description.
   StageCache::Result RunStage(const std::string& stage, const StageKey& key,
                               const std::function<void(const std::filesystem::path&)>& produce);
-  // Progress of long work on stderr (stage, item, rate, time left).
+  // Progress of long work on stderr, one line rewritten in place on a terminal (stage, items
+  // done / total, rate, time elapsed and left); nothing when stderr is not a terminal.
   void Progress(const std::string& stage, std::int64_t done, std::int64_t total);
 
   // Figures the pipeline measured (errors against truth, timings, counts), written to summary.json.

@@ -465,6 +465,9 @@ void WriteScript(std::ostringstream& html) {
           "  document.body.setAttribute('data-images-broken', broken);\n"
           "  document.body.setAttribute('data-figures', document.querySelectorAll('svg.figure').length);\n"
           "  document.body.setAttribute('data-script-errors', window.relumeErrors);\n"
+          "  var results = document.getElementById('results');\n"
+          "  if (results) document.body.setAttribute('data-overview-bottom',\n"
+          "      Math.round(results.getBoundingClientRect().bottom + window.scrollY));\n"
           "});\n</script>\n</body>\n</html>\n";
 }
 

@@ -67,8 +67,10 @@ inline nlohmann::json ReadJsonFile(const std::filesystem::path& path) {
 // The page's DOM after headless Chromium loaded it (and ran its load handler); `exit_code` is
 // Chromium's (127 when it is not installed: scripts/install-deps.sh installs it).
 inline CliResult LoadInChromium(const std::filesystem::path& page) {
-  return RunCommand("chromium --headless --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom file://" +
-                    std::filesystem::absolute(page).string() + " 2>/dev/null");
+  return RunCommand(
+      "chromium --headless --no-sandbox --disable-gpu --window-size=1400,900 --virtual-time-budget=5000 "
+      "--dump-dom file://" +
+      std::filesystem::absolute(page).string() + " 2>/dev/null");
 }
 
 }  // namespace relume::testing

@@ -366,6 +366,10 @@ TEST(ProcessCliTest, OutputIsShortAndEndsWithTheHeadlineFigures) {
     EXPECT_NE(dom.find(alt, results), std::string::npos) << alt;
   }
   EXPECT_NE(dom.find("class=\"blink\"", results), std::string::npos);
+  // ... and within the first 1400 x 900 screen (the page measures its overview once laid out).
+  const std::size_t bottom = dom.find("data-overview-bottom=\"");
+  ASSERT_NE(bottom, std::string::npos);
+  EXPECT_LE(std::stoi(dom.substr(bottom + 22)), 900) << dom.substr(bottom, 40);
   // Each pipeline's key figures, labelled with units.
   EXPECT_NE(dom.find("<td>relit vs truth, lit (per-pixel relative RMS)</td>"), std::string::npos);
   EXPECT_EQ(dom.find("cannot be read"), std::string::npos);
