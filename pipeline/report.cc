@@ -204,13 +204,25 @@ void WriteHead(std::ostringstream& html, const capture::SessionInfo& info) {
           "<body>\n";
 }
 
+// The session at a glance: where, which devices, over what time span (first to last frame, with
+// the sun's elevation at each end), recorded by what.
 void WriteSessionTable(std::ostringstream& html, const capture::SessionReader& session,
-                       const capture::SessionInfo& info) {
+                       const capture::SessionInfo& info, const std::vector<capture::FrameRecord>& frames) {
   html << "<h1>relume report: " << Escape(info.name) << "</h1>\n";
   html << "<table id=\"session\"><tr><th>session</th><td>" << Escape(fs::absolute(session.dir()).string())
        << "</td></tr><tr><th>site</th><td>" << Fixed(info.site.latitude_deg(), 6) << "&#176;, "
-       << Fixed(info.site.longitude_deg(), 6) << "&#176;, " << Fixed(info.site.height_m, 1)
-       << " m</td></tr><tr><th>clock</th><td>" << Escape(info.clock_name) << "</td></tr><tr><th>recorded</th><td>"
+       << Fixed(info.site.longitude_deg(), 6) << "&#176;, " << Fixed(info.site.height_m, 1) << " m</td></tr>";
+  std::string devices;
+  for (const drivers::DeviceInfo& d : session.Devices()) devices += (devices.empty() ? "" : ", ") + d.FullId();
+  html << "<tr><th>devices</th><td>" << Escape(devices.empty() ? std::string("none") : devices) << "</td></tr>";
+  if (!frames.empty()) {
+    const auto [first, last] =
+        std::minmax_element(frames.begin(), frames.end(), [](const auto& a, const auto& b) { return a.utc < b.utc; });
+    html << "<tr><th>frames</th><td>" << frames.size() << ", " << Escape(FormatIso8601(first->utc)) << " (sun "
+         << Fixed(first->sun_elevation_deg, 1) << "&#176;) to " << Escape(FormatIso8601(last->utc)) << " (sun "
+         << Fixed(last->sun_elevation_deg, 1) << "&#176;)</td></tr>";
+  }
+  html << "<tr><th>clock</th><td>" << Escape(info.clock_name) << "</td></tr><tr><th>recorded</th><td>"
        << Escape(FormatIso8601(info.created_utc)) << " by " << Escape(info.software_version) << "</td></tr></table>\n";
 }
 
@@ -483,7 +495,7 @@ fs::path WriteReport(const capture::SessionReader& session, const fs::path& out_
   const std::vector<capture::EventRecord> events = session.Events();
   std::ostringstream html;
   WriteHead(html, info);
-  WriteSessionTable(html, session, info);
+  WriteSessionTable(html, session, info, frames);
   WriteOverview(html, pipelines, out_dir);
   WriteDevicesAndTimeline(html, session, frames, brackets, events);
   WriteEvents(html, events);

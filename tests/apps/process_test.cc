@@ -203,6 +203,11 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   const std::size_t results = dom.find("id=\"results\"");
   ASSERT_NE(results, std::string::npos);
   EXPECT_LT(results, dom.find("id=\"devices\""));
+  // The session line says which devices and what time span.
+  EXPECT_NE(dom.find("<th>devices</th><td>sim:"), std::string::npos) << dom.substr(0, 3000);
+  const std::size_t span = dom.find("<th>frames</th><td>");
+  ASSERT_NE(span, std::string::npos);
+  EXPECT_NE(dom.find(" to 2026-", span), std::string::npos) << dom.substr(span, 200);
   EXPECT_NE(dom.find("bracket(s) linearised; against the truth: worst relative RMS", results), std::string::npos);
   EXPECT_NE(dom.find("truth_relative_rms"), std::string::npos);
 
