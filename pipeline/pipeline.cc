@@ -120,9 +120,12 @@ const nlohmann::json& Field(const nlohmann::json& j, const std::string& key) {
 }
 
 std::string PercentText(const nlohmann::json& fraction) {
-  if (!fraction.is_number()) return "n/a";
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.1f %%", 100.0 * fraction.get<double>());
+  return fraction.is_number() ? PercentText(fraction.get<double>()) : "n/a";
+}
+
+std::string PercentText(double fraction, int decimals) {
+  char text[48];
+  std::snprintf(text, sizeof(text), "%.*f %%", decimals, 100.0 * fraction);
   return text;
 }
 

@@ -155,6 +155,8 @@ const nlohmann::json& Field(const nlohmann::json& j, const std::string& key);
 
 // "12.3 %" (one decimal; "n/a" for a missing or non-numeric value).
 std::string PercentText(const nlohmann::json& fraction);
+// A fraction as per cent with `decimals` decimals: "12.35 %".
+std::string PercentText(double fraction, int decimals = 1);
 
 // Every pipeline of this build (pipelines.cc).
 const std::vector<PipelineEntry>& Pipelines();

@@ -491,12 +491,6 @@ radiosity::RadiosityOptions SolverOptionsFrom(const Knobs& k) {
   return o;
 }
 
-std::string Percent(double x) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.1f %%", 100.0 * x);
-  return text;
-}
-
 // ---- the stages ------------------------------------------------------------------------------
 
 // What every stage reads: the knobs, the session's stored world, and the one camera's spec and
@@ -774,9 +768,9 @@ bool DecideSkipRadiosity(PipelineRun& run, const Knobs& knobs, const Geometry& g
                                      {"mean_enclosure", share.mean_enclosure},
                                      {"tolerance", knobs.tolerance}};
   run.Decide("radiosity", skip ? "skip" : "run",
-             "estimated indirect light " + Percent(share.indirect_share) + " of the direct (first bounce " +
-                 Percent(share.first_bounce_ratio) + ", enclosure " + std::to_string(share.mean_enclosure) + ") " +
-                 (skip ? "is below" : "exceeds") + " the tolerance " + Percent(knobs.tolerance) +
+             "estimated indirect light " + PercentText(share.indirect_share) + " of the direct (first bounce " +
+                 PercentText(share.first_bounce_ratio) + ", enclosure " + std::to_string(share.mean_enclosure) + ") " +
+                 (skip ? "is below" : "exceeds") + " the tolerance " + PercentText(knobs.tolerance) +
                  (skip ? ": albedo from direct light only" : ": reflectance iterated with radiosity"));
   return skip;
 }

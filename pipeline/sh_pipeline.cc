@@ -278,10 +278,9 @@ std::string Number(double value) {
   return text;
 }
 
+// Per cent with two decimals, as the SH decisions have always printed them.
 std::string Percent(double fraction) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.2f %%", 100.0 * fraction);
-  return text;
+  return PercentText(fraction, 2);
 }
 
 // ---- radiance of one colour frame --------------------------------------------------------
@@ -341,7 +340,8 @@ FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::S
                             const PinholeCamera& camera) {
   if (HasResponse(run.session(), pair.color.device_id)) {
     const BracketRadiance b = LinearRadiance(run, {pair.color});
-    return {LazyExr(b.exr), b.key};
+    // LinearRadiance has read it already: no second read of the file.
+    return {Lazy<RadianceImage>([radiance = b.radiance] { return radiance; }), b.key};
   }
   if (spec == nullptr) return SrgbColorRadiance(run, pair.color);
   FrameRadiance out;
