@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "apps/relume/bench/bench.h"
+#include "bench/suite.h"
 #include "core/error.h"
 
 namespace relume::app {
@@ -16,6 +17,8 @@ struct BenchArgs {
   std::string stage = "all";
   bool quick = false;
   std::string out = "bench";
+  std::string suite;  // "random": the random-scene suites (bench/suite.h) instead of the knob sweeps
+  relume::bench::SuiteOptions suite_options;
 };
 
 using StageFn = void (*)(bool, std::vector<bench::Row>&);
@@ -35,7 +38,22 @@ std::string StageNames() {
   return names + "all";
 }
 
+void RunRandomSuites(const BenchArgs& args) {
+  const std::vector<relume::bench::SuiteResult> results =
+      relume::bench::RunSuites(args.stage, args.suite_options, [&](const std::string& name) {
+        std::cerr << "bench: suite " << name << ", " << args.suite_options.scenes << " scene(s)"
+                  << (args.suite_options.quick ? " (quick)" : "") << "\n";
+      });
+  const std::string md = relume::bench::WriteSuiteOutputs(args.out, results, args.suite_options);
+  std::cout << md << "wrote " << args.out << "/suite.md, suite.csv (one row per scene) and suite.json\n";
+}
+
 void Run(const BenchArgs& args) {
+  if (!args.suite.empty()) {
+    if (args.suite != "random") throw InvalidArgumentError("--suite " + args.suite + ": the only suite is random");
+    RunRandomSuites(args);
+    return;
+  }
   bool known = args.stage == "all";
   for (const auto& [name, fn] : Stages()) known = known || name == args.stage;
   if (!known) throw InvalidArgumentError("--stage " + args.stage + ": the stages with a benchmark are " + StageNames());
@@ -57,7 +75,15 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_option("--stage", args->stage, StageNames())->capture_default_str();
   cmd->add_flag("--quick", args->quick, "Small inputs: a minute or two, for CI");
   cmd->add_option("--out", args->out, "Output folder")->capture_default_str();
-  cmd->callback([args]() { Run(*args); });
+  cmd->add_option("--suite", args->suite,
+                  "random: seeded random scenes per stage, median / p90 / worst error beside the stage's floor "
+                  "(bench/suite.h)");
+  cmd->add_option("--scenes", args->suite_options.scenes, "Scenes per random suite")->capture_default_str();
+  cmd->add_option("--seed", args->suite_options.seed, "Seed of the random suites")->capture_default_str();
+  cmd->callback([args]() {
+    args->suite_options.quick = args->quick;
+    Run(*args);
+  });
 }
 
 }  // namespace relume::app
