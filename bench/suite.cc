@@ -85,7 +85,14 @@ bool SuiteResult::MeetsGoal() const {
 
 const std::vector<SuiteEntry>& Suites() {
   // One line per suite; bench/suites.h declares the functions.
-  static const std::vector<SuiteEntry> suites = {};
+  static const std::vector<SuiteEntry> suites = {
+      {"sh-ideal-depth", "sh",
+       "RGB-D SH lighting + relighting, exact depth, random objects under random lamps and sky (no cast shadows)",
+       RunShIdealDepthSuite},
+      {"sh-kinect-noise", "sh", "as sh-ideal-depth with Kinect-like depth noise", RunShKinectNoiseSuite},
+      {"sh-smooth-light", "sh", "as sh-ideal-depth under smooth lights (sky and broad lobes) that SH can represent",
+       RunShSmoothLightSuite},
+  };
   return suites;
 }
 

@@ -8,8 +8,10 @@
 //
 // Scene i of a suite uses SceneSeed(options.seed, i): a scene is reproducible alone
 // (`relume bench --suite random --stage S --seed X --scenes 1` with X = the scene's seed in
-// suite.csv). The same seed gives the same scenes on every machine (std::mt19937_64 and
-// hand-written distributions; no std::*_distribution, whose output is implementation-defined).
+// suite.csv). Scene generators draw from SceneRandom (std::mt19937_64 and hand-written
+// distributions; no std::*_distribution, whose output is implementation-defined), so a seed
+// gives the same scene everywhere. Sensor noise added by the stages' test helpers may use
+// std::normal_distribution (processing/testing's Kinect noise): the same with libstdc++.
 //
 // Library first: `relume bench --suite random` (apps/relume/bench_command.cc) only parses
 // its arguments and calls RunSuites; tests call the suites directly at small sizes.

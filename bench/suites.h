@@ -5,4 +5,11 @@
 
 #include "bench/suite.h"
 
-namespace relume::bench {}  // namespace relume::bench
+namespace relume::bench {
+
+// bench/sh_suite.cc: RGB-D SH lighting estimation + relighting (processing/sh_pipeline.h).
+std::vector<SuiteResult> RunShIdealDepthSuite(const SuiteOptions& options);
+std::vector<SuiteResult> RunShKinectNoiseSuite(const SuiteOptions& options);
+std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options);
+
+}  // namespace relume::bench

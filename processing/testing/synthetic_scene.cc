@@ -52,9 +52,10 @@ void IntersectBox(const Eigen::Vector3d& d, const Eigen::Vector3d& centre, const
 
 }  // namespace
 
-SyntheticFrame RenderScene(const SceneOptions& options, const ShRgb& light_in_camera) {
-  const PinholeIntrinsics& k = options.intrinsics;
+SyntheticFrame RenderPrimitives(const PrimitiveScene& scene, const IrradianceFunction& irradiance) {
+  const PinholeIntrinsics& k = scene.intrinsics;
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  const int wall_id = static_cast<int>(scene.objects.size());
   SyntheticFrame f;
   f.radiance = MakeRadianceImage(k.width, k.height);
   f.depth_m = cv::Mat(k.height, k.width, CV_32FC1, cv::Scalar(nan));
@@ -63,33 +64,57 @@ SyntheticFrame RenderScene(const SceneOptions& options, const ShRgb& light_in_ca
   f.irradiance = f.normal_in_camera.clone();
   f.object_id = cv::Mat(k.height, k.width, CV_32SC1, cv::Scalar(kNone));
   f.object_mask = cv::Mat::zeros(k.height, k.width, CV_8UC1);
-
-  const Eigen::Matrix3d box_rotation =
-      (Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(0.45, Eigen::Vector3d::UnitX()))
-          .toRotationMatrix();
-  const Eigen::Vector3d albedo[] = {options.big_sphere_albedo, options.small_sphere_albedo, options.box_albedo,
-                                    options.wall_albedo};
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {
       const Eigen::Vector3d d = k.Unproject({u + 0.5, v + 0.5});  // z = 1, so t is depth
       Hit hit;
-      IntersectSphere(d, {-0.08, 0.02, 1.0}, 0.20, kBigSphere, &hit);
-      IntersectSphere(d, {0.21, -0.15, 0.92}, 0.07, kSmallSphere, &hit);
-      IntersectBox(d, {0.21, 0.13, 0.95}, box_rotation, {0.07, 0.06, 0.07}, kBox, &hit);
-      if (options.with_wall && hit.id == kNone) hit = {1.5, {0.0, 0.0, -1.0}, kWall};
+      for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        const Primitive& o = scene.objects[i];
+        if (o.kind == Primitive::Kind::kSphere) {
+          IntersectSphere(d, o.centre, o.radius, static_cast<int>(i), &hit);
+        } else {
+          IntersectBox(d, o.centre, o.camera_from_box, o.half_extents, static_cast<int>(i), &hit);
+        }
+      }
+      if (scene.with_wall && hit.id == kNone) hit = {scene.wall_depth_m, {0.0, 0.0, -1.0}, wall_id};
       if (hit.id == kNone) continue;
-      const Eigen::Vector3d irradiance = ShIrradiance(light_in_camera, hit.normal);
-      const Eigen::Vector3d radiance = albedo[hit.id].cwiseProduct(irradiance) / std::numbers::pi;
+      const Eigen::Vector3d& rho = hit.id == wall_id ? scene.wall_albedo : scene.objects[hit.id].albedo;
+      const Eigen::Vector3d e = irradiance(hit.normal);
+      const Eigen::Vector3d radiance = rho.cwiseProduct(e) / std::numbers::pi;
       f.depth_m.at<float>(v, u) = static_cast<float>(hit.t);
       f.normal_in_camera.at<cv::Vec3f>(v, u) = cv::Vec3f(hit.normal.x(), hit.normal.y(), hit.normal.z());
-      f.albedo.at<cv::Vec3f>(v, u) = cv::Vec3f(albedo[hit.id].x(), albedo[hit.id].y(), albedo[hit.id].z());
-      f.irradiance.at<cv::Vec3f>(v, u) = cv::Vec3f(irradiance.x(), irradiance.y(), irradiance.z());
+      f.albedo.at<cv::Vec3f>(v, u) = cv::Vec3f(rho.x(), rho.y(), rho.z());
+      f.irradiance.at<cv::Vec3f>(v, u) = cv::Vec3f(e.x(), e.y(), e.z());
       f.radiance.pixels.at<cv::Vec3f>(v, u) = cv::Vec3f(radiance.x(), radiance.y(), radiance.z());
       f.object_id.at<int>(v, u) = hit.id;
-      if (hit.id != kWall) f.object_mask.at<unsigned char>(v, u) = 255;
+      if (hit.id != wall_id) f.object_mask.at<unsigned char>(v, u) = 255;
     }
   }
   return f;
+}
+
+SyntheticFrame RenderScene(const SceneOptions& options, const ShRgb& light_in_camera) {
+  PrimitiveScene scene;
+  scene.intrinsics = options.intrinsics;
+  scene.with_wall = options.with_wall;
+  scene.wall_depth_m = 1.5;
+  scene.wall_albedo = options.wall_albedo;
+  Primitive big, small, box;
+  big.centre = {-0.08, 0.02, 1.0};
+  big.radius = 0.20;
+  big.albedo = options.big_sphere_albedo;
+  small.centre = {0.21, -0.15, 0.92};
+  small.radius = 0.07;
+  small.albedo = options.small_sphere_albedo;
+  box.kind = Primitive::Kind::kBox;
+  box.centre = {0.21, 0.13, 0.95};
+  box.camera_from_box =
+      (Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(0.45, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  box.half_extents = {0.07, 0.06, 0.07};
+  box.albedo = options.box_albedo;
+  scene.objects = {big, small, box};  // ids kBigSphere, kSmallSphere, kBox; the wall is kWall
+  return RenderPrimitives(scene, [&](const Eigen::Vector3d& n) { return ShIrradiance(light_in_camera, n); });
 }
 
 double KinectDepthSigmaM(double depth_m) {

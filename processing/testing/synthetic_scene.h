@@ -11,7 +11,9 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <opencv2/core/mat.hpp>
+#include <vector>
 
 #include "core/image.h"
 #include "core/pinhole.h"
@@ -42,6 +44,28 @@ struct SyntheticFrame {
 };
 
 SyntheticFrame RenderScene(const SceneOptions& options, const ShRgb& light_in_camera);
+
+// Any scene of spheres and oriented boxes before an optional wall (the fixed scene above is
+// one), lit by any distant light given as its irradiance E(n) for a camera-frame unit normal
+// (no visibility: nothing casts a shadow). object_id is the index in `objects`, the wall's id
+// is objects.size(); object_mask covers the objects, not the wall.
+struct Primitive {
+  enum class Kind { kSphere, kBox } kind = Kind::kSphere;
+  Eigen::Vector3d centre = Eigen::Vector3d(0, 0, 1);  // camera frame, metres
+  double radius = 0.1;                                // sphere
+  Eigen::Matrix3d camera_from_box = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Constant(0.05);  // box
+  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.5);
+};
+struct PrimitiveScene {
+  PinholeIntrinsics intrinsics = PinholeIntrinsics::FromHorizontalFov(320, 240, 60.0 * 3.14159265358979 / 180.0);
+  std::vector<Primitive> objects;
+  bool with_wall = true;
+  double wall_depth_m = 1.5;  // the plane z = wall_depth_m, facing the camera
+  Eigen::Vector3d wall_albedo{0.5, 0.5, 0.5};
+};
+using IrradianceFunction = std::function<Eigen::Vector3d(const Eigen::Vector3d& normal_in_camera)>;
+SyntheticFrame RenderPrimitives(const PrimitiveScene& scene, const IrradianceFunction& irradiance);
 
 // Kinect-like axial noise: sigma(z) = 1.2e-3 + 1.9e-3 (z - 0.4)^2 metres, Gaussian, per pixel.
 double KinectDepthSigmaM(double depth_m);
