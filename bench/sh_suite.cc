@@ -28,6 +28,7 @@
 #include <sstream>
 
 #include "bench/suites.h"
+#include "processing/depth_filter.h"
 #include "processing/metrics.h"
 #include "processing/relight.h"
 #include "processing/sh.h"
@@ -339,7 +340,12 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   r.description = d.description;
   // As the sh pipeline by default: the destination light is the estimate of another frame of
   // the stream, the scene under the destination light (--target-light FRAME).
-  processing::ShLightEstimator src_estimator, dst_estimator;
+  // The pipeline's denoise decision (pipeline/sh_pipeline.cc DecideDenoise): noise-free
+  // depth is not filtered.
+  processing::ShEstimatorOptions estimator_options;
+  estimator_options.filter_depth =
+      !processing::EstimateDepthNoise(noisy(0x51)).NoiseFree(processing::kDenoiseSkipBelowAt1mM);
+  processing::ShLightEstimator src_estimator(estimator_options), dst_estimator(estimator_options);
   src_estimator.EstimateKnownAlbedo(src.radiance, noisy(0x51), k, src.object_mask, src.albedo);
   dst_estimator.EstimateKnownAlbedo(dst.radiance, noisy(0x52), k, dst.object_mask, dst.albedo);
   const auto start = std::chrono::steady_clock::now();
@@ -369,10 +375,21 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
         processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light, d.destination.Sh()),
         dst);
   }
+  // Where the gap comes from: the method's light with the true normals, the floor's light
+  // with the method's normals.
+  double method_light = NAN, method_normals = NAN;
+  if (floor_src.summary.usable && floor_dst.summary.usable) {
+    method_light = RelitError(
+        processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, estimate.light, target.light), dst);
+    method_normals = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
+                                                      floor_src.light, floor_dst.light),
+                                dst);
+  }
   const NormalDiagnosis normals = DiagnoseNormals(relit, estimate.normals.normal_in_camera, src, dst);
   std::ostringstream notes;
   notes.precision(3);
-  notes << "normals > 3 deg off at " << 100.0 * normals.bad_fraction << " % of relit px (mean "
+  notes << "method's light + true normals " << method_light << ", floor's light + method's normals " << method_normals
+        << "; normals > 3 deg off at " << 100.0 * normals.bad_fraction << " % of relit px (mean "
         << normals.mean_angle_deg << " deg), error on the others " << normals.error_on_good << "; order "
         << estimate.summary.order_used << "/" << target.summary.order_used << ", fit residual "
         << estimate.summary.relative_rms_residual << "/" << target.summary.relative_rms_residual << ", relit "
