@@ -92,6 +92,9 @@ const std::vector<SuiteEntry>& Suites() {
       {"sh-kinect-noise", "sh", "as sh-ideal-depth with Kinect-like depth noise", RunShKinectNoiseSuite},
       {"sh-smooth-light", "sh", "as sh-ideal-depth under smooth lights (sky and broad lobes) that SH can represent",
        RunShSmoothLightSuite},
+      {"radiosity-rooms", "radiosity",
+       "reflectance estimation with radiosity indirect light, random furnished rooms, per-material albedo",
+       RunRadiositySuite},
   };
   return suites;
 }

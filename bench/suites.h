@@ -12,4 +12,7 @@ std::vector<SuiteResult> RunShIdealDepthSuite(const SuiteOptions& options);
 std::vector<SuiteResult> RunShKinectNoiseSuite(const SuiteOptions& options);
 std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options);
 
+// bench/radiosity_suite.cc: reflectance estimation with radiosity indirect light in random rooms.
+std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options);
+
 }  // namespace relume::bench

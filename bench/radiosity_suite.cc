@@ -1,0 +1,246 @@
+// Radiosity suite: iterative reflectance estimation (processing/radiosity/reflectance.h,
+// Loscos et al. with radiosity for the indirect light) on random furnished rooms.
+//
+// Scene family (one draw per seed): a room 3-6 x 2.5-5 x 2.4-3.2 m (floor, ceiling, walls),
+// 1-3 boxes standing on the floor (tables, cabinets: 0.4-1.6 m wide, 0.3-1.8 m high) and
+// sometimes a raised slab on legs (a desk: its floor is lit only indirectly). Every surface
+// group has its own material, a grey level of 0.1-0.9 tinted per channel by 0.8-1.2 (at most
+// 0.92). 2-5 photographs, each with one isotropic point lamp at a random place 0.5 m or more
+// inside the room, and a camera in an upper corner. The photographs are a converged strict
+// radiosity solution of the same patches (as processing/radiosity/test_room.h renders) with
+// 1 % Gaussian camera noise per patch and channel.
+//
+// Method: EstimateReflectance with its defaults (indirect light from the observed radiosity,
+// iterated until the albedo settles). Floor: the same combination of the same photographs,
+// with the method's own per-image weights, given the TRUE indirect irradiance of each patch
+// in each photograph (from the rendered solution): what the photographs' noise and the
+// weighting leave when nothing about the indirect light has to be estimated.
+// Error: per material, |mean albedo over its estimated patches - true albedo|, the mean over
+// channels (the error of the mean, issue 20). One SceneResult per material, so the suite's
+// median and p90 are over materials of all rooms.
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include "bench/suites.h"
+#include "processing/geometry/ray_caster.h"
+#include "processing/radiosity/direct_light.h"
+#include "processing/radiosity/hierarchy.h"
+#include "processing/radiosity/radiosity_solver.h"
+#include "processing/radiosity/reflectance.h"
+#include "processing/radiosity/scene.h"
+
+namespace relume::bench {
+namespace {
+
+namespace rs = radiosity;
+
+struct RandomRoom {
+  rs::Mesh mesh;
+  std::vector<Eigen::Vector3d> lamps;
+  rs::Rgb lamp_intensity;
+  Eigen::Vector3d camera;
+  std::string description;
+};
+
+rs::Rgb RandomAlbedo(SceneRandom& random) {
+  const double grey = random.Uniform(0.1, 0.9);
+  rs::Rgb a;
+  for (int c = 0; c < 3; ++c) a[c] = std::min(0.92, grey * random.Uniform(0.8, 1.2));
+  return a;
+}
+
+RandomRoom DrawRoom(std::uint64_t seed) {
+  SceneRandom random(seed);
+  RandomRoom room;
+  rs::Mesh& m = room.mesh;
+  const Eigen::Vector3d size(random.Uniform(3.0, 6.0), random.Uniform(2.5, 5.0), random.Uniform(2.4, 3.2));
+  const int floor = m.AddMaterial({"floor", RandomAlbedo(random), rs::Rgb::Zero()});
+  const int ceiling = m.AddMaterial({"ceiling", RandomAlbedo(random), rs::Rgb::Zero()});
+  const int walls = m.AddMaterial({"walls", RandomAlbedo(random), rs::Rgb::Zero()});
+  m.AddRoom({0, 0, 0}, size, floor, ceiling, walls);
+  const int boxes = random.Int(1, 3);
+  for (int i = 0; i < boxes; ++i) {
+    const double w = random.Uniform(0.4, 1.6), d = random.Uniform(0.4, 1.2), h = random.Uniform(0.3, 1.8);
+    const double x = random.Uniform(0.1, size.x() - w - 0.1), y = random.Uniform(0.1, size.y() - d - 0.1);
+    const int material = m.AddMaterial({"box " + std::to_string(i + 1), RandomAlbedo(random), rs::Rgb::Zero()});
+    m.AddBox({x, y, 0.0}, {x + w, y + d, h}, material, /*skip_bottom=*/true);
+  }
+  const bool desk = random.Chance(0.5);
+  if (desk) {
+    const double w = random.Uniform(0.8, 1.6), d = random.Uniform(0.5, 0.9), h = random.Uniform(0.65, 0.8);
+    const double x = random.Uniform(0.1, size.x() - w - 0.1), y = random.Uniform(0.1, size.y() - d - 0.1);
+    const int material = m.AddMaterial({"desk", RandomAlbedo(random), rs::Rgb::Zero()});
+    m.AddBox({x, y, h}, {x + w, y + d, h + 0.04}, material);
+    for (const auto& [lx, ly] : {std::pair{x, y}, {x + w - 0.04, y}, {x, y + d - 0.04}, {x + w - 0.04, y + d - 0.04}}) {
+      m.AddBox({lx, ly, 0.0}, {lx + 0.04, ly + 0.04, h}, material, /*skip_bottom=*/true);
+    }
+  }
+  const int photos = random.Int(2, 5);
+  for (int i = 0; i < photos; ++i) {
+    room.lamps.push_back({random.Uniform(0.5, size.x() - 0.5), random.Uniform(0.5, size.y() - 0.5),
+                          random.Uniform(1.2, size.z() - 0.3)});
+  }
+  const double level = random.Uniform(5.0, 20.0);
+  room.lamp_intensity = level * rs::Rgb(random.Uniform(0.9, 1.1), random.Uniform(0.85, 1.0), random.Uniform(0.7, 0.95));
+  const int corner = random.Int(0, 3);
+  room.camera = {corner & 1 ? size.x() - 0.2 : 0.2, corner & 2 ? size.y() - 0.2 : 0.2, size.z() - 0.3};
+  std::ostringstream s;
+  s.precision(2);
+  s << std::fixed << size.x() << " x " << size.y() << " x " << size.z() << " m room, " << boxes << " box(es)"
+    << (desk ? " and a desk" : "") << ", " << photos << " photograph(s)";
+  room.description = s.str();
+  return room;
+}
+
+// One photograph: the patches' radiance (NaN where the camera does not see the centroid),
+// with the rendered solution's indirect irradiance (the floor's input) and direct irradiance.
+struct Photograph {
+  rs::RadianceObservation observation;
+  std::vector<rs::Rgb> direct, true_indirect;
+};
+
+std::vector<Photograph> Render(const RandomRoom& room, const rs::PatchHierarchy& hierarchy, const RayCaster& caster,
+                               bool quick, SceneRandom& noise) {
+  rs::RadiosityOptions strict;
+  strict.bf_epsilon = quick ? 1e-3 : 2e-4;
+  strict.rays_per_form_factor = quick ? 8 : 16;
+  strict.residual_tolerance = 1e-6;
+  strict.max_iterations = 2000;
+  strict.refinement_passes = 3;
+  rs::RadiositySolver solver(hierarchy, caster, strict);
+  const int n = hierarchy.LeafCount();
+  const std::vector<rs::Rgb> albedo = hierarchy.LeafAlbedo();
+  std::vector<bool> seen(n, false);
+  for (int p = 0; p < n; ++p) {
+    const rs::Node& node = hierarchy.leaf(p);
+    seen[p] = node.normal.dot(room.camera - node.centroid) > 0.0 &&
+              !caster.SegmentOccluded(node.centroid, node.normal, room.camera, Eigen::Vector3d::Zero());
+  }
+  std::vector<Photograph> out;
+  for (const Eigen::Vector3d& lamp : room.lamps) {
+    Photograph photo;
+    rs::RadianceObservation& obs = photo.observation;
+    obs.lighting.point_lights.push_back({lamp, room.lamp_intensity});
+    obs.camera_position_m = room.camera;
+    // The method computes its own direct light with its default options; the floor uses the
+    // same (rs::ReflectanceOptions{}.direct), so that only the indirect light differs.
+    photo.direct = rs::ComputeDirectLight(hierarchy, caster, obs.lighting, rs::ReflectanceOptions{}.direct).irradiance;
+    const rs::DirectLight render_direct = rs::ComputeDirectLight(hierarchy, caster, obs.lighting, {16, 64});
+    rs::RadiositySolution solution;
+    solver.Solve(albedo, render_direct.irradiance, hierarchy.LeafEmission(), &solution);
+    obs.radiance.assign(n, rs::Rgb::Constant(std::numeric_limits<double>::quiet_NaN()));
+    photo.true_indirect.assign(n, rs::Rgb::Zero());
+    for (int p = 0; p < n; ++p) {
+      // B = rho (E_direct + E_indirect) for a non-emitting patch.
+      for (int c = 0; c < 3; ++c) {
+        photo.true_indirect[p][c] = solution.radiosity[p][c] / albedo[p][c] - render_direct.irradiance[p][c];
+      }
+      if (!seen[p]) continue;
+      rs::Rgb l = solution.radiosity[p] / std::numbers::pi;
+      for (int c = 0; c < 3; ++c) l[c] = std::max(0.0, l[c] * (1.0 + 0.01 * noise.Gaussian()));
+      obs.radiance[p] = l;
+    }
+    out.push_back(std::move(photo));
+  }
+  return out;
+}
+
+// The floor's albedo per patch: the method's own weights, the true indirect light.
+std::vector<rs::Rgb> FloorAlbedo(const std::vector<Photograph>& photos, const rs::ReflectanceResult& method, int n) {
+  std::vector<rs::Rgb> albedo(n, rs::Rgb::Constant(std::numeric_limits<double>::quiet_NaN()));
+  for (int p = 0; p < n; ++p) {
+    rs::Rgb sum = rs::Rgb::Zero();
+    double weight = 0.0;
+    for (std::size_t s = 0; s < photos.size(); ++s) {
+      const double w = method.image_weight[s][p];
+      const rs::Rgb& l = photos[s].observation.radiance[p];
+      if (!(w > 0.0) || !l.allFinite()) continue;
+      const rs::Rgb e = photos[s].direct[p] + photos[s].true_indirect[p];
+      if (!(e.minCoeff() > 0.0)) continue;
+      sum += w * (std::numbers::pi * l).cwiseQuotient(e);
+      weight += w;
+    }
+    if (weight > 0.0) albedo[p] = (sum / weight).cwiseMax(0.0).cwiseMin(1.0);
+  }
+  return albedo;
+}
+
+// Per material: |mean over patches where `use` - truth|, the mean over channels; NaN when no
+// patch of the material is used.
+std::vector<double> ErrorOfTheMean(const rs::PatchHierarchy& hierarchy, const std::vector<rs::Rgb>& albedo,
+                                   const std::vector<bool>& use) {
+  const auto& materials = hierarchy.mesh().materials;
+  std::vector<rs::Rgb> sum(materials.size(), rs::Rgb::Zero());
+  std::vector<int> count(materials.size(), 0);
+  for (int p = 0; p < hierarchy.LeafCount(); ++p) {
+    if (!use[p] || !albedo[p].allFinite()) continue;
+    sum[hierarchy.leaf(p).material] += albedo[p];
+    ++count[hierarchy.leaf(p).material];
+  }
+  std::vector<double> error(materials.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t m = 0; m < materials.size(); ++m) {
+    if (count[m] > 0) error[m] = (sum[m] / count[m] - materials[m].albedo).cwiseAbs().mean();
+  }
+  return error;
+}
+
+void RunRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
+  const RandomRoom room = DrawRoom(seed);
+  rs::HierarchyOptions hierarchy_options;
+  hierarchy_options.max_patch_edge_m = quick ? 0.8 : 0.35;
+  const rs::PatchHierarchy hierarchy(room.mesh, hierarchy_options);
+  const RayCaster caster(rs::ToTriangleMesh(room.mesh));
+  SceneRandom noise(seed ^ 0x6e6f697365ULL);
+  const std::vector<Photograph> photos = Render(room, hierarchy, caster, quick, noise);
+  std::vector<rs::RadianceObservation> observations;
+  for (const Photograph& p : photos) observations.push_back(p.observation);
+
+  const auto start = std::chrono::steady_clock::now();
+  const rs::ReflectanceResult method = rs::EstimateReflectance(hierarchy, caster, observations, {});
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const int n = hierarchy.LeafCount();
+  const std::vector<rs::Rgb> floor = FloorAlbedo(photos, method, n);
+  std::vector<bool> floor_use(n);
+  for (int p = 0; p < n; ++p) floor_use[p] = method.estimated[p] && floor[p].allFinite();
+  const std::vector<double> method_error = ErrorOfTheMean(hierarchy, method.albedo, method.estimated);
+  const std::vector<double> floor_error = ErrorOfTheMean(hierarchy, floor, floor_use);
+
+  const auto& materials = hierarchy.mesh().materials;
+  for (std::size_t m = 0; m < materials.size(); ++m) {
+    if (std::isnan(method_error[m]) && std::isnan(floor_error[m])) continue;  // no photograph saw it
+    SceneResult r;
+    r.seed = seed;
+    r.method = method_error[m];
+    r.floor = floor_error[m];
+    r.seconds = seconds;
+    std::ostringstream d;
+    d.precision(2);
+    d << std::fixed << room.description << "; material " << materials[m].name << " (albedo " << materials[m].albedo.x()
+      << " " << materials[m].albedo.y() << " " << materials[m].albedo.z() << ")";
+    r.description = d.str();
+    std::ostringstream notes;
+    notes << method.iterations << " radiosity iteration(s), " << (method.converged ? "converged" : "NOT converged")
+          << ", " << n << " patches, indirect share " << method.indirect.indirect_share;
+    r.notes = notes.str();
+    out->push_back(std::move(r));
+  }
+}
+
+}  // namespace
+
+std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options) {
+  SuiteResult result;
+  result.suite = "radiosity-rooms";
+  result.metric = "albedo error of the mean per material";
+  result.method = "Loscos reflectance with radiosity indirect light (defaults), 1 % camera noise";
+  result.floor = "true indirect light, the method's weights";
+  result.goal_median = 0.01;
+  result.goal_p90 = 0.02;
+  for (int i = 0; i < options.scenes; ++i) RunRoom(SceneSeed(options.seed, i), options.quick, &result.scenes);
+  return {result};
+}
+
+}  // namespace relume::bench
