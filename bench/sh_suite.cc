@@ -1,23 +1,28 @@
 // SH suites: RGB-D lighting estimation + relighting (processing/sh_pipeline.h, relight.h) on
 // random scenes of Lambertian spheres and boxes before a wall.
 //
-// Scene family (one draw per seed): 2-6 objects (spheres r 4-18 cm, boxes with half extents
-// 3-11 cm in random orientations) 0.65-1.35 m from the camera, each with its own albedo
-// (channels 0.15-0.85), a wall 0.2-0.6 m behind them. Two lights, source and destination,
-// each a distant key lamp (from the camera's side: direction z <= 0.3 in the camera frame, not
-// from below), a fill lamp (0.05-0.4 of the key, any direction from the camera's half space)
-// and a uniform sky over the upper hemisphere (up within 20 deg of the image's up), each with
-// its own colour. Nothing casts a shadow: the irradiance is the lights' E(n) at the normal,
-// computed exactly (clamped cosine per lamp, pi L (1 + n.up) / 2 for the sky), so the truth
-// is not band-limited to the SH order the method fits.
+// Scenes (one draw per seed): 2-6 objects (spheres r 4-18 cm, boxes with half extents 3-11 cm
+// in random orientations) 0.65-1.35 m from the camera, each with its own albedo (channels
+// 0.15-0.85), a wall 0.2-0.6 m behind them. Nothing casts a shadow: the irradiance is the
+// light's E(n) at the normal, computed exactly, so the truth is not band-limited to the SH
+// order the method fits. Two light families, source and destination drawn independently:
+//  - lamps: a distant key lamp (from the camera's side: direction z <= 0.3 in the camera
+//    frame, not from below), a fill lamp (0.05-0.4 of the key, from the camera's half space)
+//    and a uniform sky over the upper hemisphere (up within 20 deg of the image's up), each
+//    with its own colour; E(n) = clamped cosines + pi L (1 + n.up) / 2;
+//  - smooth: a sky gradient over a darker ground and one or two broad lobes (DrawSmoothLighting);
+//    E(n) by direct summation of the map, tabulated over normals.
 //
-// Method: ShLightEstimator::EstimateKnownAlbedo (bilateral + temporal depth filter, normals,
+// Method: what the sh pipeline runs. Its denoise decision (EstimateDepthNoise: exact depth is
+// not filtered, noisy depth is), ShLightEstimator::EstimateKnownAlbedo (filters, normals,
 // sample points, known-albedo SH fit; primed on a previous frame as in a stream), then
 // RelightSh to the destination light estimated the same way from a frame of the scene under
-// it (the sh pipeline's default --target-light FRAME).
+// it (the pipeline's default --target-light FRAME).
 // Floor: the same fits and relighting given the TRUE normals at the same sample points: what
-// order-2 SH lighting can do on this scene at best (the lamps' clamped cosines are not
-// band-limited); the gap to the method is what depth noise and normal estimation cost.
+// order-2 SH lighting can do on this scene at best; the gap to the method is what depth noise
+// and normal estimation cost. The notes split the gap (the method's light with the true
+// normals; the floor's light with the method's normals) and count the pixels whose normal is
+// more than 3 deg off.
 // Error: signal-relative RMS of the relit image against the truth under the destination
 // light, over the pixels the method relit (processing/metrics.h; absolute scale, as the sh
 // pipeline's comparison with the truth).
@@ -330,9 +335,11 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
       pt::RenderPrimitives(d.scene, [&](const Eigen::Vector3d& n) { return d.source.Irradiance(n); });
   const pt::SyntheticFrame dst =
       pt::RenderPrimitives(d.scene, [&](const Eigen::Vector3d& n) { return d.destination.Irradiance(n); });
+  // Four depth frames of the same view: the primers of the two streams, then the two measured.
   auto noisy = [&](std::uint64_t salt) {
     return kinect_noise ? pt::AddKinectDepthNoise(src.depth_m, seed ^ salt) : src.depth_m;
   };
+  const cv::Mat src_primer = noisy(0x51), dst_primer = noisy(0x52);
   const PinholeIntrinsics& k = d.scene.intrinsics;
 
   SceneResult r;
@@ -344,10 +351,10 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   // depth is not filtered.
   processing::ShEstimatorOptions estimator_options;
   estimator_options.filter_depth =
-      !processing::EstimateDepthNoise(noisy(0x51)).NoiseFree(processing::kDenoiseSkipBelowAt1mM);
+      !processing::EstimateDepthNoise(src_primer).NoiseFree(processing::kDenoiseSkipBelowAt1mM);
   processing::ShLightEstimator src_estimator(estimator_options), dst_estimator(estimator_options);
-  src_estimator.EstimateKnownAlbedo(src.radiance, noisy(0x51), k, src.object_mask, src.albedo);
-  dst_estimator.EstimateKnownAlbedo(dst.radiance, noisy(0x52), k, dst.object_mask, dst.albedo);
+  src_estimator.EstimateKnownAlbedo(src.radiance, src_primer, k, src.object_mask, src.albedo);
+  dst_estimator.EstimateKnownAlbedo(dst.radiance, dst_primer, k, dst.object_mask, dst.albedo);
   const auto start = std::chrono::steady_clock::now();
   const processing::ShFrameEstimate estimate =
       src_estimator.EstimateKnownAlbedo(src.radiance, noisy(0xa3), k, src.object_mask, src.albedo);
@@ -365,7 +372,9 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   // The floor: the same fits and relighting with the true normals at the same samples.
   const processing::ShFitResult floor_src = FitAtTrueNormals(src, estimate.samples);
   const processing::ShFitResult floor_dst = FitAtTrueNormals(dst, target.samples);
-  double projected = NAN;
+  // Where the gap comes from: the method's light with the true normals, the floor's light
+  // with the method's normals.
+  double projected = NAN, method_light = NAN, method_normals = NAN;
   if (floor_src.summary.usable && floor_dst.summary.usable) {
     r.floor = RelitError(
         processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light, floor_dst.light),
@@ -374,11 +383,6 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
     projected = RelitError(
         processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light, d.destination.Sh()),
         dst);
-  }
-  // Where the gap comes from: the method's light with the true normals, the floor's light
-  // with the method's normals.
-  double method_light = NAN, method_normals = NAN;
-  if (floor_src.summary.usable && floor_dst.summary.usable) {
     method_light = RelitError(
         processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, estimate.light, target.light), dst);
     method_normals = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
@@ -406,7 +410,7 @@ SuiteResult RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFami
                                                 : "sh-ideal-depth";
   result.metric = "relit signal-relative RMS";
   result.method = std::string(kinect_noise ? "Kinect-like depth noise" : "exact depth") +
-                  " -> filter -> normals -> known-albedo SH fit (order 2) -> relight";
+                  " -> denoise decision -> normals -> known-albedo SH fit (order 2) -> relight";
   result.floor = "true normals at the same samples";
   result.goal_median = kinect_noise ? 0.04 : 0.02;
   result.goal_p90 = kinect_noise ? 0.06 : 0.03;
