@@ -176,7 +176,15 @@ std::vector<SuiteResult> RunHdrSuite(const SuiteOptions& options) {
     for (int z = 0; z < 256; ++z) {
       for (int c = 0; c < 3; ++c) cv_curve[c][z] = cv_response.at<cv::Vec3f>(z)[2 - c];
     }
-    theirs.notes = "response log-RMS " + Percent(ResponseLogRms(cv_curve, truth));
+    // OpenCV's merge alone, given the true response: how much of its error is the merge's.
+    cv::Mat truth_bgr(256, 1, CV_32FC3), cv_truth_merged;
+    for (int z = 0; z < 256; ++z) {
+      for (int c = 0; c < 3; ++c) truth_bgr.at<cv::Vec3f>(z)[2 - c] = static_cast<float>(truth.inverse[c][z]);
+    }
+    cv::createMergeDebevec()->process(bgr, cv_truth_merged, times_f, truth_bgr);
+    cv::cvtColor(cv_truth_merged, cv_truth_merged, cv::COLOR_BGR2RGB);
+    theirs.notes = "response log-RMS " + Percent(ResponseLogRms(cv_curve, truth)) +
+                   ", MergeDebevec given the true response " + Percent(error(cv_truth_merged));
     opencv.scenes.push_back(theirs);
   }
   return {ours, opencv};
