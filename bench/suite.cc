@@ -95,6 +95,7 @@ const std::vector<SuiteEntry>& Suites() {
       {"radiosity-rooms", "radiosity",
        "reflectance estimation with radiosity indirect light, random furnished rooms, per-material albedo",
        RunRadiositySuite},
+      {"hdr-random-response", "hdr", "HDR radiance, 5 frames, random monotone responses", RunHdrSuite},
   };
   return suites;
 }

@@ -15,4 +15,8 @@ std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options);
 // bench/radiosity_suite.cc: reflectance estimation with radiosity indirect light in random rooms.
 std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options);
 
+// HDR radiance from 5-frame brackets of random monotone responses: relume's response recovery
+// + merge, and OpenCV's beside it, against the merge given the true response (bench/hdr_suite.cc).
+std::vector<SuiteResult> RunHdrSuite(const SuiteOptions& options);
+
 }  // namespace relume::bench

@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iomanip>
+#include <numbers>
 #include <opencv2/core.hpp>
 #include <random>
+#include <sstream>
 
 #include "core/error.h"
 
@@ -19,6 +22,7 @@ const char* ToString(ResponseShape shape) {
     case ResponseShape::kRec709: return "rec709";
     case ResponseShape::kSrgbSTone: return "srgb+s-tone";
     case ResponseShape::kLogEncoding: return "log";
+    case ResponseShape::kRandom: return "random";
   }
   return "unknown";
 }
@@ -29,6 +33,33 @@ double ChannelTint(int channel) {
   return 1.0 + 0.04 * (channel % 3 - 1);
 }
 }  // namespace
+
+double RandomCurve::Forward(double x) const {
+  x = std::clamp(x, 0.0, 1.0);
+  double y = 0.0;
+  if (w_power > 0.0) y += w_power * std::pow(x, 1.0 / gamma);
+  if (w_srgb > 0.0) {
+    // Linear toe k x up to b, then (1 + a) x^p - a; value and slope continuous at b.
+    const double p = srgb_power, b = srgb_break;
+    const double bp = std::pow(b, p);
+    const double a = bp * (1.0 - p) / (1.0 - bp * (1.0 - p));
+    const double k = (1.0 + a) * p * std::pow(b, p - 1.0);
+    y += w_srgb * (x <= b ? k * x : (1.0 + a) * std::pow(x, p) - a);
+  }
+  if (w_s > 0.0) {
+    const double xs = std::pow(x, s_slope), ms = std::pow(s_mid, s_slope);
+    y += w_s * xs / (xs + ms) * (1.0 + ms);
+  }
+  if (w_log > 0.0) y += w_log * std::log1p(log_k * x) / std::log1p(log_k);
+  y = std::clamp(y, 0.0, 1.0);
+  y = (1.0 - contrast) * y + contrast * y * y * (3.0 - 2.0 * y);
+  double wiggled = y;
+  for (std::size_t k = 0; k < wiggle.size(); ++k) {
+    const double kpi = static_cast<double>(k + 1) * std::numbers::pi;
+    wiggled += wiggle[k] * std::sin(kpi * y) / kpi;
+  }
+  return std::clamp(wiggled, 0.0, 1.0);
+}
 
 double SyntheticResponse::Forward(int channel, double x) const {
   x = std::clamp(x, 0.0, 1.0);
@@ -70,8 +101,137 @@ double SyntheticResponse::Forward(int channel, double x) const {
       const double k = 100.0 * ChannelTint(channel);
       return std::log10(1.0 + k * x) / std::log10(1.0 + k);
     }
+    case ResponseShape::kRandom: return curves[static_cast<std::size_t>(channel % 3)].Forward(x);
   }
   return x;
+}
+
+namespace {
+
+// [0, 1) from std::mt19937_64's raw output, bit for bit what libstdc++'s
+// std::uniform_real_distribution<double>(0, 1) gives with that engine (one draw, x / 2^64,
+// kept below 1), but specified here so every standard library gives the same numbers.
+double Unit(std::mt19937_64& rng) {
+  const double u = static_cast<double>(rng()) * 0x1.0p-64;
+  return u < 1.0 ? u : std::nextafter(1.0, 0.0);
+}
+double Uniform(std::mt19937_64& rng, double lo, double hi) {
+  return lo + (hi - lo) * Unit(rng);
+}
+double LogUniform(std::mt19937_64& rng, double lo, double hi) {
+  return std::exp(Uniform(rng, std::log(lo), std::log(hi)));
+}
+
+enum Family { kPower, kSrgbLike, kS, kLog, kFamilies };
+const char* FamilyName(int family) {
+  static const char* const names[] = {"power", "srgb-like", "s-curve", "log"};
+  return names[family];
+}
+double& Weight(RandomCurve& c, int family) {
+  switch (family) {
+    case kPower: return c.w_power;
+    case kSrgbLike: return c.w_srgb;
+    case kS: return c.w_s;
+    default: return c.w_log;
+  }
+}
+double WeightOf(const RandomCurve& c, int family) {
+  switch (family) {
+    case kPower: return c.w_power;
+    case kSrgbLike: return c.w_srgb;
+    case kS: return c.w_s;
+    default: return c.w_log;
+  }
+}
+
+}  // namespace
+
+SyntheticResponse RandomResponse(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  // The camera: one family, or two mixed; parameters; contrast; wiggle amplitude.
+  const int first = static_cast<int>(rng() % kFamilies);
+  int second = -1;
+  double second_weight = 0.0;
+  if (Unit(rng) < 0.6) {
+    second = (first + 1 + static_cast<int>(rng() % (kFamilies - 1))) % kFamilies;
+    second_weight = Uniform(rng, 0.2, 0.5);
+  }
+  RandomCurve camera;
+  camera.w_power = 0.0;
+  camera.gamma = Uniform(rng, 1.6, 2.8);
+  camera.srgb_power = 1.0 / Uniform(rng, 1.9, 2.8);
+  camera.srgb_break = LogUniform(rng, 0.001, 0.02);
+  camera.s_slope = Uniform(rng, 1.2, 2.2);
+  camera.s_mid = Uniform(rng, 0.15, 0.5);
+  camera.log_k = LogUniform(rng, 10.0, 1000.0);
+  camera.contrast = Unit(rng) < 0.5 ? Uniform(rng, -0.3, 0.5) : 0.0;
+  const double wiggle = Unit(rng) < 0.7 ? Uniform(rng, 0.0, 0.3) : 0.0;
+  SyntheticResponse response;
+  response.shape = ResponseShape::kRandom;
+  for (RandomCurve& c : response.curves) {
+    c = camera;
+    const double w2 = second < 0 ? 0.0 : std::clamp(second_weight + Uniform(rng, -0.05, 0.05), 0.1, 0.6);
+    Weight(c, first) = 1.0 - w2;
+    if (second >= 0) Weight(c, second) = w2;
+    c.gamma *= 1.0 + Uniform(rng, -0.08, 0.08);
+    c.srgb_power *= 1.0 + Uniform(rng, -0.08, 0.08);
+    c.s_slope *= 1.0 + Uniform(rng, -0.08, 0.08);
+    c.s_mid *= 1.0 + Uniform(rng, -0.1, 0.1);
+    c.log_k *= 1.0 + Uniform(rng, -0.2, 0.2);
+    if (camera.contrast != 0.0) c.contrast = std::clamp(camera.contrast + Uniform(rng, -0.05, 0.05), -0.3, 0.5);
+    // Wiggles: decreasing with k, random signs, sum |a_k| = the channel's amplitude (< 1).
+    double sum = 0.0;
+    for (std::size_t k = 0; k < c.wiggle.size(); ++k) {
+      c.wiggle[k] = Uniform(rng, -1.0, 1.0) / static_cast<double>(k + 1);
+      sum += std::abs(c.wiggle[k]);
+    }
+    const double amplitude = wiggle * (1.0 + Uniform(rng, -0.2, 0.2));
+    for (double& a : c.wiggle) a = sum > 0.0 ? a * amplitude / sum : 0.0;
+  }
+  return response;
+}
+
+std::string DescribeResponse(const SyntheticResponse& response) {
+  if (response.shape != ResponseShape::kRandom) return ToString(response.shape);
+  auto range = [&](auto get, int precision) {
+    double lo = get(response.curves[0]), hi = lo;
+    for (const RandomCurve& c : response.curves) {
+      lo = std::min(lo, get(c));
+      hi = std::max(hi, get(c));
+    }
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(precision) << lo;
+    if (hi - lo >= std::pow(10.0, -precision)) s << " to " << hi;
+    return s.str();
+  };
+  std::ostringstream s;
+  bool any = false;
+  for (int f = 0; f < kFamilies; ++f) {
+    if (WeightOf(response.curves[0], f) <= 0.0) continue;
+    s << (any ? " + " : "") << range([f](const RandomCurve& c) { return WeightOf(c, f); }, 2) << " " << FamilyName(f);
+    switch (f) {
+      case kPower: s << " (gamma " << range([](const RandomCurve& c) { return c.gamma; }, 2) << ")"; break;
+      case kSrgbLike:
+        s << " (1/p " << range([](const RandomCurve& c) { return 1.0 / c.srgb_power; }, 2) << ", toe "
+          << range([](const RandomCurve& c) { return c.srgb_break; }, 4) << ")";
+        break;
+      case kS:
+        s << " (s " << range([](const RandomCurve& c) { return c.s_slope; }, 2) << ", m "
+          << range([](const RandomCurve& c) { return c.s_mid; }, 2) << ")";
+        break;
+      default: s << " (k " << range([](const RandomCurve& c) { return c.log_k; }, 0) << ")"; break;
+    }
+    any = true;
+  }
+  s << ", contrast " << range([](const RandomCurve& c) { return c.contrast; }, 2) << ", wiggle "
+    << range(
+           [](const RandomCurve& c) {
+             double a = 0.0;
+             for (const double w : c.wiggle) a += std::abs(w);
+             return a;
+           },
+           2);
+  return s.str();
 }
 
 double SyntheticResponse::Inverse(int channel, double y) const {
@@ -87,7 +247,7 @@ cv::Mat MakeHdrRadiance(const SceneOptions& options) {
   RELUME_CHECK(options.width > 0 && options.height > 0 && options.dynamic_range > 1.0);
   cv::Mat radiance(options.height, options.width, CV_32FC3);
   std::mt19937_64 rng(options.seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto unit = [](std::mt19937_64& engine) { return Unit(engine); };  // portable, see Unit
   // Patches of 24 x 24 pixels: log-uniform brightness, random colour (chroma kept moderate so
   // no channel is far darker than the others), each with a smooth 2x diagonal gradient so that
   // every patch covers a range of codes.

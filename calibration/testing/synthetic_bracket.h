@@ -9,8 +9,10 @@
 // in [0, 1]; codes are 8-bit, rounded. Pixel (x, y) as in core/image.h.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
+#include <string>
 #include <vector>
 
 #include "calibration/response.h"
@@ -28,15 +30,49 @@ enum class ResponseShape {
   kRec709,       // ITU-R BT.709 OETF: linear toe up to x = 0.018, then 1.099 x^0.45 - 0.099
   kSrgbSTone,    // sRGB followed by a mild S-shaped contrast curve (a camera's picture style)
   kLogEncoding,  // log10(1 + k x) / log10(1 + k), k ~ 100 (cinema-camera log curves)
+  // A drawn curve per channel (RandomCurve, RandomResponse below): a mixture of the families
+  // above with drawn parameters, a contrast (toe and shoulder) curve and smooth wiggles.
+  kRandom,
 };
 const char* ToString(ResponseShape shape);
+
+// One channel of a kRandom response: exposure x in [0, 1] -> code fraction, strictly
+// increasing from 0 to 1 and smooth. Built in three steps:
+//  1. a convex mixture of four strictly increasing curves from 0 to 1: a power law
+//     x^(1/gamma); an sRGB/Rec.709-like curve (linear toe up to x = toe_break, then
+//     (1 + a) x^p - a with a fixed by value and slope continuity); a film-like S curve
+//     x^s / (x^s + m^s) normalised; a log curve ln(1 + k x) / ln(1 + k);
+//  2. a contrast curve in code space, (1 - c) y + c y^2 (3 - 2 y) (toe and shoulder; c in [0, 1));
+//  3. monotone wiggles y + sum_k a_k sin(k pi y) / (k pi), k = 1..4, with sum |a_k| < 1 (so the
+//     derivative stays positive and the ends stay at 0 and 1).
+struct RandomCurve {
+  double w_power = 1.0, w_srgb = 0.0, w_s = 0.0, w_log = 0.0;  // mixture weights, sum 1
+  double gamma = 2.2;                                          // power: x^(1/gamma)
+  double srgb_power = 1.0 / 2.4, srgb_break = 0.0031308;       // sRGB-like: p and the toe's end
+  double s_slope = 1.6, s_mid = 0.3;                           // S curve: s and m
+  double log_k = 100.0;                                        // log curve: k
+  double contrast = 0.0;                                       // contrast curve: c
+  std::array<double, 4> wiggle{};                              // a_1..a_4
+  double Forward(double x) const;                              // x in [0, 1]
+};
 
 // The forward response (exposure -> code fraction), and its inverse, per channel.
 struct SyntheticResponse {
   ResponseShape shape = ResponseShape::kGamma;
+  std::array<RandomCurve, 3> curves{};          // kRandom only: one curve per channel
   double Forward(int channel, double x) const;  // x clipped to [0, 1]; result in [0, 1]
   double Inverse(int channel, double y) const;  // y in [0, 1] -> x in [0, 1] (bisection)
 };
+
+// A kRandom response drawn from `seed` (std::mt19937_64's raw output only, so the same curves
+// on every standard library). The camera draws one or two families with their parameters,
+// a contrast and wiggle amplitudes; each channel then gets its own parameters around the
+// camera's (gamma and slopes +-8 %, mixture weights and contrast jittered) and its own
+// wiggles, so no two channels are the same curve.
+SyntheticResponse RandomResponse(std::uint64_t seed);
+// One line: the families with their weights and parameters ("lo to hi" over the channels),
+// the contrast and the wiggle amplitude sum |a_k|; other shapes: their name.
+std::string DescribeResponse(const SyntheticResponse& response);
 
 struct SceneOptions {
   int width = 320;
