@@ -1,7 +1,7 @@
 // The HDR random-response suite (issue 20): "HDR radiance, 5 frames, random monotone
 // responses".
 //
-// Scene i (seed SceneSeed(options.seed, i), drawn with SceneRandom): a synthetic radiance of
+// Scene i (seed options.SeedOf(i), drawn with SceneRandom): a synthetic radiance of
 // patches (calibration/testing MakeHdrRadiance) with a dynamic range log-uniform in
 // [1e3, 3e4]; 5 frames with a constant EV step uniform in [1.5, 2.5] around a middle exposure
 // that puts the scene's log-centre at X = 0.18 times 2^U(-1, 1); shot noise log-uniform in
@@ -117,8 +117,8 @@ std::vector<SuiteResult> RunHdrSuite(const SuiteOptions& options) {
   opencv.metric = kMetric;
   opencv.method = "OpenCV CalibrateDebevec + MergeDebevec (defaults)";
   opencv.floor = kFloor;
-  for (int i = 0; i < options.scenes; ++i) {
-    const std::uint64_t seed = SceneSeed(options.seed, i);
+  for (int i = 0; i < options.SceneCount(); ++i) {
+    const std::uint64_t seed = options.SeedOf(i);
     const HdrScene scene = DrawScene(seed, options.quick);
     const std::vector<CameraImage> frames = ct::RenderBracket(scene.radiance, scene.times, scene.response, scene.noise);
     const cv::Mat mask = ct::WellExposedMask(scene.radiance, scene.times, scene.response);

@@ -239,7 +239,7 @@ std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options) {
   result.floor = "true indirect light, the method's weights";
   result.goal_median = 0.01;
   result.goal_p90 = 0.02;
-  for (int i = 0; i < options.scenes; ++i) RunRoom(SceneSeed(options.seed, i), options.quick, &result.scenes);
+  for (int i = 0; i < options.SceneCount(); ++i) RunRoom(options.SeedOf(i), options.quick, &result.scenes);
   return {result};
 }
 

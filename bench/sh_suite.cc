@@ -414,8 +414,8 @@ SuiteResult RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFami
   result.floor = "true normals at the same samples";
   result.goal_median = kinect_noise ? 0.04 : 0.02;
   result.goal_p90 = kinect_noise ? 0.06 : 0.03;
-  for (int i = 0; i < options.scenes; ++i) {
-    result.scenes.push_back(RunShScene(SceneSeed(options.seed, i), options.quick, kinect_noise, family));
+  for (int i = 0; i < options.SceneCount(); ++i) {
+    result.scenes.push_back(RunShScene(options.SeedOf(i), options.quick, kinect_noise, family));
   }
   return result;
 }

@@ -72,6 +72,13 @@ TEST(ShSuiteTest, ScenesRepeatFromTheirSeed) {
     EXPECT_EQ(a.scenes[i].description, b.scenes[i].description);
   }
   EXPECT_NE(a.scenes[0].method, a.scenes[1].method);
+  // A row of suite.csv alone: --scene-seed.
+  SuiteOptions one = options;
+  one.scene_seed = a.scenes[1].seed;
+  const SuiteResult c = RunShKinectNoiseSuite(one).at(0);
+  ASSERT_EQ(c.scenes.size(), 1u);
+  EXPECT_EQ(c.scenes[0].method, a.scenes[1].method);
+  EXPECT_EQ(c.scenes[0].description, a.scenes[1].description);
 }
 
 }  // namespace

@@ -32,6 +32,10 @@ std::uint64_t SceneSeed(std::uint64_t suite_seed, int index) {
   return z ^ (z >> 31);
 }
 
+std::uint64_t SuiteOptions::SeedOf(int index) const {
+  return scene_seed ? *scene_seed : SceneSeed(seed, index);
+}
+
 double SceneRandom::Uniform(double lo, double hi) {
   const double u = static_cast<double>(engine_() >> 11) * 0x1.0p-53;  // [0, 1), 53 bits
   return lo + (hi - lo) * u;
@@ -181,7 +185,9 @@ std::string CsvField(std::string s) {
 
 std::string SuiteTable(const std::vector<SuiteResult>& results, const SuiteOptions& options) {
   std::ostringstream md;
-  md << "Random-scene suites: " << options.scenes << " scene(s) each, seed " << options.seed
+  md << "Random-scene suites: "
+     << (options.scene_seed ? "the scene of seed " + std::to_string(*options.scene_seed)
+                            : std::to_string(options.scenes) + " scene(s) each, seed " + std::to_string(options.seed))
      << (options.quick ? ", quick sizes" : "") << ".\n\n"
      << "| suite | metric | median | p90 | worst | floor median | floor p90 | floor worst | floor given | goal "
         "(median / p90) | met | s/scene |\n"
@@ -209,7 +215,8 @@ std::string WriteSuiteOutputs(const std::string& dir, const std::vector<SuiteRes
   fs::create_directories(dir, ec);
   if (ec) throw IoError(dir, "cannot create the output folder: " + ec.message());
   const std::string md = SuiteTable(results, options);
-  nlohmann::json json = {{"scenes", options.scenes}, {"seed", options.seed}, {"quick", options.quick}};
+  nlohmann::json json = {{"scenes", options.SceneCount()}, {"seed", options.seed}, {"quick", options.quick}};
+  if (options.scene_seed) json["scene_seed"] = *options.scene_seed;
   std::ostringstream csv;
   csv << "suite,stage,scene,seed,method_error,floor_error,seconds,description,notes\n";
   for (const SuiteResult& r : results) {

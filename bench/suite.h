@@ -6,12 +6,11 @@
 // it would otherwise estimate (true normals, true visibility, true response, ...), so the gap
 // between the method and its model is visible. It reports median, p90 and worst of both.
 //
-// Scene i of a suite uses SceneSeed(options.seed, i): a scene is reproducible alone
-// (`relume bench --suite random --stage S --seed X --scenes 1` with X = the scene's seed in
-// suite.csv). Scene generators draw from SceneRandom (std::mt19937_64 and hand-written
-// distributions; no std::*_distribution, whose output is implementation-defined), so a seed
-// gives the same scene everywhere. Sensor noise added by the stages' test helpers may use
-// std::normal_distribution (processing/testing's Kinect noise): the same with libstdc++.
+// Scene i of a suite uses SceneSeed(options.seed, i); its seed is in suite.csv, and
+// `relume bench --suite random --stage S --scene-seed X` runs that one scene alone. Scene generators draw from
+// SceneRandom (std::mt19937_64 and hand-written distributions; no std::*_distribution, whose output is
+// implementation-defined), so a seed gives the same scene everywhere. Sensor noise added by the stages' test helpers
+// may use std::normal_distribution (processing/testing's Kinect noise): the same with libstdc++.
 //
 // Library first: `relume bench --suite random` (apps/relume/bench_command.cc) only parses
 // its arguments and calls RunSuites; tests call the suites directly at small sizes.
@@ -20,6 +19,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -30,7 +30,12 @@ struct SuiteOptions {
   int scenes = 20;         // scenes per suite
   std::uint64_t seed = 1;  // the suite's seed; scene i uses SceneSeed(seed, i)
   bool quick = false;      // smaller images and fewer samples (CI and tests)
+  // Set: one scene, this seed (a scene of suite.csv reproduced alone); `scenes` and `seed`
+  // are then ignored.
+  std::optional<std::uint64_t> scene_seed;
   bool IsValid(std::string* why) const;
+  int SceneCount() const { return scene_seed ? 1 : scenes; }
+  std::uint64_t SeedOf(int index) const;  // the seed of scene `index` (< SceneCount())
 };
 
 // The seed of scene `index` of a suite seeded with `suite_seed` (SplitMix64 of both).

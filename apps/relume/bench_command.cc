@@ -41,7 +41,7 @@ std::string StageNames() {
 void RunRandomSuites(const BenchArgs& args) {
   const std::vector<relume::bench::SuiteResult> results =
       relume::bench::RunSuites(args.stage, args.suite_options, [&](const std::string& name) {
-        std::cerr << "bench: suite " << name << ", " << args.suite_options.scenes << " scene(s)"
+        std::cerr << "bench: suite " << name << ", " << args.suite_options.SceneCount() << " scene(s)"
                   << (args.suite_options.quick ? " (quick)" : "") << "\n";
       });
   const std::string md = relume::bench::WriteSuiteOutputs(args.out, results, args.suite_options);
@@ -80,6 +80,8 @@ void AddBenchCommand(CLI::App& app) {
                   "(bench/suite.h)");
   cmd->add_option("--scenes", args->suite_options.scenes, "Scenes per random suite")->capture_default_str();
   cmd->add_option("--seed", args->suite_options.seed, "Seed of the random suites")->capture_default_str();
+  cmd->add_option("--scene-seed", args->suite_options.scene_seed,
+                  "Run only the scene of this seed (a row of suite.csv), instead of --scenes/--seed");
   cmd->callback([args]() {
     args->suite_options.quick = args->quick;
     Run(*args);
