@@ -85,7 +85,9 @@ bool SuiteResult::MeetsGoal() const {
 
 const std::vector<SuiteEntry>& Suites() {
   // One line per suite; bench/suites.h declares the functions.
-  static const std::vector<SuiteEntry> suites = {};
+  static const std::vector<SuiteEntry> suites = {
+      {"irm-outdoor", "irm", "IRM relighting on random outdoor scenes: lit, shadow, penumbra", RunIrmSuite},
+  };
   return suites;
 }
 

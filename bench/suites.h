@@ -5,4 +5,9 @@
 
 #include "bench/suite.h"
 
-namespace relume::bench {}  // namespace relume::bench
+namespace relume::bench {
+
+// IRM relighting on random outdoor scenes (bench/irm_suite.cc): lit, shadow and penumbra.
+std::vector<SuiteResult> RunIrmSuite(const SuiteOptions& options);
+
+}  // namespace relume::bench
