@@ -36,6 +36,11 @@ constexpr float kSunRadius = 0.5f * 0.533f * kPi / 180.0f;
 constexpr int kCheckWidth = 80, kCheckHeight = 56;  // the acceptance check's grid
 // Acceptance: shares of the check grid's pixels.
 constexpr double kMinLitShare = 0.03, kMinShadowShare = 0.03, kMinCastShare = 0.005;
+// ... and the share of the source's surface pixels the target camera sees too, with at least
+// kMinOverlapNormals distinct normals among them (kMinNormalPixels grid pixels each: the IRMs
+// learn ratios per normal, and the sun + sky model needs several).
+constexpr double kMinOverlap = 0.3;
+constexpr int kMinOverlapNormals = 3, kMinNormalPixels = 20;
 // Fewer pixels in a region: no error for it on that scene (NaN, a failure in the summary).
 constexpr std::int64_t kMinRegionPixels = 50;
 constexpr std::int64_t kMinPenumbraPixels = 10;
@@ -216,10 +221,14 @@ IrmSuiteScene::IrmSuiteScene(std::uint64_t seed, const IrmSuiteSize& size) {
     source_camera = PinholeCamera::LookAt(k, source_eye, source_look);
     target_camera = PinholeCamera::LookAt(k, target_eye, target_look);
 
-    // The check: the sun's centre ray from every surface the grid sees.
-    const PinholeCamera check = PinholeCamera::LookAt(
-        PinholeIntrinsics::FromHorizontalFov(kCheckWidth, kCheckHeight, fov), source_eye, source_look);
-    int lit = 0, shadow = 0, cast = 0;
+    // The check: the sun's centre ray from every surface the grid sees, and whether the target
+    // camera sees it too (inside its image, facing it, nothing in between).
+    const PinholeIntrinsics check_k = PinholeIntrinsics::FromHorizontalFov(kCheckWidth, kCheckHeight, fov);
+    const PinholeCamera check = PinholeCamera::LookAt(check_k, source_eye, source_look);
+    const Eigen::Isometry3d target_from_world =
+        PinholeCamera::LookAt(check_k, target_eye, target_look).world_from_camera.inverse();
+    int lit = 0, shadow = 0, cast = 0, surface = 0, overlap = 0;
+    std::vector<std::pair<Eigen::Vector3f, int>> overlap_normals;  // distinct normals (5 deg), pixels
     if (!InsideAnyBox(boxes, source_eye) && !InsideAnyBox(boxes, target_eye)) {
       std::vector<RayCaster::Hit> hits(kCheckWidth);
       for (int y = 0; y < kCheckHeight; ++y) {
@@ -239,6 +248,23 @@ IrmSuiteScene::IrmSuiteScene(std::uint64_t seed, const IrmSuiteSize& size) {
           }
           (in_shadow ? shadow : lit) += 1;
           cast += in_cast ? 1 : 0;
+          ++surface;
+          const Eigen::Vector3d in_target = target_from_world * p.cast<double>();
+          if (in_target.z() <= 0.0) continue;
+          const Eigen::Vector2d uv = check_k.Project(in_target);
+          if (uv.x() < 0 || uv.y() < 0 || uv.x() >= kCheckWidth || uv.y() >= kCheckHeight) continue;
+          if (nrm.cast<double>().dot(target_eye - p.cast<double>()) <= 0.0) continue;
+          if (caster->SegmentOccluded(p.cast<double>(), nrm.cast<double>(), target_eye, Eigen::Vector3d::Zero())) {
+            continue;
+          }
+          ++overlap;
+          auto same = std::find_if(overlap_normals.begin(), overlap_normals.end(),
+                                   [&](const auto& e) { return e.first.dot(nrm) > 0.996f; });
+          if (same == overlap_normals.end()) {
+            overlap_normals.emplace_back(nrm, 1);
+          } else {
+            ++same->second;
+          }
         }
       }
     }
@@ -246,7 +272,11 @@ IrmSuiteScene::IrmSuiteScene(std::uint64_t seed, const IrmSuiteSize& size) {
     check_lit = lit / grid;
     check_shadow = shadow / grid;
     check_cast = cast / grid;
-    accepted = check_lit >= kMinLitShare && check_shadow >= kMinShadowShare && check_cast >= kMinCastShare;
+    check_overlap = surface > 0 ? static_cast<double>(overlap) / surface : 0.0;
+    check_overlap_normals = static_cast<int>(std::count_if(overlap_normals.begin(), overlap_normals.end(),
+                                                           [](const auto& e) { return e.second >= kMinNormalPixels; }));
+    accepted = check_lit >= kMinLitShare && check_shadow >= kMinShadowShare && check_cast >= kMinCastShare &&
+               check_overlap >= kMinOverlap && check_overlap_normals >= kMinOverlapNormals;
     if (accepted || redraws == kMaxRedraws) break;
   }
 
@@ -268,6 +298,7 @@ std::string IrmSuiteScene::Describe() const {
     << std::setprecision(2) << kPi * source_light.light.sky_radiance.z() / source_light.light.sun_irradiance.x()
     << " -> " << kPi * target_light.light.sky_radiance.z() / target_light.light.sun_irradiance.x()
     << "; cameras at boxes " << source_box << "/" << target_box << "; " << redraws << " redraws";
+  s << std::setprecision(2) << "; overlap " << check_overlap << " (" << check_overlap_normals << " normals)";
   if (!accepted) s << std::setprecision(3) << " (check failed: lit " << check_lit << ", shadow " << check_shadow << ")";
   return s.str();
 }

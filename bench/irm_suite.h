@@ -4,7 +4,8 @@
 // irm::testing::Render (Lambertian, sun + uniform sky occluded by the scene).
 //
 // The draw depends on the seed only, not on the image size: the source view must show both
-// lit and shadowed surfaces (checked on a fixed 80 x 56 grid of the source camera's rays), else
+// lit and shadowed surfaces, and the target camera must see enough of what it sees (checked on
+// a fixed 80 x 56 grid of the source camera's rays, irm_suite.cc says how much), else
 // the lights and cameras are drawn again from the same random stream, at most kMaxRedraws times.
 #pragma once
 
@@ -59,6 +60,10 @@ class IrmSuiteScene {
   // The check's shares of the source view (fixed grid, the sun's centre ray): lit at both
   // times, shadowed (cast or attached) at either, and cast shadow at either.
   double check_lit = 0, check_shadow = 0, check_cast = 0;
+  // The share of the source's surface pixels the target camera sees too, and the distinct
+  // normals among them.
+  double check_overlap = 0;
+  int check_overlap_normals = 0;
   RadianceImage source, target, truth;  // truth: the source camera under the target light
   // Per-pixel truth sun fractions of the source camera at both times; NaN where the sun is
   // behind the surface (an attached shadow, metrics::ClassifySunRegion's shadow) or no surface.
