@@ -232,6 +232,33 @@ TEST(IrmTest, OneMapGivesShadowedPixelsTheModelNotTheLitRatio) {
   }
 }
 
+TEST(IrmTest, OneMapWithoutAModelLeavesShadowedPixelsWithoutARatio) {
+  // Two normals only: too few for the model. Lit pixels read the map; shadowed ones have no
+  // ratio rather than the lit one.
+  const Truth truth;
+  std::vector<Sample> samples;
+  for (const Eigen::Vector3f& n : {Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(0.6f, 0, 0.8f)}) {
+    for (int i = 0; i < 10; ++i) {
+      Sample s;
+      s.normal = n;
+      s.source_rgb = truth.Irradiance(n, 1.0f, true);
+      s.target_rgb = truth.Irradiance(n, 1.0f, false);
+      samples.push_back(s);
+    }
+  }
+  const IrmSet set = BuildIrms(samples, truth.sun_s, truth.sun_t, IrmOptions{});
+  ASSERT_TRUE(set.single_map);
+  ASSERT_FALSE(set.model.valid);
+  const RatioTable table(set);
+  const Eigen::Vector3f n(0, 0, 1);
+  EXPECT_LT((set.Ratio(n, 1.0f, 1.0f) - truth.Ratio(n, 1.0f, 1.0f)).norm(), 1e-4f);
+  EXPECT_LT((table.Ratio(n, 1.0f, 1.0f) - truth.Ratio(n, 1.0f, 1.0f)).norm(), 1e-4f);
+  for (const auto& [fs, ft] : {std::pair{0.0f, 1.0f}, std::pair{1.0f, 0.0f}, std::pair{0.5f, 1.0f}}) {
+    EXPECT_FALSE(set.Ratio(n, fs, ft).allFinite()) << fs << " " << ft;
+    EXPECT_FALSE(table.Ratio(n, fs, ft).allFinite()) << fs << " " << ft;
+  }
+}
+
 TEST(IrmTest, FourMapsWhenTheSkipIsTurnedOffAndTheSameRatios) {
   // The planner bench's forced run: all four maps filled, the lit-to-lit ratios unchanged.
   const Truth truth;
