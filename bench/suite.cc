@@ -90,16 +90,17 @@ bool SuiteResult::MeetsGoal() const {
 const std::vector<SuiteEntry>& Suites() {
   // One line per suite; bench/suites.h declares the functions.
   static const std::vector<SuiteEntry> suites = {
+      {"hdr-random-response", "hdr", "HDR radiance, 5 frames, random monotone responses", RunHdrSuite},
       {"sh-ideal-depth", "sh",
        "RGB-D SH lighting + relighting, exact depth, random objects under random lamps and sky (no cast shadows)",
        RunShIdealDepthSuite},
       {"sh-kinect-noise", "sh", "as sh-ideal-depth with Kinect-like depth noise", RunShKinectNoiseSuite},
       {"sh-smooth-light", "sh", "as sh-ideal-depth under smooth lights (sky and broad lobes) that SH can represent",
        RunShSmoothLightSuite},
+      {"irm-outdoor", "irm", "IRM relighting on random outdoor scenes: lit, shadow, penumbra", RunIrmSuite},
       {"radiosity-rooms", "radiosity",
        "reflectance estimation with radiosity indirect light, random furnished rooms, per-material albedo",
        RunRadiositySuite},
-      {"hdr-random-response", "hdr", "HDR radiance, 5 frames, random monotone responses", RunHdrSuite},
   };
   return suites;
 }

@@ -19,4 +19,7 @@ std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options);
 // + merge, and OpenCV's beside it, against the merge given the true response (bench/hdr_suite.cc).
 std::vector<SuiteResult> RunHdrSuite(const SuiteOptions& options);
 
+// IRM relighting on random outdoor scenes (bench/irm_suite.cc): lit, shadow and penumbra.
+std::vector<SuiteResult> RunIrmSuite(const SuiteOptions& options);
+
 }  // namespace relume::bench

@@ -476,6 +476,12 @@ template <typename MapAt, typename ModelAt>
 Eigen::Vector3f CombineMaps(const IrmSet& set, const MapAt& at, const ModelAt& model_at, float source_sun,
                             float target_sun) {
   if (set.single_map) {
+    // One map holds lit-to-lit ratios only; a pixel in shadow or penumbra at either time (cast
+    // shadows outside the overlap the planner saw) gets the model, which has the sun fractions,
+    // or no ratio without a valid model (2026-12-02, bench/irm_suite.cc: such pixels relit with
+    // the lit map were 90 % off).
+    const bool lit = source_sun >= set.lit_threshold && target_sun >= set.lit_threshold;
+    if (!lit) return model_at();
     const Eigen::Vector3f r = at(MapKind::kLitToLit);
     return Finite(r) ? r : model_at();
   }

@@ -207,6 +207,58 @@ TEST(IrmTest, OneMapWhenNothingIsInCastShadow) {
   EXPECT_EQ(set.maps[1].measured_bins(), 0);
 }
 
+TEST(IrmTest, OneMapGivesShadowedPixelsTheModelNotTheLitRatio) {
+  // The planner skipped the shadow maps (no sample in cast shadow where the photographs
+  // overlap), but the source has cast shadows elsewhere: those pixels get the model fitted to
+  // the lit samples, which has the sun fractions; the lit map's ratio would be far off.
+  const Truth truth;
+  std::mt19937 rng(3);
+  const IrmSet set = BuildIrms(MakeSamples(truth, 5000, false, rng), truth.sun_s, truth.sun_t, IrmOptions{});
+  ASSERT_TRUE(set.single_map);
+  ASSERT_TRUE(set.model.valid) << set.model.reason;
+  const RatioTable table(set);
+  for (const Eigen::Vector3f& n : {Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(0.6f, 0, 0.8f)}) {
+    for (const auto& [fs, ft] :
+         {std::pair{0.0f, 1.0f}, std::pair{1.0f, 0.0f}, std::pair{0.0f, 0.0f}, std::pair{0.5f, 1.0f}}) {
+      const Eigen::Vector3f want = truth.Ratio(n, fs, ft);
+      const Eigen::Vector3f got = set.Ratio(n, fs, ft);
+      EXPECT_LT((got - want).cwiseQuotient(want).cwiseAbs().maxCoeff(), 0.02f)
+          << n.transpose() << " " << fs << " " << ft;
+      EXPECT_LT((table.Ratio(n, fs, ft) - got).norm(), 1e-5f * got.norm());
+    }
+    // Lit at both times: the map, as before.
+    EXPECT_LT((set.Ratio(n, 1.0f, 1.0f) - truth.Ratio(n, 1.0f, 1.0f)).norm(),
+              0.02f * truth.Ratio(n, 1.0f, 1.0f).norm());
+  }
+}
+
+TEST(IrmTest, OneMapWithoutAModelLeavesShadowedPixelsWithoutARatio) {
+  // Two normals only: too few for the model. Lit pixels read the map; shadowed ones have no
+  // ratio rather than the lit one.
+  const Truth truth;
+  std::vector<Sample> samples;
+  for (const Eigen::Vector3f& n : {Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(0.6f, 0, 0.8f)}) {
+    for (int i = 0; i < 10; ++i) {
+      Sample s;
+      s.normal = n;
+      s.source_rgb = truth.Irradiance(n, 1.0f, true);
+      s.target_rgb = truth.Irradiance(n, 1.0f, false);
+      samples.push_back(s);
+    }
+  }
+  const IrmSet set = BuildIrms(samples, truth.sun_s, truth.sun_t, IrmOptions{});
+  ASSERT_TRUE(set.single_map);
+  ASSERT_FALSE(set.model.valid);
+  const RatioTable table(set);
+  const Eigen::Vector3f n(0, 0, 1);
+  EXPECT_LT((set.Ratio(n, 1.0f, 1.0f) - truth.Ratio(n, 1.0f, 1.0f)).norm(), 1e-4f);
+  EXPECT_LT((table.Ratio(n, 1.0f, 1.0f) - truth.Ratio(n, 1.0f, 1.0f)).norm(), 1e-4f);
+  for (const auto& [fs, ft] : {std::pair{0.0f, 1.0f}, std::pair{1.0f, 0.0f}, std::pair{0.5f, 1.0f}}) {
+    EXPECT_FALSE(set.Ratio(n, fs, ft).allFinite()) << fs << " " << ft;
+    EXPECT_FALSE(table.Ratio(n, fs, ft).allFinite()) << fs << " " << ft;
+  }
+}
+
 TEST(IrmTest, FourMapsWhenTheSkipIsTurnedOffAndTheSameRatios) {
   // The planner bench's forced run: all four maps filled, the lit-to-lit ratios unchanged.
   const Truth truth;

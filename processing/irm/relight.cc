@@ -337,7 +337,9 @@ struct PixelCounts {
 // What every pixel on one triangle shares: whether it casts its own sun rays (a vertex
 // without a fraction, or with exact_shadow_edges a shadow edge across the triangle) or sky rays
 // (a vertex without a sky view), and for a flat triangle (three equal vertex normals, as on
-// every box, wall and split mesh) its normal and the ratio table's terms for it.
+// every box, wall and split mesh) its normal and the ratio table's terms for it. Also own sky
+// rays, with exact_shadow_edges, where the vertices' sky views span more than
+// kSkyViewEdgeSpread.
 struct TriangleTerms {
   int triangle = -1;
   // The vertices' fractions and sky views (NaN without sky views), read once per triangle.
@@ -379,6 +381,13 @@ bool MixedAt(const std::vector<float>& f, const Eigen::Vector3i& tri) {
   return std::max({a, b, c}) - std::min({a, b, c}) > 1e-3f;
 }
 
+// The largest difference between a triangle's three vertex values.
+float SpreadAt(const std::vector<float>& f, const Eigen::Vector3i& tri) {
+  const float a = f[static_cast<std::size_t>(tri[0])], b = f[static_cast<std::size_t>(tri[1])],
+              c = f[static_cast<std::size_t>(tri[2])];
+  return std::max({a, b, c}) - std::min({a, b, c});
+}
+
 bool AnyNaN(const std::vector<float>& f, const Eigen::Vector3i& tri) {
   return std::isnan(f[static_cast<std::size_t>(tri[0])]) || std::isnan(f[static_cast<std::size_t>(tri[1])]) ||
          std::isnan(f[static_cast<std::size_t>(tri[2])]);
@@ -407,7 +416,8 @@ void PrepareTriangle(const PixelContext& c, int triangle, NormalTermsCache& norm
     t.own_source = c.options.exact_shadow_edges && MixedAt(c.sun_source, tri);
     t.own_target = c.options.exact_shadow_edges && MixedAt(c.sun_target, tri);
   }
-  t.own_sky = !c.sky_view.empty() && AnyNaN(c.sky_view, tri);
+  t.own_sky = !c.sky_view.empty() && (AnyNaN(c.sky_view, tri) ||
+                                      (c.options.exact_shadow_edges && SpreadAt(c.sky_view, tri) > kSkyViewEdgeSpread));
   const Eigen::Vector3f& n0 = mesh.normals[static_cast<std::size_t>(tri[0])];
   t.flat = n0 == mesh.normals[static_cast<std::size_t>(tri[1])] && n0 == mesh.normals[static_cast<std::size_t>(tri[2])];
   if (t.flat) {
@@ -437,7 +447,7 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
     ++counts.own_sun_rays;
   }
   float sky = std::numeric_limits<float>::quiet_NaN(), moment = std::numeric_limits<float>::quiet_NaN();
-  if (t.own_sky) {  // a vertex outside the view's neighbourhood: the pixel's own rays
+  if (t.own_sky) {  // a vertex outside the view's neighbourhood, or a sky-view edge: own rays
     const SkyView own = SkyViewMoments(caster, caster.Interpolate(mesh.positions, hit), normal, c.options.sky_samples);
     sky = own.view;
     if (!c.sky_moment.empty()) moment = own.zenith_moment;

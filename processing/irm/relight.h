@@ -29,6 +29,11 @@
 
 namespace relume::irm {
 
+// With exact_shadow_edges, a triangle whose vertices' sky views span more than this casts its
+// pixels' own sky-view rays (2026-12-02: on random outdoor scenes, bench/irm_suite.cc, such
+// triangles along walls' feet held 83-99 % of the shadow region's squared error).
+inline constexpr float kSkyViewEdgeSpread = 0.1f;
+
 struct RelightOptions {
   IrmOptions irm;
   int sun_samples = 16;  // rays per vertex over the sun's disk
@@ -43,7 +48,10 @@ struct RelightOptions {
   float sun_angular_radius_rad = 0.5f * 0.533f * 3.14159265f / 180.0f;
   bool use_penumbra_fractions = true;
   // Pixels on triangles whose vertices disagree about the sun (a shadow edge crosses them)
-  // get their own sun fraction by ray casting instead of the interpolated one.
+  // get their own sun fraction by ray casting instead of the interpolated one; likewise their
+  // own sky view where the vertices' sky views differ by more than kSkyViewEdgeSpread (a
+  // vertex under a wall: ground that runs beneath a building sees no sky there, and its
+  // triangle's visible part would get a fraction of its sky view).
   bool exact_shadow_edges = true;
   int threads = 2;
   bool IsValid(std::string* why) const;

@@ -1,6 +1,8 @@
 // The per-pixel stage of IRM relighting written as plainly as its definition (docs/irm.md,
 // "Method" 6): each pixel's camera ray, its interpolated normal, sun fractions and sky view, its
-// own sun rays where a shadow edge crosses its triangle or a vertex has no fraction, and
+// own sun rays where a shadow edge crosses its triangle or a vertex has no fraction, its own sky
+// rays where a vertex has no sky view or (exact_shadow_edges) the vertices' sky views span more
+// than kSkyViewEdgeSpread, and
 // IrmSet::Ratio. Test code only: RelightPixels must give the same images up to float rounding
 // (it bakes the IRMs into a RatioTable, traces rays in packets and writes each pixel once).
 #pragma once
@@ -66,7 +68,12 @@ inline RelightResult RelightPixelsByDefinition(const RayCaster& caster, const Vi
       if (!source_geometry.sky_view.empty()) {
         sky = caster.Interpolate(source_geometry.sky_view, hit);
         if (!source_geometry.sky_moment.empty()) moment = caster.Interpolate(source_geometry.sky_moment, hit);
-        if (std::isnan(sky)) {
+        const auto& v = source_geometry.sky_view;
+        const float v0 = v[static_cast<std::size_t>(tri[0])], v1 = v[static_cast<std::size_t>(tri[1])],
+                    v2 = v[static_cast<std::size_t>(tri[2])];
+        const bool sky_edge =
+            options.exact_shadow_edges && std::max({v0, v1, v2}) - std::min({v0, v1, v2}) > kSkyViewEdgeSpread;
+        if (std::isnan(sky) || sky_edge) {
           const SkyView own = SkyViewMoments(caster, point, normal, options.sky_samples);
           sky = own.view;
           if (!source_geometry.sky_moment.empty()) moment = own.zenith_moment;
