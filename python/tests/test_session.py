@@ -1,0 +1,99 @@
+"""relume.Session and relume.process on a session captured with the CLI, against what the CLI
+reads and writes for the same session."""
+import datetime
+
+import numpy as np
+import pytest
+
+import relume
+from conftest import read_json
+
+
+def without_timings(value):
+    """A summary's metrics less the wall-clock figures (keys ending in _s or seconds)."""
+    if isinstance(value, dict):
+        return {k: without_timings(v) for k, v in value.items() if not k.endswith(("_s", "seconds"))}
+    if isinstance(value, list):
+        return [without_timings(v) for v in value]
+    return value
+
+
+def test_session_frames_carry_their_metadata(tiny_session):
+    session = relume.Session(tiny_session)
+    frames = session.frames
+    assert len(frames) == 3  # sim-tiny-irm: brackets of one and two raw frames
+    assert {f["stream"] for f in frames} == {"still"}
+    assert sorted({f["bracket_id"] for f in frames}) == [b["id"] for b in session.brackets]
+    site = session.info["site"]
+    for f in frames:
+        utc = datetime.datetime.fromisoformat(f["utc"].replace("Z", "+00:00"))
+        assert utc.timestamp() == pytest.approx(f["unix_seconds"], abs=1e-3)
+        assert f["exposure_time_s"] > 0.0
+        # The recorder stored the sun from the same library with its default atmosphere.
+        elevation, azimuth = relume.sun_positions(f["unix_seconds"], site["lat_deg"], site["lon_deg"],
+                                                  site["height_m"])
+        assert elevation == pytest.approx(f["sun_elevation_deg"], abs=1e-6)
+        assert azimuth == pytest.approx(f["sun_azimuth_deg"], abs=1e-6)
+
+
+def test_load_image_returns_the_stored_pixels(tiny_session):
+    session = relume.Session(tiny_session)
+    frame = session.frames[0]
+    pixels = session.load_image(frame["id"])
+    assert pixels.shape[:2] == (frame["height"], frame["width"])
+    expected = np.uint8 if frame["bits_per_sample"] <= 8 else np.uint16
+    assert pixels.dtype == expected
+    assert pixels.max() > frame["black_level"]  # not an empty buffer
+    assert pixels.max() <= frame["white_level"]
+
+
+def test_session_errors_raise_with_relumes_message(tiny_session, tmp_path):
+    with pytest.raises(relume.IoError, match="no session here") as error:
+        relume.Session(tmp_path)
+    assert isinstance(error.value, OSError) and error.value.path == str(tmp_path)
+    session = relume.Session(tiny_session)
+    with pytest.raises(relume.InvalidArgumentError, match="has no frame 999"):
+        session.load_image(999)
+    with pytest.raises(relume.InvalidArgumentError, match="not a depth frame"):
+        session.load_depth(session.frames[0]["id"])
+
+
+def test_process_irm_gives_the_numbers_relume_process_writes(tiny_session, tmp_path, cli):
+    selectors = ["--source", "bracket:1", "--target", "bracket:2"]
+    cli("process", tiny_session, "--pipeline", "irm", *selectors, "--out", tmp_path / "cli")
+    expected = read_json(tmp_path / "cli" / "summary.json")
+
+    result = relume.process(tiny_session, "irm", source="bracket:1", target="bracket:2", out_dir=tmp_path / "py")
+    summary = result["pipelines"]["irm"]["summary"]
+    assert summary == read_json(tmp_path / "py" / "summary.json")
+    assert result["report"].endswith("report.html")
+    # Computed afresh (different output folders share no stages), the same figures.
+    assert summary["headline"] == expected["headline"]
+    assert summary["knobs"] == expected["knobs"]
+    assert without_timings(summary["metrics"]) == without_timings(expected["metrics"])
+    assert summary["metrics"]["truth"]["relit"]["relative_rms_lit"] < 0.04
+
+    # The radiance stage that merged the brackets, and the settings as keyword arguments.
+    again = relume.process(tiny_session, "irm", source="bracket:1", target="bracket:2", out_dir=tmp_path / "py",
+                           settings={"bins": 16})
+    knobs = again["pipelines"]["irm"]["summary"]["knobs"]
+    assert knobs["bins"] == 16
+
+
+def test_unknown_settings_are_refused_like_the_cli(tiny_session, tmp_path, cli):
+    refused = cli("process", tiny_session, "--pipeline", "irm", "--set", "binz=16", "--out", tmp_path / "cli",
+                  check=False)
+    assert refused.returncode != 0
+    with pytest.raises(relume.InvalidArgumentError) as error:
+        relume.process(tiny_session, "irm", settings={"binz": 16}, out_dir=tmp_path / "py")
+    message = str(error.value)
+    assert "binz" in message and "bins" in message  # names the key and the closest knob
+    assert message in refused.stderr + refused.stdout
+    assert not (tmp_path / "py" / "summary.json").exists()
+
+
+def test_pipelines_lists_each_pipeline_and_its_knobs():
+    pipelines = {p["name"]: p for p in relume.pipelines()}
+    assert {"radiance", "irm"} <= set(pipelines)
+    bins = [k for k in pipelines["irm"]["knobs"] if k["name"] == "bins"]
+    assert bins and bins[0]["default"] == 32
