@@ -4,12 +4,16 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <cstdint>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "calibration/hdr_merge.h"
+#include "calibration/image_file.h"
 #include "calibration/response.h"
 #include "core/error.h"
 #include "python/bindings.h"
@@ -22,26 +26,44 @@ namespace relume::python {
 
 namespace {
 
-// The bracket as CameraImages over the arrays' buffers; `keep` holds the arrays.
-std::vector<CameraImage> FramesFromArrays(const py::sequence& frames, std::vector<py::array>* keep) {
+// How the frames' samples are stored: None = the dtype's default (uint8: camera-encoded, 8 bits,
+// 0..255; uint16: sensor-linear counts, 16 bits, 0..65535).
+struct SampleLevels {
+  std::optional<int> black_level;
+  std::optional<int> white_level;
+  std::optional<int> bits_per_sample;
+};
+
+// The bracket as CameraImages over the arrays' buffers; `keep` holds the arrays. uint8 frames are
+// camera-encoded, uint16 frames sensor-linear (raw counts); all frames have the first's dtype.
+std::vector<CameraImage> FramesFromArrays(const py::sequence& frames, const SampleLevels& levels,
+                                          std::vector<py::array>* keep) {
   std::vector<CameraImage> images;
+  bool sixteen_bit = false;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const std::string what = "frames[" + std::to_string(i) + "]";
-    py::array array;
-    try {
-      array = py::array::ensure(frames[i]);
-    } catch (py::error_already_set&) {
-      throw InvalidArgumentError(what + ": not an array");
-    }
+    py::array array = py::array::ensure(frames[i]);
     if (!array) throw InvalidArgumentError(what + ": not an array");
-    keep->push_back(ContiguousArray<std::uint8_t>(array, what));
+    if (i == 0) sixteen_bit = array.dtype().equal(py::dtype::of<std::uint16_t>());
+    if (sixteen_bit) {
+      keep->push_back(ContiguousArray<std::uint16_t>(array, what));
+    } else {
+      keep->push_back(ContiguousArray<std::uint8_t>(array, what));
+    }
     CameraImage image;
     image.pixels = MatView(keep->back(), what);
-    image.layout = image.pixels.channels() == 1 ? ColorLayout::kMono : ColorLayout::kRgb;
     if (image.pixels.channels() != 1 && image.pixels.channels() != 3) {
       throw InvalidArgumentError(what + ": expected HxW or HxWx3 (RGB), got " +
                                  std::to_string(image.pixels.channels()) + " channels");
     }
+    image.layout = image.pixels.channels() == 1 ? ColorLayout::kMono : ColorLayout::kRgb;
+    image.encoding = sixteen_bit ? SampleEncoding::kSensorLinear : SampleEncoding::kCameraResponse;
+    image.bits_per_sample = levels.bits_per_sample.value_or(sixteen_bit ? 16 : 8);
+    image.black_level = levels.black_level.value_or(0);
+    image.white_level = levels.white_level.value_or(
+        image.bits_per_sample >= 8 && image.bits_per_sample <= 16 ? (1 << image.bits_per_sample) - 1 : 0);
+    std::string why;
+    if (!image.IsValid(&why)) throw InvalidArgumentError(what + ": " + why);
     images.push_back(std::move(image));
   }
   return images;
@@ -106,7 +128,7 @@ py::tuple RecoverResponse(const py::sequence& frames, const std::vector<double>&
   options.seed = seed;
   ThrowIfInvalid(options, "recover_response");
   std::vector<py::array> keep;
-  const std::vector<CameraImage> images = FramesFromArrays(frames, &keep);
+  const std::vector<CameraImage> images = FramesFromArrays(frames, SampleLevels{}, &keep);
   calibration::ResponseResult result;
   {
     py::gil_scoped_release release;
@@ -115,17 +137,30 @@ py::tuple RecoverResponse(const py::sequence& frames, const std::vector<double>&
   return py::make_tuple(ResponseToArray(result.response), ResponseSummaryToDict(result.summary));
 }
 
-py::object MergeHdr(const py::sequence& frames, const std::vector<double>& exposure_times_s, const py::array& response,
-                    int black_margin, int saturation_margin, bool weight_by_exposure, int threads, bool full_output) {
+py::object MergeHdr(const py::sequence& frames, const std::vector<double>& exposure_times_s, const py::object& response,
+                    int black_margin, int saturation_margin, bool weight_by_exposure, int threads, bool full_output,
+                    std::optional<int> black_level, std::optional<int> white_level,
+                    std::optional<int> bits_per_sample) {
   calibration::HdrMergeOptions options;
   options.black_margin = black_margin;
   options.saturation_margin = saturation_margin;
   options.weight_by_exposure = weight_by_exposure;
   options.threads = threads;
   ThrowIfInvalid(options, "merge_hdr");
-  const calibration::CameraResponse camera_response = ResponseFromArray(response);
   std::vector<py::array> keep;
-  const std::vector<CameraImage> images = FramesFromArrays(frames, &keep);
+  const std::vector<CameraImage> images =
+      FramesFromArrays(frames, SampleLevels{black_level, white_level, bits_per_sample}, &keep);
+  calibration::CameraResponse camera_response;
+  if (py::isinstance<py::str>(response)) {
+    if (response.cast<std::string>() != "linear") {
+      throw InvalidArgumentError("merge_hdr: response '" + response.cast<std::string>() +
+                                 "' is unknown; give recover_response's array or 'linear' (sensor-linear frames)");
+    }
+    if (images.empty()) throw InvalidArgumentError("merge_hdr: no frames");
+    camera_response = calibration::SensorLinearResponse(images.front());
+  } else {
+    camera_response = ResponseFromArray(py::array::ensure(response));
+  }
   calibration::HdrMergeResult result;
   {
     py::gil_scoped_release release;
@@ -145,9 +180,21 @@ py::object MergeHdr(const py::sequence& frames, const std::vector<double>& expos
                         summary);
 }
 
+py::array LoadRadianceExr(const std::filesystem::path& path) {
+  cv::Mat pixels;
+  {
+    py::gil_scoped_release release;
+    pixels = calibration::LoadRadianceExr(path.string()).pixels;
+  }
+  return MatToArray(std::move(pixels));
+}
+
 }  // namespace
 
 void BindHdr(py::module_& m) {
+  m.def("load_radiance_exr", &LoadRadianceExr, "path"_a,
+        "Reads a radiance EXR that relume wrote (a pipeline's radiance.exr, relit.exr, ...) as float32 HxWx3 "
+        "(RGB) or HxW. Raises relume.IoError when it cannot be read.");
   const calibration::ResponseOptions response_defaults;
   m.def("recover_response", &RecoverResponse, "frames"_a, "exposure_times_s"_a, py::kw_only(),
         "method"_a = ToString(response_defaults.method), "sample_count"_a = response_defaults.sample_count,
@@ -180,17 +227,23 @@ Raises:
   m.def("merge_hdr", &MergeHdr, "frames"_a, "exposure_times_s"_a, "response"_a, py::kw_only(),
         "black_margin"_a = merge_defaults.black_margin, "saturation_margin"_a = merge_defaults.saturation_margin,
         "weight_by_exposure"_a = merge_defaults.weight_by_exposure, "threads"_a = merge_defaults.threads,
-        "full_output"_a = false,
+        "full_output"_a = false, "black_level"_a = py::none(), "white_level"_a = py::none(),
+        "bits_per_sample"_a = py::none(),
         R"doc(Merges a bracket into linear radiance (Debevec & Malik eq. 6).
 
 Args:
-    frames: uint8 arrays, HxWx3 (RGB) or HxW, as for recover_response.
-    exposure_times_s: each frame's exposure time in seconds.
-    response: the (channels, 256) array recover_response returns.
+    frames: uint8 arrays, HxWx3 (RGB) or HxW, camera-encoded as for recover_response; or
+        uint16 arrays of sensor-linear counts (raw, e.g. Session.load_image of a raw frame).
+    exposure_times_s: each frame's exposure time in seconds (relative units are fine; relume's
+        pipelines use t * ISO / 100).
+    response: the (channels, levels) array recover_response returns, or 'linear' for
+        sensor-linear uint16 frames (linear between black_level and white_level).
     black_margin, saturation_margin: codes within these of black / saturation get zero weight.
     weight_by_exposure: weight samples by exposure time as well (favours long exposures).
     threads: 0 = every core. The GIL is released while merging.
     full_output: also return the per-pixel status and contributors and a summary.
+    black_level, white_level, bits_per_sample: how the samples are stored (a session frame's
+        fields of the same names); default 0, the largest value and the dtype's bits.
 
 Returns:
     radiance: float32 HxWx3 (or HxW), relative units X(z) / t, i.e. radiance up to one scale per

@@ -97,3 +97,27 @@ def test_pipelines_lists_each_pipeline_and_its_knobs():
     assert {"radiance", "irm"} <= set(pipelines)
     bins = [k for k in pipelines["irm"]["knobs"] if k["name"] == "bins"]
     assert bins and bins[0]["default"] == 32
+
+
+def relative_exposure(frame):
+    """The relative exposure relume's pipelines merge with: t * ISO / 100 (pipeline/radiance.cc)."""
+    t = frame["exposure_time_s"]
+    return t * frame["iso"] / 100.0 if frame["iso"] else t
+
+
+def test_merging_a_bracket_in_python_gives_the_radiance_relume_process_writes(tiny_session, tmp_path, cli):
+    """Issue 22: a captured session's bracket merged from Python, the same numbers as `relume process`."""
+    cli("process", tiny_session, "--pipeline", "radiance", "--out", tmp_path / "cli")
+    summary = read_json(tmp_path / "cli" / "summary.json")
+    session = relume.Session(tiny_session)
+    for bracket in summary["metrics"]["brackets"]:
+        frames = [f for f in session.frames if f["id"] in bracket["frames"]]
+        assert frames and all(f["encoding"] == "sensor_linear" for f in frames)
+        pixels = [session.load_image(f["id"]) for f in frames]
+        assert all(p.dtype == np.uint16 for p in pixels)
+        radiance = relume.merge_hdr(pixels, [relative_exposure(f) for f in frames], "linear",
+                                    black_level=frames[0]["black_level"], white_level=frames[0]["white_level"],
+                                    bits_per_sample=frames[0]["bits_per_sample"])
+        expected = relume.load_radiance_exr(tmp_path / "cli" / bracket["exr"])
+        assert radiance.shape == expected.shape and radiance.dtype == expected.dtype == np.float32
+        assert np.array_equal(radiance, expected, equal_nan=True), np.nanmax(np.abs(radiance - expected))
