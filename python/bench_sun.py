@@ -36,7 +36,7 @@ def main():
     cases = [
         ("a time series at one site (the CLI's SunTrack path)",
          lambda: relume.sun_positions(series, 37.9715, 23.7257, threads=args.threads)),
-        ("random times at one site (one full SPA per position)",
+        ("random times at one site (sorted inside, then the SunTrack path)",
          lambda: relume.sun_positions(random_times, 37.9715, 23.7257, threads=args.threads)),
         ("random times and sites (one full SPA per position)",
          lambda: relume.sun_positions(random_times, lat, lon, threads=args.threads)),

@@ -4,15 +4,18 @@
 // per site and atmosphere, which evaluates the full SPA at nodes 6 h apart and interpolates only
 // the slowly varying terms (< 1e-7 deg from per-call SPA). A track pays off only along a series;
 // an element whose site or atmosphere differs from the previous element's, or whose time is more
-// than a day from it, is computed with one full SPA call (ComputeSunPosition) instead.
+// than a day from it, is computed with one full SPA call (ComputeSunPosition) instead. Times in
+// random order at one site are visited in time order (TimeOrder), so that they share a track.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <string>
 #include <vector>
@@ -62,14 +65,16 @@ UtcTime TimeFromUnixSeconds(double seconds, std::int64_t index) {
   return UtcTime(Nanoseconds(std::llround(seconds * 1e9)));
 }
 
-// The elements [begin, end) of one chunk, with the chunk's own track.
-void SunChunk(const std::array<BroadcastInput, kInputCount>& in, std::int64_t begin, std::int64_t end,
-              double* elevation_deg, double* azimuth_deg) {
+// The elements order[begin..end) (or begin..end when order is null) of one chunk, with the
+// chunk's own track.
+void SunChunk(const std::array<BroadcastInput, kInputCount>& in, const std::int64_t* order, std::int64_t begin,
+              std::int64_t end, double* elevation_deg, double* azimuth_deg) {
   std::optional<SunTrack> track;
   SiteKey previous_key;
   UtcTime previous_time{};
   bool have_previous = false;
-  for (std::int64_t i = begin; i < end; ++i) {
+  for (std::int64_t j = begin; j < end; ++j) {
+    const std::int64_t i = order ? order[j] : j;
     SiteKey key;
     for (int k = kLat; k < kInputCount; ++k) key.values[static_cast<std::size_t>(k)] = in[k].At(i);
     const UtcTime time = TimeFromUnixSeconds(in[kTime].At(i), i);
@@ -99,6 +104,30 @@ void SunChunk(const std::array<BroadcastInput, kInputCount>& in, std::int64_t be
     previous_time = time;
     have_previous = true;
   }
+}
+
+// Instants in random order at one site would each cost a full SPA evaluation; visited in time
+// order, they share the track's nodes (one node per 6 h of the span instead of one SPA per
+// instant: 1 M random instants over two centuries, ~3x faster). The element order to visit, or
+// empty for the given order: when the site and atmosphere are one for all elements, the times are
+// an array of finite values and not sorted already.
+std::vector<std::int64_t> TimeOrder(const std::array<BroadcastInput, kInputCount>& in, std::int64_t count) {
+  constexpr std::int64_t kMinCount = 4096;
+  if (count < kMinCount || !in[kTime].data) return {};
+  for (int k = kLat; k < kInputCount; ++k) {
+    if (in[k].data) return {};
+  }
+  const double* t = in[kTime].data;
+  bool sorted = true;
+  for (std::int64_t i = 0; i < count; ++i) {
+    if (!std::isfinite(t[i])) return {};  // the element loop reports it with its index
+    if (i > 0 && t[i] < t[i - 1]) sorted = false;
+  }
+  if (sorted) return {};
+  std::vector<std::int64_t> order(static_cast<std::size_t>(count));
+  std::iota(order.begin(), order.end(), std::int64_t{0});
+  std::sort(order.begin(), order.end(), [t](std::int64_t a, std::int64_t b) { return t[a] < t[b]; });
+  return order;
 }
 
 py::tuple SunPositions(const py::object& unix_seconds, const py::object& lat_deg, const py::object& lon_deg,
@@ -149,8 +178,13 @@ py::tuple SunPositions(const py::object& unix_seconds, const py::object& lat_deg
   const auto count = static_cast<std::int64_t>(elevation.size());
   {
     py::gil_scoped_release release;
+    const std::vector<std::int64_t> order = TimeOrder(in, count);
+    const std::int64_t* order_data = order.empty() ? nullptr : order.data();
     ParallelFor(
-        0, count, [&](std::int64_t begin, std::int64_t end) { SunChunk(in, begin, end, elevation_data, azimuth_data); },
+        0, count,
+        [&](std::int64_t begin, std::int64_t end) {
+          SunChunk(in, order_data, begin, end, elevation_data, azimuth_data);
+        },
         threads, 16384);
   }
   if (shape.empty()) {  // scalars in, scalars out (numpy float64), as numpy's ufuncs do

@@ -70,14 +70,22 @@ def test_the_spa_papers_example():
     assert azimuth == pytest.approx(194.34024, abs=2e-5)
 
 
-def test_a_series_at_one_site_equals_the_same_instants_in_random_order():
-    # In order, one site: the time-series path. Shuffled: one full SPA evaluation per element.
+def test_the_three_paths_agree():
+    # In order at one site: the time-series path along the given order.
     t = 1750000000.0 + np.arange(0.0, 2 * 86400.0, 7.3)
     elevation, azimuth = relume.sun_positions(t, 64.1, -21.9)
     order = np.random.default_rng(1).permutation(t.size)
+    # Shuffled at one site: visited in time order (sorted inside), the same track path.
     e2, a2 = relume.sun_positions(t[order], 64.1, -21.9)
     assert np.max(np.abs(elevation[order] - e2)) < 1e-6
     assert np.max(angle_difference_deg(azimuth[order], a2)) < 1e-6
+    # Random instants over two centuries: sorted along a track (one site given as a number)
+    # against one full SPA per instant (the site given as an array, elements not reordered).
+    far = np.random.default_rng(2).uniform(-2.2e9, 4.1e9, 20000)
+    e3, a3 = relume.sun_positions(far, 64.1, -21.9)
+    e4, a4 = relume.sun_positions(far, np.full(far.size, 64.1), -21.9)
+    assert np.max(np.abs(e3 - e4)) < 1e-6
+    assert np.max(angle_difference_deg(a3, a4)) < 1e-6
 
 
 def test_arrays_broadcast_like_numpy():
