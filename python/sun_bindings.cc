@@ -108,9 +108,9 @@ void SunChunk(const std::array<BroadcastInput, kInputCount>& in, const std::int6
 
 // Instants in random order at one site would each cost a full SPA evaluation; visited in time
 // order, they share the track's nodes (one node per 6 h of the span instead of one SPA per
-// instant: 1 M random instants over two centuries, ~3x faster). The element order to visit, or
-// empty for the given order: when the site and atmosphere are one for all elements, the times are
-// an array of finite values and not sorted already.
+// instant: 1 M random instants over two centuries, 4-6x faster, docs/python.md). The element
+// order to visit, or empty for the given order: sorted by time when the site and atmosphere are
+// one for all elements and the times are an array of finite values not sorted already.
 std::vector<std::int64_t> TimeOrder(const std::array<BroadcastInput, kInputCount>& in, std::int64_t count) {
   constexpr std::int64_t kMinCount = 4096;
   if (count < kMinCount || !in[kTime].data) return {};
