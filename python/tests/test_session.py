@@ -1,6 +1,8 @@
 """relume.Session and relume.process on a session captured with the CLI, against what the CLI
 reads and writes for the same session."""
 import datetime
+import shutil
+import sqlite3
 
 import numpy as np
 import pytest
@@ -121,3 +123,16 @@ def test_merging_a_bracket_in_python_gives_the_radiance_relume_process_writes(ti
         expected = relume.load_radiance_exr(tmp_path / "cli" / bracket["exr"])
         assert radiance.shape == expected.shape and radiance.dtype == expected.dtype == np.float32
         assert np.array_equal(radiance, expected, equal_nan=True), np.nanmax(np.abs(radiance - expected))
+
+
+def test_a_session_from_a_newer_relume_raises_config_error_like_the_cli(tiny_session, tmp_path, cli):
+    copy = tmp_path / "newer"
+    shutil.copytree(tiny_session, copy)
+    with sqlite3.connect(copy / "session.sqlite") as db:
+        db.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    with pytest.raises(relume.ConfigError, match="written by a newer relume") as error:
+        relume.Session(copy)
+    assert isinstance(error.value, ValueError) and isinstance(error.value, relume.Error)
+    assert error.value.key == "schema_version" and error.value.file.endswith("session.sqlite")
+    refused = cli("session", "info", copy, check=False)
+    assert refused.returncode != 0 and str(error.value) in refused.stderr + refused.stdout
