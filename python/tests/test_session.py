@@ -70,6 +70,8 @@ def test_process_irm_gives_the_numbers_relume_process_writes(tiny_session, tmp_p
     assert summary == read_json(tmp_path / "py" / "summary.json")
     assert result["report"].endswith("report.html")
     # Computed afresh (different output folders share no stages), the same figures.
+    cache_actions = [d["action"] for d in summary["decisions"] if d.get("cache")]
+    assert cache_actions and set(cache_actions) == {"run"}, summary["decisions"]
     assert summary["headline"] == expected["headline"]
     assert summary["knobs"] == expected["knobs"]
     assert without_timings(summary["metrics"]) == without_timings(expected["metrics"])
