@@ -51,6 +51,8 @@ function(relume_add_pch_anchors)
     return()
   endif()
   add_library(relume_pch_library STATIC ${PROJECT_SOURCE_DIR}/cmake/pch_anchor.cc)
+  # Position-independent like every library that reuses its header (relume_add_library).
+  set_target_properties(relume_pch_library PROPERTIES POSITION_INDEPENDENT_CODE ON)
   target_link_libraries(relume_pch_library PRIVATE relume_compile_options Eigen3::Eigen opencv_core
                         nlohmann_json::nlohmann_json)
   target_precompile_headers(relume_pch_library PRIVATE ${RELUME_PCH_HEADERS})
@@ -64,6 +66,8 @@ endfunction()
 function(relume_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(${name} STATIC ${ARG_SOURCES})
+  # -fPIC: the Python module (python/) is a shared object that links these static libraries.
+  set_target_properties(${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(${name} PUBLIC ${ARG_DEPS} PRIVATE relume_compile_options ${ARG_PRIVATE_DEPS})
   if(RELUME_PCH)

@@ -1,0 +1,23 @@
+// The pieces of the `relume` Python module (module.cc assembles them). Each Bind* adds one part
+// of the library's API to the module; docs/python.md describes what Python sees.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace relume::python {
+
+// relume.Error and its subclasses, and the translation of relume's C++ exceptions into them.
+void BindErrors(pybind11::module_& m);
+// relume.sun_positions.
+void BindSun(pybind11::module_& m);
+// relume.recover_response, relume.merge_hdr.
+void BindHdr(pybind11::module_& m);
+// relume.Session.
+void BindSession(pybind11::module_& m);
+// relume.process, relume.pipelines.
+void BindProcess(pybind11::module_& m);
+
+// A JSON value as the equivalent Python object (dict, list, str, float, int, bool, None).
+pybind11::object JsonToPython(const std::string& json_text);
+
+}  // namespace relume::python

@@ -1,0 +1,17 @@
+// The `relume` Python module: numpy in and out, relume's errors as Python exceptions.
+#include <pybind11/pybind11.h>
+
+#include "python/bindings.h"
+
+PYBIND11_MODULE(relume, m) {
+  m.doc() =
+      "relume: sun positions, HDR calibration and merging, recorded sessions and the processing\n"
+      "pipelines, from Python (a binding of relume's library; docs/python.md).\n\n"
+      "Errors raise relume.Error subclasses carrying relume's messages: InvalidArgumentError\n"
+      "(also a ValueError), ConfigError (also a ValueError) and IoError (also an OSError).";
+  relume::python::BindErrors(m);
+  relume::python::BindSun(m);
+  relume::python::BindHdr(m);
+  relume::python::BindSession(m);
+  relume::python::BindProcess(m);
+}

@@ -1,0 +1,201 @@
+// relume.Session: a recorded session read through capture::SessionReader: its site, devices,
+// frames with their metadata (as dicts), brackets, calibrations, and the frames' pixels as numpy
+// arrays.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "capture/session.h"
+#include "core/error.h"
+#include "python/bindings.h"
+#include "python/numpy_mat.h"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace relume::python {
+
+namespace {
+
+std::string Iso(UtcTime time) {
+  return FormatIso8601(time, std::chrono::seconds{0}, 3);
+}
+
+double UnixSeconds(UtcTime time) {
+  return std::chrono::duration<double>(time.time_since_epoch()).count();
+}
+
+py::object Optional(double value) {
+  return std::isnan(value) ? py::object(py::none()) : py::object(py::float_(value));
+}
+
+py::dict FrameToDict(const capture::FrameRecord& f) {
+  py::dict d;
+  d["id"] = f.id;
+  d["device"] = f.device_id;
+  d["stream"] = f.stream;
+  d["bracket_id"] = f.bracket_id ? py::object(py::int_(*f.bracket_id)) : py::object(py::none());
+  d["bracket_index"] = f.bracket_index;
+  d["utc"] = Iso(f.utc);
+  d["unix_seconds"] = UnixSeconds(f.utc);
+  d["sequence"] = f.sequence;
+  d["exposure_time_s"] = Optional(f.exposure.exposure_time_s);
+  d["ev_compensation"] = f.exposure.ev_compensation;
+  d["aperture_f"] = Optional(f.exposure.aperture_f);
+  d["iso"] = Optional(f.exposure.iso);
+  d["gain_db"] = Optional(f.exposure.gain_db);
+  d["file_path"] = f.file_path;
+  d["sha256"] = f.sha256;
+  d["file_format"] = f.file_format;
+  d["layout"] = ToString(f.layout);
+  d["encoding"] = ToString(f.encoding);
+  d["bits_per_sample"] = f.bits_per_sample;
+  d["black_level"] = f.black_level;
+  d["white_level"] = f.white_level;
+  d["width"] = f.width;
+  d["height"] = f.height;
+  d["sun_elevation_deg"] = f.sun_elevation_deg;
+  d["sun_azimuth_deg"] = f.sun_azimuth_deg;
+  d["sun_algorithm"] = f.sun_algorithm;
+  d["sensor_temperature_c"] =
+      f.sensor_temperature_c ? py::object(py::float_(*f.sensor_temperature_c)) : py::object(py::none());
+  return d;
+}
+
+// The session and its frames, read once at open (frames are looked up by id).
+class Session {
+ public:
+  explicit Session(const std::filesystem::path& dir)
+      : reader_(std::make_unique<capture::SessionReader>(dir)), frames_(reader_->Frames()) {}
+
+  std::string path() const { return reader_->dir().string(); }
+  py::dict Info() const {
+    const capture::SessionInfo& info = reader_->info();
+    py::dict d;
+    d["name"] = info.name;
+    d["site"] = py::dict("lat_deg"_a = info.site.latitude_deg(), "lon_deg"_a = info.site.longitude_deg(),
+                         "height_m"_a = info.site.height_m);
+    d["software_version"] = info.software_version;
+    d["clock"] = info.clock_name;
+    d["created_utc"] = Iso(info.created_utc);
+    d["rig_config"] = info.rig_config;
+    return d;
+  }
+  py::list Frames() const {
+    py::list out;
+    for (const capture::FrameRecord& f : frames_) out.append(FrameToDict(f));
+    return out;
+  }
+  py::list Devices() const {
+    py::list out;
+    for (const drivers::DeviceInfo& d : reader_->Devices()) {
+      out.append(py::dict("id"_a = d.FullId(), "backend"_a = d.backend, "model"_a = d.model, "serial"_a = d.serial,
+                          "address"_a = d.address, "details"_a = d.details));
+    }
+    return out;
+  }
+  py::list Brackets() const {
+    py::list out;
+    for (const capture::BracketRecord& b : reader_->Brackets()) {
+      out.append(py::dict("id"_a = b.id, "device"_a = b.device_id, "started_utc"_a = Iso(b.started_utc),
+                          "planned_count"_a = b.planned_count, "status"_a = b.status, "reason"_a = b.reason));
+    }
+    return out;
+  }
+  py::list Calibrations() const {
+    py::list out;
+    for (const capture::CalibrationRecord& c : reader_->Calibrations()) {
+      out.append(py::dict("id"_a = c.id, "created_utc"_a = Iso(c.created_utc), "kind"_a = c.kind,
+                          "device"_a = c.device_id, "data"_a = JsonToPython(c.json),
+                          "source_frame_ids"_a = c.source_frame_ids));
+    }
+    return out;
+  }
+  py::list Events() const {
+    py::list out;
+    for (const capture::EventRecord& e : reader_->Events()) {
+      out.append(py::dict("id"_a = e.id, "utc"_a = Iso(e.utc), "device"_a = e.device_id, "type"_a = e.type,
+                          "message"_a = e.message));
+    }
+    return out;
+  }
+  py::array LoadImage(std::int64_t frame_id, bool verify_checksum) const {
+    const capture::FrameRecord& frame = Find(frame_id);
+    cv::Mat pixels;
+    {
+      py::gil_scoped_release release;
+      pixels = reader_->LoadImage(frame, verify_checksum).pixels;
+    }
+    return MatToArray(std::move(pixels));
+  }
+  py::array LoadDepth(std::int64_t frame_id, bool verify_checksum) const {
+    const capture::FrameRecord& frame = Find(frame_id);
+    if (frame.stream != "depth") {
+      throw InvalidArgumentError("load_depth: frame " + std::to_string(frame_id) + " is a " + frame.stream +
+                                 " frame, not a depth frame (load_image reads it)");
+    }
+    cv::Mat depth;
+    {
+      py::gil_scoped_release release;
+      depth = reader_->LoadDepth(frame, verify_checksum);
+    }
+    return MatToArray(std::move(depth));
+  }
+
+ private:
+  const capture::FrameRecord& Find(std::int64_t frame_id) const {
+    for (const capture::FrameRecord& f : frames_) {
+      if (f.id == frame_id) return f;
+    }
+    throw InvalidArgumentError("session " + path() + " has no frame " + std::to_string(frame_id) + " (it has " +
+                               std::to_string(frames_.size()) + " frames; Session.frames lists them)");
+  }
+
+  std::unique_ptr<capture::SessionReader> reader_;
+  std::vector<capture::FrameRecord> frames_;
+};
+
+}  // namespace
+
+void BindSession(py::module_& m) {
+  py::class_<Session>(m, "Session", R"doc(A recorded session (`relume capture`), read-only.
+
+    session = relume.Session("out/demo/session")
+    for f in session.frames: print(f["id"], f["device"], f["utc"], f["sun_elevation_deg"])
+    pixels = session.load_image(session.frames[0]["id"])
+
+Raises relume.IoError (an OSError) when the folder holds no session.)doc")
+      .def(py::init<std::filesystem::path>(), "path"_a, "Opens the session folder (read-only).")
+      .def_property_readonly("path", &Session::path, "The session folder.")
+      .def_property_readonly("info", &Session::Info,
+                             "dict: name, site (lat_deg, lon_deg, height_m), software_version, clock, created_utc, "
+                             "rig_config (the rig's YAML).")
+      .def_property_readonly(
+          "frames", &Session::Frames,
+          "list of dicts, one per frame in acknowledgement order: id, device, stream ('still', 'color' or 'depth'), "
+          "bracket_id, bracket_index, utc (ISO 8601), unix_seconds, exposure_time_s, ev_compensation, aperture_f, "
+          "iso, gain_db (None when unknown), file_path, sha256, file_format, layout, encoding, bits_per_sample, "
+          "black_level, white_level, width, height, sun_elevation_deg, sun_azimuth_deg, sun_algorithm, "
+          "sensor_temperature_c.")
+      .def_property_readonly("devices", &Session::Devices,
+                             "list of dicts: id, backend, model, serial, address, details.")
+      .def_property_readonly("brackets", &Session::Brackets,
+                             "list of dicts: id, device, started_utc, planned_count, status, reason.")
+      .def_property_readonly("calibrations", &Session::Calibrations,
+                             "list of dicts: id, created_utc, kind, device, data (the parsed JSON), source_frame_ids.")
+      .def_property_readonly("events", &Session::Events, "list of dicts: id, utc, device, type, message.")
+      .def("load_image", &Session::LoadImage, "frame_id"_a, py::kw_only(), "verify_checksum"_a = true,
+           R"doc(A still or colour frame's pixels as stored: uint8 or uint16, HxWx3 in RGB order, or HxW
+(mono or a raw Bayer mosaic; the frame's layout, black_level and white_level say which).
+Raises relume.IoError when the file is missing, its checksum differs or it cannot be decoded.)doc")
+      .def("load_depth", &Session::LoadDepth, "frame_id"_a, py::kw_only(), "verify_checksum"_a = true,
+           "A depth frame as float32 HxW metres, NaN where there was no measurement.");
+}
+
+}  // namespace relume::python
