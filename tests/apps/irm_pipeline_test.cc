@@ -206,9 +206,10 @@ TEST(IrmAccuracyTest, NoiseFreeRelightingBeatsTheBaselineInEveryRegion) {
   EXPECT_LT(bits.relit.lit, 0.01);
   EXPECT_LT(bits.relit.all, 0.2 * bits.baseline.all);
   // The world's sky is twice as bright at the horizon as at the zenith (in red): weighing every
-  // sky direction alike, the ground that sees mostly zenith is misjudged (2.5% in shadow).
+  // sky direction alike, the ground that sees mostly zenith is misjudged (2.4% in shadow; 1.45%
+  // since oblique ground gives samples, 2026-12-02, against 0.97% with the sky's shape).
   const NoiseFreeCase uniform = RunNoiseFree(true, /*sky_gradient=*/false);
-  EXPECT_GT(uniform.relit.shadow, 1.5 * with.relit.shadow);
+  EXPECT_GT(uniform.relit.shadow, 1.4 * with.relit.shadow);
 }
 
 // RelightPixels against its plain per-pixel definition (processing/irm/testing_reference.h) on
