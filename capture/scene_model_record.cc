@@ -1,5 +1,6 @@
 #include "capture/scene_model_record.h"
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -212,6 +213,31 @@ std::int64_t StoreSceneModel(const std::filesystem::path& session_dir, const Sce
   record.kind = kSceneModelKind;
   record.json = SceneModelToJson(model);
   return SessionWriter::Append(session_dir)->AddCalibration(record);
+}
+
+std::optional<SceneModel> LatestSceneModel(const std::filesystem::path& session_dir) {
+  const SessionReader reader(session_dir);
+  const std::vector<CalibrationRecord> rows = reader.Calibrations();
+  const CalibrationRecord* row = LatestSceneModelRow(rows);
+  if (row == nullptr) return std::nullopt;
+  return SceneModelFromJson(row->json, session_dir.string() + ": calibration row " + std::to_string(row->id));
+}
+
+std::int64_t SetSceneModelCamera(const std::filesystem::path& session_dir, const SceneModelCamera& camera) {
+  std::optional<SceneModel> model = LatestSceneModel(session_dir);
+  if (!model) {
+    model.emplace();
+    model->site = SessionReader(session_dir).info().site;
+    model->source = "camera calibration";
+  }
+  const auto same = std::find_if(model->cameras.begin(), model->cameras.end(),
+                                 [&camera](const SceneModelCamera& c) { return c.device_id == camera.device_id; });
+  if (same != model->cameras.end()) {
+    *same = camera;
+  } else {
+    model->cameras.push_back(camera);
+  }
+  return StoreSceneModel(session_dir, *model);
 }
 
 const CalibrationRecord* LatestSceneModelRow(const std::vector<CalibrationRecord>& rows) {

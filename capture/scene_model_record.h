@@ -34,6 +34,14 @@ SceneModel SceneModelFromJson(const std::string& json, const std::string& what);
 // process is writing it), InvalidArgumentError for an invalid model.
 std::int64_t StoreSceneModel(const std::filesystem::path& session_dir, const SceneModel& model);
 
+// Stores a new scene model row that is the session's latest model (or, when it has none, an
+// empty one at the session's site) with `camera` added, or replacing the camera of the same
+// device. Returns the row's id. Errors as StoreSceneModel's.
+std::int64_t SetSceneModelCamera(const std::filesystem::path& session_dir, const SceneModelCamera& camera);
+
+// The session's latest scene model, or nothing. IoError when its row is unreadable.
+std::optional<SceneModel> LatestSceneModel(const std::filesystem::path& session_dir);
+
 struct CalibrationRecord;  // capture/session.h
 // The latest kSceneModelKind row (in row order), or null when the session has none.
 const CalibrationRecord* LatestSceneModelRow(const std::vector<CalibrationRecord>& rows);

@@ -1,19 +1,23 @@
 #include "apps/relume/calibrate_command.h"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <opencv2/core.hpp>
 
 #include "calibration/calibration_profile.h"
+#include "calibration/camera_pose.h"
 #include "calibration/colorchecker_detect.h"
 #include "calibration/colorchecker_fit.h"
 #include "calibration/image_file.h"
 #include "calibration/report_plots.h"
 #include "calibration/response.h"
 #include "capture/path_policy.h"
+#include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/error.h"
 #include "core/yaml_file.h"
@@ -434,8 +438,63 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   out << "wrote " << args.out << " and " << dir << "/{chart_detected.png, swatches.png, chart_report.json}\n";
 }
 
+struct CalibratePoseArgs {
+  std::string session;
+  std::string device;
+  std::string gcp;
+  std::string gcp_frame = "enu";
+  int utm_zone = 0;
+  double fov_deg = 0.0;
+  double threshold_px = 3.0;
+};
+
+// A camera's pose from ground control points (calibration/camera_pose.h), stored in the
+// session's scene model (capture/scene_model_record.h). Intrinsics: the scene model's camera of
+// the device, or --fov with the device's frame size.
+void RunCalibratePose(const CalibratePoseArgs& args, std::ostream& out) {
+  const capture::SessionReader reader(args.session);
+  const std::vector<capture::FrameRecord> frames = reader.Frames();
+  const auto frame = std::find_if(frames.begin(), frames.end(), [&args](const capture::FrameRecord& f) {
+    return f.device_id == args.device && f.width > 0;
+  });
+  if (frame == frames.end()) {
+    throw InvalidArgumentError("session " + args.session + " has no decoded frame of device '" + args.device +
+                               "' (`relume session info` lists its devices)");
+  }
+  SceneModelCamera camera;
+  const std::optional<SceneModel> model = capture::LatestSceneModel(args.session);
+  const SceneModelCamera* known = model ? model->FindCamera(args.device) : nullptr;
+  if (args.fov_deg > 0.0) {
+    camera.camera.intrinsics =
+        PinholeIntrinsics::FromHorizontalFov(frame->width, frame->height, args.fov_deg * std::numbers::pi / 180.0);
+    camera.source = "horizontal field of view " + std::to_string(args.fov_deg) + " deg; ";
+  } else if (known != nullptr) {
+    camera = *known;
+    camera.source = "intrinsics from the scene model; ";
+  } else {
+    throw InvalidArgumentError("the pose needs the camera's intrinsics: the session's scene model has no camera '" +
+                               args.device + "'; give --fov DEG (the lens's horizontal field of view)");
+  }
+  camera.device_id = args.device;
+  calibration::CameraPoseOptions options;
+  options.ransac_threshold_px = args.threshold_px;
+  options.distortion = camera.distortion;
+  const std::vector<calibration::GroundControlPoint> points =
+      calibration::LoadGcpFile(args.gcp, args.gcp_frame, reader.info().site, args.utm_zone);
+  const calibration::CameraPoseResult pose = calibration::EstimateCameraPose(points, camera.camera.intrinsics, options);
+  camera.camera.world_from_camera = pose.world_from_camera;
+  camera.reprojection_error_px = pose.rms_px;
+  camera.source += "pose from " + std::to_string(pose.inliers) + " of " + std::to_string(points.size()) +
+                   " ground control points in " + args.gcp + " (" + args.gcp_frame + ")";
+  const std::int64_t row = capture::SetSceneModelCamera(args.session, camera);
+  const Eigen::Vector3d eye = pose.world_from_camera.translation();
+  out << "camera " << args.device << " at (" << eye.x() << ", " << eye.y() << ", " << eye.z() << ") m ENU; residuals:\n"
+      << pose.Report(points) << "stored in " << args.session << " as scene model row " << row << "\n";
+}
+
 void AddCalibrateCommand(CLI::App& app) {
-  CLI::App* calibrate = app.add_subcommand("calibrate", "Radiometric calibration: camera response and ColorChecker");
+  CLI::App* calibrate = app.add_subcommand(
+      "calibrate", "Calibration: camera response, ColorChecker, a camera's pose from control points");
   calibrate->require_subcommand(1);
 
   auto r = std::make_shared<CalibrateResponseArgs>();
@@ -476,6 +535,22 @@ void AddCalibrateCommand(CLI::App& app) {
   chart->add_option("--out", c->out, "Profile JSON to write")->capture_default_str();
   chart->add_option("--report-dir", c->report_dir, "Folder for the report (default: beside --out)");
   chart->callback([c]() { RunCalibrateChart(*c, std::cout); });
+
+  auto p = std::make_shared<CalibratePoseArgs>();
+  CLI::App* pose = calibrate->add_subcommand(
+      "pose", "A camera's pose in the site frame from ground control points; stored in the session's scene model");
+  pose->add_option("--session", p->session, "The session (its site, and where the pose is stored)")->required();
+  pose->add_option("--device", p->device, "The camera's device id (`relume session info`)")->required();
+  pose->add_option("--gcp", p->gcp, "CSV: name,u,v,a,b,c (pixels; a, b, c in --gcp-frame)")->required();
+  pose->add_option("--gcp-frame", p->gcp_frame,
+                   "enu (m at the site), utm (easting, northing, height) or wgs84 "
+                   "(lat, lon deg, ellipsoidal height)")
+      ->capture_default_str();
+  pose->add_option("--utm-zone", p->utm_zone, "UTM zone of --gcp-frame utm (0: the site's)")->capture_default_str();
+  pose->add_option("--fov", p->fov_deg, "Horizontal field of view (deg), when the scene model has no intrinsics");
+  pose->add_option("--threshold", p->threshold_px, "A point further than this (px) is an outlier")
+      ->capture_default_str();
+  pose->callback([p]() { RunCalibratePose(*p, std::cout); });
 }
 
 }  // namespace relume::app
