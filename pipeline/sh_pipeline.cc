@@ -128,7 +128,10 @@ struct Knobs {
            "condition number above which the fit drops to order 1", {"fit"});
     v.Knob("min_solid_angle_order2_sr", fit.fit.min_solid_angle_order2_sr, "solid angle of normals order 2 needs (sr)",
            {"fit"});
-    v.Knob("albedo", albedo, "auto, known (the simulated world's) or unknown (segments + alternating fit)", {"fit"});
+    v.Knob("albedo", albedo,
+           "auto (= unknown), unknown (segments + alternating fit) or truth (the simulated world's per-pixel "
+           "albedo: an evaluation oracle, never a result)",
+           {"fit"});
     v.Knob("segments", segmentation.segment_count, "k-means colour segments (unknown albedo)", {"fit"});
     v.Knob("max_iterations", fit.max_iterations, "alternating light/albedo iterations (unknown albedo)", {"fit"});
     v.Knob("samples", samples.count, "pixels sampled per frame for the fit", {"fit"});
@@ -151,8 +154,14 @@ Knobs ReadKnobs(PipelineRun& run) {
   if (!k.segmentation.IsValid(&why)) throw InvalidArgumentError("--set segments: " + why);
   if (!k.samples.IsValid(&why)) throw InvalidArgumentError("--set samples: " + why);
   if (!k.relight.IsValid(&why)) throw InvalidArgumentError("--set min_irradiance_fraction: " + why);
-  if (k.albedo != "auto" && k.albedo != "known" && k.albedo != "unknown")
-    throw InvalidArgumentError("--set albedo=" + k.albedo + ": expected auto, known or unknown");
+  if (k.albedo == "known") {
+    throw InvalidArgumentError(
+        "--set albedo=known: the SH pipeline has no known per-pixel albedo for a session (the scene model's known "
+        "materials are not used by SH yet); use unknown, or truth for the simulated world's albedo as an evaluation "
+        "oracle");
+  }
+  if (k.albedo != "auto" && k.albedo != "truth" && k.albedo != "unknown")
+    throw InvalidArgumentError("--set albedo=" + k.albedo + ": expected auto, unknown or truth");
   if (!(k.depth_noise_skip_below_m >= 0.0))
     throw InvalidArgumentError("--set depth_noise_skip_below_m must be >= 0 (metres at 1 m; 0 = always filter)");
   if (!(k.reuse_sigmas > 0.0) || !(k.reuse_max_changed_fraction >= 0.0 && k.reuse_max_changed_fraction <= 1.0))
@@ -581,7 +590,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
           k.fit.fit);
       f.light = fit.light;
       summary = fit.summary;
-      extra["albedo"] = "known (the rig's world)";
+      extra["albedo"] = "truth (the simulated world's; an evaluation oracle)";
     } else {
       const processing::Segmentation seg =
           processing::SegmentByColor(radiance.radiance.get(), allowed, geometry.normals.get(), k.segmentation);
@@ -1020,18 +1029,24 @@ ShInputs ReadShInputs(PipelineRun& run, const Knobs& k) {
   return in;
 }
 
-// Known albedo (from the rig's world) or unknown (fitted with the light), and the decision.
+// Unknown albedo (fitted with the light), or with albedo=truth the simulated world's per-pixel
+// albedo as an oracle (the floor of the fit with known reflectance); and the decision.
 bool ChooseAlbedo(PipelineRun& run, const Knobs& k, bool has_world) {
   if (k.true_normals && !has_world) {
     throw InvalidArgumentError("--set true_normals=true needs a simulated session (a world to give the normals)");
   }
-  const bool known_albedo = k.albedo == "known" || (k.albedo == "auto" && has_world);
-  if (k.albedo == "known" && !has_world)
-    throw InvalidArgumentError("--set albedo=known: the session's rig has no world to give the albedo; use unknown");
-  run.Decide("albedo", "choose",
-             known_albedo
-                 ? "known: per-pixel albedo from the rig's world (Ogura et al., colour SH with known reflectance)"
-                 : "unknown: k-means segments + alternating light/albedo fit (Ogura & Saito)");
+  const bool known_albedo = k.albedo == "truth";
+  if (known_albedo && !has_world) {
+    throw InvalidArgumentError(
+        "--set albedo=truth needs a simulated session (a world to give the albedo); use unknown");
+  }
+  if (known_albedo) {
+    run.Decide("albedo", "warn",
+               "truth: per-pixel albedo from the simulated world as input (an evaluation oracle: the fit's floor "
+               "with known reflectance, Ogura et al.), not a result a real session can have");
+  } else {
+    run.Decide("albedo", "choose", "unknown: k-means segments + alternating light/albedo fit (Ogura & Saito)");
+  }
   return known_albedo;
 }
 
@@ -1141,7 +1156,7 @@ void AddShMetrics(PipelineRun& run, const Destination& dst, bool known_albedo, c
   };
   nlohmann::json& metrics = run.metrics();
   metrics["destination"] = dst.description;
-  metrics["albedo"] = known_albedo ? "known" : "unknown";
+  metrics["albedo"] = known_albedo ? "truth" : "unknown";
   metrics["guarded_pixels"] = t.guarded;
   metrics["relit_pixels"] = t.relit_pixels;
   if (!t.irradiance_errors.empty()) metrics["irradiance_relative_rms_mean"] = mean(t.irradiance_errors);
