@@ -46,7 +46,8 @@ nlohmann::json CameraJson(const SceneModelCamera& c) {
           {"world_from_camera", pose},
           {"distortion", c.distortion},
           {"source", c.source},
-          {"reprojection_error_px", c.reprojection_error_px}};
+          {"reprojection_error_px", c.reprojection_error_px},
+          {"has_pose", c.has_pose}};
 }
 
 SceneModelCamera CameraFrom(const nlohmann::json& j) {
@@ -69,6 +70,7 @@ SceneModelCamera CameraFrom(const nlohmann::json& j) {
   c.distortion = j.value("distortion", std::vector<double>{});
   c.source = StringOr(j, "source");
   c.reprojection_error_px = j.value("reprojection_error_px", -1.0);
+  c.has_pose = j.value("has_pose", true);
   return c;
 }
 

@@ -267,7 +267,7 @@ std::string DescribeSession(const fs::path& dir) {
         out << "  camera " << c.device_id << ": " << c.camera.intrinsics.width << "x" << c.camera.intrinsics.height
             << ", fx " << c.camera.intrinsics.fx << " px, at (" << eye.x() << ", " << eye.y() << ", " << eye.z()
             << ") m ENU looking (" << axis.x() << ", " << axis.y() << ", " << axis.z() << ")"
-            << (c.distortion.empty() ? "" : ", with distortion") << "\n";
+            << (c.distortion.empty() ? "" : ", with distortion") << (c.has_pose ? "" : " (NO POSE yet)") << "\n";
       }
     } catch (const Error& e) {
       out << "scene model   unreadable: " << e.what() << "\n";

@@ -42,7 +42,8 @@ struct SceneModelCamera {
   PinholeCamera camera;   // intrinsics and world_from_camera (ENU at the site)
   // OpenCV's model (k1, k2, p1, p2[, k3]); empty: no distortion (or already undistorted).
   std::vector<double> distortion;
-  std::string source;  // where the pose and intrinsics came from ("simulated rig 'x'", "chessboard ...")
+  std::string source;    // where the pose and intrinsics came from ("simulated rig 'x'", "chessboard ...")
+  bool has_pose = true;  // false: intrinsics calibrated, pose not yet (world_from_camera meaningless)
   double reprojection_error_px = -1.0;  // RMS of the calibration that gave them; < 0: not measured
 
   bool IsValid(std::string* why) const;

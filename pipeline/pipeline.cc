@@ -66,6 +66,13 @@ const SceneModelCamera& PipelineRun::RequireCamera(const std::string& device_id,
         "); add the camera to a scene model file and store it with `relume session add-scene-model " +
         session_.dir().string() + " --from FILE` (docs/real-data.md)");
   }
+  if (!camera->has_pose) {
+    throw InvalidArgumentError(purpose + ": camera " + device_id +
+                               " has calibrated intrinsics but no pose in the scene "
+                               "model (" +
+                               scene_model_row_ + "); give it one with `relume calibrate pose --session " +
+                               session_.dir().string() + " --device " + device_id + " --gcp FILE` (docs/real-data.md)");
+  }
   for (double k : camera->distortion) {
     if (k != 0.0) {
       throw InvalidArgumentError(purpose + ": camera " + device_id + " has lens distortion in the scene model (" +

@@ -247,7 +247,8 @@ PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* h
   const std::string intrinsics = "colour intrinsics from the session's rgbd_geometry row " +
                                  std::to_string(recorded.row) + " (fx " + std::to_string(camera.intrinsics.fx) + " px)";
   const SceneModel* model = run.scene_model();
-  if (model != nullptr && model->FindCamera(pair.color.device_id) != nullptr) {
+  if (model != nullptr && model->FindCamera(pair.color.device_id) != nullptr &&
+      model->FindCamera(pair.color.device_id)->has_pose) {
     const SceneModelCamera& device = run.RequireCamera(pair.color.device_id, "the sh pipeline");
     camera.world_from_camera = device.camera.world_from_camera;
     *how = intrinsics + "; pose from the scene model";

@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -14,6 +15,7 @@
 #include "calibration/colorchecker_detect.h"
 #include "calibration/colorchecker_fit.h"
 #include "calibration/image_file.h"
+#include "calibration/intrinsics.h"
 #include "calibration/report_plots.h"
 #include "calibration/response.h"
 #include "capture/path_policy.h"
@@ -438,6 +440,52 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
   out << "wrote " << args.out << " and " << dir << "/{chart_detected.png, swatches.png, chart_report.json}\n";
 }
 
+struct CalibrateIntrinsicsArgs {
+  SessionSource source;
+  std::string board = "9x6";
+  double square_m = 0.025;
+  std::string distortion = "none";
+};
+
+// A camera's intrinsics from chessboard frames of a session (calibration/intrinsics.h), stored in
+// the session's scene model: the camera's pose, when the model has one, is kept.
+void RunCalibrateIntrinsics(const CalibrateIntrinsicsArgs& args, std::ostream& out) {
+  const capture::SessionReader reader(args.source.session);
+  const std::vector<capture::FrameRecord> frames = SessionFrames(reader, args.source);
+  calibration::ChessboardOptions options;
+  if (std::sscanf(args.board.c_str(), "%dx%d", &options.inner_cols, &options.inner_rows) != 2) {
+    throw InvalidArgumentError("--board " + args.board + ": expected inner corners as COLSxROWS, e.g. 9x6");
+  }
+  options.square_m = args.square_m;
+  options.distortion = args.distortion;
+  ThrowIfInvalid(options, "--board/--square/--distortion");
+  std::vector<cv::Mat> images;
+  for (const capture::FrameRecord& f : frames) images.push_back(calibration::ChessboardImage(reader.LoadImage(f)));
+  const calibration::IntrinsicsResult result = calibration::CalibrateIntrinsics(images, options);
+  const std::string device = frames.front().device_id;
+  const std::optional<SceneModel> model = capture::LatestSceneModel(args.source.session);
+  SceneModelCamera camera;
+  camera.has_pose = false;
+  if (const SceneModelCamera* known = model ? model->FindCamera(device) : nullptr) camera = *known;
+  camera.device_id = device;
+  camera.camera.intrinsics = result.intrinsics;
+  camera.distortion = result.distortion;
+  camera.reprojection_error_px = result.rms_px;
+  camera.source = "intrinsics from " + std::to_string(result.views_used.size()) + " chessboard views (" + args.board +
+                  " inner corners, " + std::to_string(args.square_m) + " m squares, --frames " + args.source.frames +
+                  ")" + (camera.has_pose ? "; pose kept from before" : "; no pose yet");
+  const std::int64_t row = capture::SetSceneModelCamera(args.source.session, camera);
+  out << device << ": " << result.Report() << "\n";
+  for (std::size_t i = 0; i < result.views_used.size(); ++i) {
+    out << "  frame " << frames[static_cast<std::size_t>(result.views_used[i])].id << ": " << result.view_rms_px[i]
+        << " px\n";
+  }
+  for (int i : result.views_without_board) {
+    out << "  frame " << frames[static_cast<std::size_t>(i)].id << ": no whole board found (not used)\n";
+  }
+  out << "stored in " << args.source.session << " as scene model row " << row << "\n";
+}
+
 struct CalibratePoseArgs {
   std::string session;
   std::string device;
@@ -484,6 +532,7 @@ void RunCalibratePose(const CalibratePoseArgs& args, std::ostream& out) {
   const calibration::CameraPoseResult pose = calibration::EstimateCameraPose(points, camera.camera.intrinsics, options);
   camera.camera.world_from_camera = pose.world_from_camera;
   camera.reprojection_error_px = pose.rms_px;
+  camera.has_pose = true;
   camera.source += "pose from " + std::to_string(pose.inliers) + " of " + std::to_string(points.size()) +
                    " ground control points in " + args.gcp + " (" + args.gcp_frame + ")";
   const std::int64_t row = capture::SetSceneModelCamera(args.session, camera);
@@ -535,6 +584,21 @@ void AddCalibrateCommand(CLI::App& app) {
   chart->add_option("--out", c->out, "Profile JSON to write")->capture_default_str();
   chart->add_option("--report-dir", c->report_dir, "Folder for the report (default: beside --out)");
   chart->callback([c]() { RunCalibrateChart(*c, std::cout); });
+
+  auto in = std::make_shared<CalibrateIntrinsicsArgs>();
+  CLI::App* intrinsics = calibrate->add_subcommand(
+      "intrinsics", "A camera's intrinsics from chessboard frames; stored in the session's scene model");
+  intrinsics->add_option("--session", in->source.session, "The session with the chessboard frames")->required();
+  intrinsics->add_option("--frames", in->source.frames, "The chessboard frames (ids, bracket:N, DEVICE:still)")
+      ->required();
+  intrinsics->add_option("--board", in->board, "Inner corners COLSxROWS (a 10x7-square board has 9x6)")
+      ->capture_default_str();
+  intrinsics->add_option("--square", in->square_m, "Square size (m)")->capture_default_str();
+  intrinsics
+      ->add_option("--distortion", in->distortion,
+                   "none (pinhole; relume's pipelines take pinhole images), radial (k1, k2) or full")
+      ->capture_default_str();
+  intrinsics->callback([in]() { RunCalibrateIntrinsics(*in, std::cout); });
 
   auto p = std::make_shared<CalibratePoseArgs>();
   CLI::App* pose = calibrate->add_subcommand(
