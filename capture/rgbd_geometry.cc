@@ -7,13 +7,11 @@
 
 namespace relume::capture {
 
-namespace {
-
-nlohmann::json IntrinsicsJson(const PinholeIntrinsics& k) {
+nlohmann::json IntrinsicsToJson(const PinholeIntrinsics& k) {
   return {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}};
 }
 
-PinholeIntrinsics IntrinsicsFrom(const nlohmann::json& j) {
+PinholeIntrinsics IntrinsicsFromJson(const nlohmann::json& j) {
   PinholeIntrinsics k;
   k.width = j.at("width").get<int>();
   k.height = j.at("height").get<int>();
@@ -24,16 +22,14 @@ PinholeIntrinsics IntrinsicsFrom(const nlohmann::json& j) {
   return k;
 }
 
-}  // namespace
-
 std::string RgbdGeometryToJson(const drivers::RgbdFrame& frame) {
   std::vector<double> matrix;
   const Eigen::Matrix4d m = frame.color_from_depth.matrix();
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) matrix.push_back(m(r, c));
   }
-  const nlohmann::json j = {{"depth_intrinsics", IntrinsicsJson(frame.depth_intrinsics)},
-                            {"color_intrinsics", IntrinsicsJson(frame.color_intrinsics)},
+  const nlohmann::json j = {{"depth_intrinsics", IntrinsicsToJson(frame.depth_intrinsics)},
+                            {"color_intrinsics", IntrinsicsToJson(frame.color_intrinsics)},
                             {"registered_to_color", frame.registered_to_color},
                             {"color_from_depth", matrix}};
   return j.dump();
@@ -42,8 +38,8 @@ std::string RgbdGeometryToJson(const drivers::RgbdFrame& frame) {
 void ApplyRgbdGeometryJson(const std::string& json, drivers::RgbdFrame* frame) {
   try {
     const nlohmann::json j = nlohmann::json::parse(json);
-    frame->depth_intrinsics = IntrinsicsFrom(j.at("depth_intrinsics"));
-    frame->color_intrinsics = IntrinsicsFrom(j.at("color_intrinsics"));
+    frame->depth_intrinsics = IntrinsicsFromJson(j.at("depth_intrinsics"));
+    frame->color_intrinsics = IntrinsicsFromJson(j.at("color_intrinsics"));
     frame->registered_to_color = j.at("registered_to_color").get<bool>();
     const std::vector<double> matrix = j.at("color_from_depth").get<std::vector<double>>();
     if (matrix.size() != 16) throw IoError(kRgbdGeometryKind, "color_from_depth must hold 16 numbers");

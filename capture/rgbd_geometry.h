@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,11 @@
 namespace relume::capture {
 
 inline constexpr const char* kRgbdGeometryKind = "rgbd_geometry";
+
+// Intrinsics as {width, height, fx, fy, cx, cy}, the form every session row uses.
+nlohmann::json IntrinsicsToJson(const PinholeIntrinsics& intrinsics);
+// Throws nlohmann::json::exception for a missing or mistyped field (callers name the row).
+PinholeIntrinsics IntrinsicsFromJson(const nlohmann::json& j);
 
 std::string RgbdGeometryToJson(const drivers::RgbdFrame& frame);
 // Sets depth_intrinsics, color_intrinsics, registered_to_color and color_from_depth of

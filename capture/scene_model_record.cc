@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "capture/rgbd_geometry.h"
 #include "capture/session.h"
 #include "core/error.h"
 
@@ -30,36 +31,24 @@ Eigen::Vector3d VecFrom(const nlohmann::json& j) {
 }
 
 nlohmann::json CameraJson(const SceneModelCamera& c) {
-  const PinholeIntrinsics& k = c.camera.intrinsics;
   std::vector<double> pose;
   const Eigen::Matrix4d m = c.camera.world_from_camera.matrix();
   for (int r = 0; r < 4; ++r) {
     for (int col = 0; col < 4; ++col) pose.push_back(m(r, col));
   }
   return {{"device_id", c.device_id},
-          {"width", k.width},
-          {"height", k.height},
-          {"fx", k.fx},
-          {"fy", k.fy},
-          {"cx", k.cx},
-          {"cy", k.cy},
+          {"intrinsics", IntrinsicsToJson(c.camera.intrinsics)},
           {"world_from_camera", pose},
+          {"has_pose", c.has_pose},
           {"distortion", c.distortion},
           {"source", c.source},
-          {"reprojection_error_px", c.reprojection_error_px},
-          {"has_pose", c.has_pose}};
+          {"reprojection_error_px", c.reprojection_error_px}};
 }
 
 SceneModelCamera CameraFrom(const nlohmann::json& j) {
   SceneModelCamera c;
   c.device_id = j.at("device_id").get<std::string>();
-  PinholeIntrinsics& k = c.camera.intrinsics;
-  k.width = j.at("width").get<int>();
-  k.height = j.at("height").get<int>();
-  k.fx = j.at("fx").get<double>();
-  k.fy = j.at("fy").get<double>();
-  k.cx = j.at("cx").get<double>();
-  k.cy = j.at("cy").get<double>();
+  c.camera.intrinsics = IntrinsicsFromJson(j.at("intrinsics"));
   const std::vector<double> pose = j.at("world_from_camera").get<std::vector<double>>();
   if (pose.size() != 16) throw std::invalid_argument("world_from_camera needs 16 numbers");
   Eigen::Matrix4d m;
@@ -67,10 +56,10 @@ SceneModelCamera CameraFrom(const nlohmann::json& j) {
     for (int col = 0; col < 4; ++col) m(r, col) = pose[static_cast<std::size_t>(4 * r + col)];
   }
   c.camera.world_from_camera.matrix() = m;
+  c.has_pose = j.value("has_pose", true);
   c.distortion = j.value("distortion", std::vector<double>{});
   c.source = StringOr(j, "source");
   c.reprojection_error_px = j.value("reprojection_error_px", -1.0);
-  c.has_pose = j.value("has_pose", true);
   return c;
 }
 

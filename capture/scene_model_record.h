@@ -5,8 +5,9 @@
 // applies: a new calibration of a camera's pose is a new row, and the old one stays as a record.
 //
 // Stored form (version 1): {"version": 1, "source", "site": {latitude_deg, longitude_deg,
-// height_m}, "cameras": [{device_id, width, height, fx, fy, cx, cy, world_from_camera (row-major
-// 4x4), distortion, source, reprojection_error_px}], "materials": [{name, albedo?}], "objects":
+// height_m}, "cameras": [{device_id, intrinsics: {width, height, fx, fy, cx, cy},
+// world_from_camera (row-major 4x4), has_pose, distortion, source, reprojection_error_px}], "materials": [{name,
+// albedo?}], "objects":
 // [{name, kind, vertices (flat x y z ...), triangles (flat), face_material, sphere_center,
 // sphere_radius_m, material}], "lamps": [{name, type, intensity_w_sr, direction,
 // cone_half_angle_deg, falloff_deg, track: [{utc_ns, utc, position}]}]}.

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "calibration/image_file.h"
+#include "capture/scene_model_record.h"
 #include "core/error.h"
 #include "core/frames.h"
 #include "pipeline/irm_scene.h"
@@ -172,7 +173,11 @@ SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
           "mesh_frame=utm)");
     }
     g.make = [model = *model, options] { return ProcessingMeshFromModel(model, options); };
-    g.key.Add("scene_model", run.scene_model_json());
+    // Keyed by the geometry alone: a new camera pose or lamp re-runs the views, not the mesh.
+    SceneModel geometry_only = *model;
+    geometry_only.cameras.clear();
+    geometry_only.lamps.clear();
+    g.key.Add("scene_model_geometry", capture::SceneModelToJson(geometry_only));
     run.Decide("mesh", "choose",
                "the session's scene model (" + std::to_string(model->objects.size()) + " objects, " +
                    std::to_string(model->TriangleCount()) + " triangles), split to " +
