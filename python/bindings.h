@@ -16,6 +16,8 @@ void BindHdr(pybind11::module_& m);
 void BindSession(pybind11::module_& m);
 // relume.process, relume.pipelines.
 void BindProcess(pybind11::module_& m);
+// relume.enu_direction, relume.irm_relight.
+void BindIrm(pybind11::module_& m);
 
 // A JSON value as the equivalent Python object (dict, list, str, float, int, bool, None).
 pybind11::object JsonToPython(const std::string& json_text);

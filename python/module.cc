@@ -14,4 +14,5 @@ PYBIND11_MODULE(relume, m) {
   relume::python::BindHdr(m);
   relume::python::BindSession(m);
   relume::python::BindProcess(m);
+  relume::python::BindIrm(m);
 }

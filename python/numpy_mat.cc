@@ -22,6 +22,7 @@ py::array_t<T, py::array::c_style> ContiguousArray(const py::array& array, const
 
 template py::array_t<std::uint8_t, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 template py::array_t<std::uint16_t, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
+template py::array_t<std::int32_t, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 template py::array_t<float, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 template py::array_t<double, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 

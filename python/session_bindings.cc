@@ -13,8 +13,12 @@
 
 #include "capture/session.h"
 #include "core/error.h"
+#include "pipeline/irm_scene.h"
+#include "pipeline/pipeline.h"
 #include "python/bindings.h"
+#include "python/convert.h"
 #include "python/numpy_mat.h"
+#include "rig/rig_config.h"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -157,8 +161,44 @@ class Session {
                                std::to_string(frames_.size()) + " frames; Session.frames lists them)");
   }
 
+  // The rig stored with the session (rig/), read at first use; InvalidArgumentError without one.
+  const rig::RigConfig& Rig(const char* what) const {
+    if (!rig_) rig_ = rig::LoadSessionRig(reader_->dir());
+    if (!rig_) {
+      throw InvalidArgumentError(std::string(what) + ": session " + path() +
+                                 " stored no rig (recorded before sessions kept their rig in rig/)");
+    }
+    return *rig_;
+  }
+
+ public:
+  py::dict Camera(const std::string& device_id) const {
+    const sim::SimDeviceSpec* spec = pipeline::FindDeviceSpec(&Rig("camera"), device_id);
+    if (spec == nullptr) {
+      throw InvalidArgumentError("camera: the session's stored rig describes no simulated device '" + device_id +
+                                 "' (Session.devices lists the session's devices)");
+    }
+    return CameraToPython(spec->camera);
+  }
+  py::dict SceneMesh(double spacing_m, int sphere_segments) const {
+    pipeline::IrmMeshOptions options;
+    options.spacing_m = spacing_m;
+    options.sphere_segments = sphere_segments;
+    ThrowIfInvalid(options, "scene_mesh");
+    const rig::RigConfig& rig = Rig("scene_mesh");
+    if (!rig.world) throw InvalidArgumentError("scene_mesh: the session's rig has no simulated world (scene:)");
+    TriangleMesh mesh;
+    {
+      py::gil_scoped_release release;
+      mesh = pipeline::ProcessingMeshFromScene(rig.world->scene(), options);
+    }
+    return MeshToPython(mesh);
+  }
+
+ private:
   std::unique_ptr<capture::SessionReader> reader_;
   std::vector<capture::FrameRecord> frames_;
+  mutable std::shared_ptr<rig::RigConfig> rig_;
 };
 
 }  // namespace
@@ -194,6 +234,20 @@ Raises relume.IoError (an OSError) when the folder holds no session.)doc")
            R"doc(A still or colour frame's pixels as stored: uint8 or uint16, HxWx3 in RGB order, or HxW
 (mono or a raw Bayer mosaic; the frame's layout, black_level and white_level say which).
 Raises relume.IoError when the file is missing, its checksum differs or it cannot be decoded.)doc")
+      .def("camera", &Session::Camera, "device_id"_a,
+           R"doc(A device's camera as the session's stored rig describes it (simulated rigs):
+dict {'width', 'height', 'fx', 'fy', 'cx', 'cy' (pixels; pixel centres at +0.5),
+'world_from_camera' (float64 4x4, metres, ENU at the site; camera x right, y down, z forward)},
+the camera `relume process` relights with. device_id: 'sim:dslr' or 'dslr' (a frame's 'device').
+For an RGB-D sensor, its depth camera. Raises relume.InvalidArgumentError when the rig has none.)doc")
+      .def("scene_mesh", &Session::SceneMesh, py::kw_only(), "spacing_m"_a = pipeline::IrmMeshOptions{}.spacing_m,
+           "sphere_segments"_a = pipeline::IrmMeshOptions{}.sphere_segments,
+           R"doc(The recorded simulated world as the IRM pipeline's mesh (pipeline/irm_scene.h).
+
+Every triangle split so that no edge exceeds spacing_m (metres; the irm pipeline's
+mesh_spacing_m knob) with its own vertices and flat normal; spheres tessellated with
+sphere_segments around the equator. Returns dict {'positions' (N, 3) float32 metres in ENU at
+the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit}, what irm_relight takes.)doc")
       .def("load_depth", &Session::LoadDepth, "frame_id"_a, py::kw_only(), "verify_checksum"_a = true,
            "A depth frame as float32 HxW metres, NaN where there was no measurement.");
 }
