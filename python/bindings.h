@@ -18,6 +18,11 @@ void BindSession(pybind11::module_& m);
 void BindProcess(pybind11::module_& m);
 // relume.enu_direction, relume.irm_relight.
 void BindIrm(pybind11::module_& m);
+// relume.bilateral_filter_depth, temporal_filter_depth, estimate_depth_noise, estimate_normals,
+// vertex_map.
+void BindDepth(pybind11::module_& m);
+// relume.fit_sh, fit_sh_unknown_albedo, sh_irradiance, sh_radiance, relight_sh.
+void BindSh(pybind11::module_& m);
 
 // A JSON value as the equivalent Python object (dict, list, str, float, int, bool, None).
 pybind11::object JsonToPython(const std::string& json_text);

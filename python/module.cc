@@ -15,4 +15,6 @@ PYBIND11_MODULE(relume, m) {
   relume::python::BindSession(m);
   relume::python::BindProcess(m);
   relume::python::BindIrm(m);
+  relume::python::BindDepth(m);
+  relume::python::BindSh(m);
 }
