@@ -17,4 +17,5 @@ PYBIND11_MODULE(relume, m) {
   relume::python::BindIrm(m);
   relume::python::BindDepth(m);
   relume::python::BindSh(m);
+  relume::python::BindColor(m);
 }
