@@ -26,6 +26,8 @@ void BindSh(pybind11::module_& m);
 // relume.load_colorchecker_reference, detect_colorchecker, chart_from_corners, sample_patches,
 // fit_colorchecker, apply_color_profile, preview_linear, delta_e_2000.
 void BindColor(pybind11::module_& m);
+// relume.radiosity_patches, solve_radiosity, estimate_reflectance.
+void BindRadiosity(pybind11::module_& m);
 
 // A JSON value as the equivalent Python object (dict, list, str, float, int, bool, None).
 pybind11::object JsonToPython(const std::string& json_text);

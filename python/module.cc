@@ -18,4 +18,5 @@ PYBIND11_MODULE(relume, m) {
   relume::python::BindDepth(m);
   relume::python::BindSh(m);
   relume::python::BindColor(m);
+  relume::python::BindRadiosity(m);
 }
