@@ -6,6 +6,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstdio>
+#include <deque>
 #include <string>
 
 #include "core/error.h"
@@ -120,6 +122,15 @@ py::dict IrmRelight(const py::dict& mesh, const py::object& source_radiance, con
                   "summary"_a = SummaryToPython(result.summary), "irms"_a = IrmSetToPython(result.irms));
 }
 
+// A float default as help() shows it: its shortest decimal form (0.99, not 0.9900000095367432).
+// pybind11 keeps the pointer, so the texts live as long as the module.
+const char* Short(float value) {
+  static std::deque<std::string> texts;
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", static_cast<double>(value));
+  return texts.emplace_back(text).c_str();
+}
+
 }  // namespace
 
 void BindIrm(py::module_& m) {
@@ -137,15 +148,18 @@ Returns:
   const irm::RelightOptions d;
   m.def("irm_relight", &IrmRelight, "mesh"_a, "source_radiance"_a, "target_radiance"_a, "source_camera"_a,
         "target_camera"_a, "source_sun_dir"_a, "target_sun_dir"_a, py::kw_only(), "source_mask"_a = py::none(),
-        "target_mask"_a = py::none(), "bins"_a = d.irm.bins, "lit_threshold"_a = d.irm.lit_threshold,
-        "shadow_threshold"_a = d.irm.shadow_threshold, "min_samples_per_bin"_a = d.irm.min_samples_per_bin,
-        "trim_fraction"_a = d.irm.trim_fraction, "min_source_radiance"_a = d.irm.min_source_radiance,
+        "target_mask"_a = py::none(), "bins"_a = d.irm.bins,
+        py::arg_v("lit_threshold", d.irm.lit_threshold, Short(d.irm.lit_threshold)),
+        py::arg_v("shadow_threshold", d.irm.shadow_threshold, Short(d.irm.shadow_threshold)),
+        "min_samples_per_bin"_a = d.irm.min_samples_per_bin,
+        py::arg_v("trim_fraction", d.irm.trim_fraction, Short(d.irm.trim_fraction)),
+        py::arg_v("min_source_radiance", d.irm.min_source_radiance, Short(d.irm.min_source_radiance)),
         "fill"_a = irm::ToString(d.irm.fill), "model_correction"_a = d.irm.model_correction,
         "single_map_without_shadow"_a = d.irm.single_map_without_shadow,
-        "smoothing_sigma_rad"_a = d.irm.smoothing_sigma_rad, "sun_samples"_a = d.sun_samples,
-        "sky_samples"_a = d.sky_samples, "sky_gradient"_a = d.sky_gradient,
-        "sun_angular_radius_rad"_a = d.sun_angular_radius_rad, "penumbra"_a = d.use_penumbra_fractions,
-        "exact_shadow_edges"_a = d.exact_shadow_edges, "threads"_a = d.threads,
+        py::arg_v("smoothing_sigma_rad", d.irm.smoothing_sigma_rad, Short(d.irm.smoothing_sigma_rad)),
+        "sun_samples"_a = d.sun_samples, "sky_samples"_a = d.sky_samples, "sky_gradient"_a = d.sky_gradient,
+        py::arg_v("sun_angular_radius_rad", d.sun_angular_radius_rad, Short(d.sun_angular_radius_rad)),
+        "penumbra"_a = d.use_penumbra_fractions, "exact_shadow_edges"_a = d.exact_shadow_edges, "threads"_a = d.threads,
         R"doc(Relights a photograph to another's light with irradiance ratio maps (Troccoli & Allen).
 
 The library's RelightImage (processing/irm/relight.h): per-vertex visibility and sun
