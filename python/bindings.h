@@ -21,7 +21,7 @@ void BindIrm(pybind11::module_& m);
 // relume.bilateral_filter_depth, temporal_filter_depth, estimate_depth_noise, estimate_normals,
 // vertex_map.
 void BindDepth(pybind11::module_& m);
-// relume.fit_sh, fit_sh_unknown_albedo, sh_irradiance, sh_radiance, relight_sh.
+// relume.fit_sh, fit_sh_unknown_albedo, segment_by_color, sh_irradiance, sh_radiance, relight_sh.
 void BindSh(pybind11::module_& m);
 // relume.load_colorchecker_reference, detect_colorchecker, chart_from_corners, sample_patches,
 // fit_colorchecker, apply_color_profile, preview_linear, delta_e_2000.

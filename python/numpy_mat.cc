@@ -40,6 +40,7 @@ py::dtype NumpyType(int cv_depth) {
   switch (cv_depth) {
     case CV_8U: return py::dtype::of<std::uint8_t>();
     case CV_16U: return py::dtype::of<std::uint16_t>();
+    case CV_32S: return py::dtype::of<std::int32_t>();
     case CV_32F: return py::dtype::of<float>();
     case CV_64F: return py::dtype::of<double>();
     default: throw Error("an image of OpenCV depth " + std::to_string(cv_depth) + " has no numpy dtype here");

@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "processing/relight.h"
+#include "processing/segmentation.h"
 #include "processing/sh.h"
 #include "processing/sh_fit.h"
 #include "python/bindings.h"
@@ -206,6 +207,36 @@ py::tuple RelightSh(const py::object& source, const py::object& normals, const p
                         MatToArray(std::move(result.valid)).attr("astype")("bool"), summary);
 }
 
+py::tuple SegmentByColor(const py::object& radiance, const py::object& mask, const py::object& normals,
+                         int segment_count, bool use_normals, double normal_weight, int max_cluster_pixels,
+                         int attempts, int max_iterations, std::uint64_t seed) {
+  processing::SegmentationOptions options;
+  options.segment_count = segment_count;
+  options.use_normals = use_normals;
+  options.normal_weight = normal_weight;
+  options.max_cluster_pixels = max_cluster_pixels;
+  options.attempts = attempts;
+  options.max_iterations = max_iterations;
+  options.seed = seed;
+  ThrowIfInvalid(options, "segment_by_color");
+  py::array keep[3];
+  const RadianceImage image = RadianceFromArray(radiance, "radiance", &keep[0]);
+  cv::Mat mask_mat = MaskFromPython(mask, "mask", &keep[1]);
+  if (mask_mat.empty()) mask_mat = cv::Mat(image.pixels.size(), CV_8UC1, cv::Scalar(1));  // None: every pixel
+  const cv::Mat normal = normals.is_none() ? cv::Mat() : FloatMatFromArray(normals, 3, "normals", &keep[2]);
+  if (use_normals && normal.empty()) throw InvalidArgumentError("segment_by_color: use_normals needs normals");
+  processing::Segmentation segmentation;
+  {
+    py::gil_scoped_release release;
+    segmentation = processing::SegmentByColor(image, mask_mat, normal, options);
+  }
+  py::array_t<double> mean({static_cast<py::ssize_t>(segmentation.mean_color.size()), py::ssize_t{3}});
+  for (std::size_t s = 0; s < segmentation.mean_color.size(); ++s) {
+    for (int c = 0; c < 3; ++c) mean.mutable_at(static_cast<py::ssize_t>(s), c) = segmentation.mean_color[s][c];
+  }
+  return py::make_tuple(MatToArray(std::move(segmentation.labels)), segmentation.pixel_count, mean);
+}
+
 constexpr const char* kFitArgs =
     R"doc(    max_order: highest SH order fitted (0, 1 or 2); lower when the normals do not support it.
     max_condition_number: largest condition number of the basis matrix per order.
@@ -273,6 +304,28 @@ Returns:
     reference_segment and segment_used (bool per segment).
 )doc")
             .c_str());
+  const processing::SegmentationOptions g;
+  m.def("segment_by_color", &SegmentByColor, "radiance"_a, py::kw_only(), "mask"_a = py::none(),
+        "normals"_a = py::none(), "segment_count"_a = g.segment_count, "use_normals"_a = g.use_normals,
+        "normal_weight"_a = g.normal_weight, "max_cluster_pixels"_a = g.max_cluster_pixels, "attempts"_a = g.attempts,
+        "max_iterations"_a = g.max_iterations, "seed"_a = g.seed,
+        R"doc(Regions of uniform albedo by k-means on chromaticity (processing/segmentation.h): the
+labels fit_sh_unknown_albedo takes.
+
+Args:
+    radiance: float32 HxWx3 linear RGB.
+    mask: HxW bool/uint8, the pixels to segment (None: all).
+    normals: float32 HxWx3 camera-frame normals (needed with use_normals).
+    segment_count: k.
+    use_normals, normal_weight: append the normal, times normal_weight, to the features.
+    max_cluster_pixels, attempts, max_iterations, seed: k-means runs on at most this many
+        pixels (then every pixel joins its nearest centre), its restarts and iterations, and
+        the deterministic sample's seed.
+
+Returns:
+    (labels int32 HxW: 0 the largest segment, -1 outside the mask or unusable; pixel_count per
+    label, descending; mean_color float64 (segments, 3)).
+)doc");
   m.def("sh_irradiance", &ShIrradiance, "light"_a, "normals"_a,
         R"doc(Irradiance E(n) = sum_k A_l L_k Y_k(n) (A0 = pi, A1 = 2 pi / 3, A2 = pi / 4) for SH lighting.
 

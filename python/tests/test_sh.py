@@ -77,6 +77,12 @@ def test_fit_sh_unknown_albedo_recovers_light_up_to_the_reference_scale():
     labels[:, 30:] = 1
     albedo = np.where(labels[..., None] == 0, [0.8, 0.6, 0.4], [0.3, 0.5, 0.7])
     radiance = (albedo * irradiance(LIGHT, normals.astype(np.float64)) / np.pi).astype(np.float32)
+    # The segments from the colours, as the SH pipeline finds them: the two halves (equal in size:
+    # either may be label 0).
+    found, counts, mean_color = relume.segment_by_color(radiance.astype(np.float32), segment_count=2)
+    assert counts == [1200, 1200] and found.dtype == np.int32
+    assert len(np.unique(found[:, :30])) == 1 and len(np.unique(found[:, 30:])) == 1 and found[0, 0] != found[0, 59]
+    labels = found if found[0, 0] == 0 else 1 - found
     light, segment_albedo, summary = relume.fit_sh_unknown_albedo(radiance, normals, labels, reference_segment=0,
                                                                   reference_albedo=(0.8, 0.6, 0.4))
     assert summary["usable"] and summary["converged"] and summary["reference_segment"] == 0
