@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "pipeline/irm_scene.h"
 #include "pipeline/pipeline.h"
+#include "pipeline/radiance.h"
 #include "python/bindings.h"
 #include "python/convert.h"
 #include "python/numpy_mat.h"
@@ -195,6 +196,41 @@ class Session {
     return MeshToPython(mesh);
   }
 
+  py::dict LinearRadiance(const py::object& frames, bool use_calibrations, int merge_black_margin,
+                          int merge_saturation_margin, int response_samples, double response_lambda,
+                          const std::string& response_smoothness) const {
+    calibration::HdrMergeOptions merge;
+    merge.black_margin = merge_black_margin;
+    merge.saturation_margin = merge_saturation_margin;
+    ThrowIfInvalid(merge, "linear_radiance");
+    calibration::ResponseOptions response_options;
+    response_options.sample_count = response_samples;
+    response_options.lambda = response_lambda;
+    response_options.smoothness = calibration::ResponseSmoothnessFromString(response_smoothness);
+    ThrowIfInvalid(response_options, "linear_radiance");
+    const std::string selector = py::str(frames).cast<std::string>();
+    const auto brackets = pipeline::StillBrackets(*reader_, selector);
+    if (brackets.size() != 1) {
+      throw InvalidArgumentError("linear_radiance: " + selector + " selects " + std::to_string(brackets.size()) +
+                                 " still brackets; select one (bracket:N or a frame id)");
+    }
+    const std::vector<capture::FrameRecord>& bracket = brackets.front();
+    pipeline::DeviceCalibrations calibrations;
+    if (use_calibrations) calibrations = pipeline::RecordedCalibrations(*reader_, bracket.front().device_id);
+    pipeline::LinearisedBracket linear;
+    {
+      py::gil_scoped_release release;
+      linear = pipeline::LineariseBracket(*reader_, bracket, calibrations.response, calibrations.profile, merge,
+                                          response_options);
+    }
+    py::list ids;
+    for (const capture::FrameRecord& f : bracket) ids.append(f.id);
+    return py::dict("radiance"_a = MatToArray(std::move(linear.radiance.pixels)),
+                    "status"_a = MatToArray(std::move(linear.status)), "response_source"_a = linear.response_source,
+                    "frame_ids"_a = ids, "profile_id"_a = calibrations.profile_id,
+                    "response_id"_a = calibrations.response_id);
+  }
+
  private:
   std::unique_ptr<capture::SessionReader> reader_;
   std::vector<capture::FrameRecord> frames_;
@@ -248,6 +284,31 @@ Every triangle split so that no edge exceeds spacing_m (metres; the irm pipeline
 mesh_spacing_m knob) with its own vertices and flat normal; spheres tessellated with
 sphere_segments around the equator. Returns dict {'positions' (N, 3) float32 metres in ENU at
 the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit}, what irm_relight takes.)doc")
+      .def("linear_radiance", &Session::LinearRadiance, "frames"_a, py::kw_only(), "use_calibrations"_a = true,
+           "merge_black_margin"_a = calibration::HdrMergeOptions{}.black_margin,
+           "merge_saturation_margin"_a = calibration::HdrMergeOptions{}.saturation_margin,
+           "response_samples"_a = calibration::ResponseOptions{}.sample_count,
+           "response_lambda"_a = calibration::ResponseOptions{}.lambda,
+           "response_smoothness"_a = calibration::ToString(calibration::ResponseOptions{}.smoothness),
+           R"doc(One still bracket (or frame) as linear radiance, as the pipelines' radiance stage makes it
+(pipeline/radiance.h LineariseBracket): raw frames through their levels (Bayer mosaics
+demosaiced), camera-encoded ones through the device's recorded response (else one recovered
+from the bracket), merged with the exposures t * ISO / 100, and the device's recorded colour
+profile applied. `relume process --pipeline radiance` writes the same pixels.
+
+Args:
+    frames: a selector of one bracket: 'bracket:N' or a frame id.
+    use_calibrations: use the session's recorded response and profile (False: neither; raw
+        frames stay as they are, encoded ones get a response recovered from the bracket).
+    merge_black_margin, merge_saturation_margin, response_samples, response_lambda,
+        response_smoothness: the radiance knobs of `relume process --set` (codes; pixels;
+        smoothness weight; 'log-code' or 'code').
+
+Returns:
+    dict: radiance float32 HxWx3 (relative units), status uint8 HxW (0 good, 1 saturated
+    everywhere, 2 black everywhere), response_source (how the frames were linearised),
+    frame_ids, profile_id and response_id (the calibrations used; 0: none).
+)doc")
       .def("load_depth", &Session::LoadDepth, "frame_id"_a, py::kw_only(), "verify_checksum"_a = true,
            "A depth frame as float32 HxW metres, NaN where there was no measurement.");
 }

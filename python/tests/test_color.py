@@ -93,3 +93,9 @@ def test_the_stored_profile_is_read_and_applied_as_relume_process_applies_it(cha
     assert not np.array_equal(corrected, chart["radiance"], equal_nan=True)
     from_file = relume.apply_color_profile(chart["radiance"], chart["folder"] / "profile.json")
     assert np.array_equal(from_file, corrected, equal_nan=True)
+    # In one call, the radiance stage's linearisation with the recorded profile.
+    linear = session.linear_radiance("bracket:1")
+    assert linear["profile_id"] == profiles[0]["id"]
+    assert np.array_equal(linear["radiance"], expected, equal_nan=True)
+    raw = session.linear_radiance("bracket:1", use_calibrations=False)
+    assert raw["profile_id"] == 0 and np.array_equal(raw["radiance"], chart["radiance"], equal_nan=True)
