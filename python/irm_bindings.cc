@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <deque>
 #include <string>
@@ -44,13 +45,33 @@ py::object Vec(const Eigen::Vector3f& v) {
   return py::make_tuple(v.x(), v.y(), v.z());
 }
 
+// One ratio map as bins x bins arrays (row j, column i: bin j * bins + i of the octahedral square).
+py::dict MapToPython(const irm::RatioMap& map) {
+  const py::ssize_t n = map.bins;
+  py::array_t<float> ratio({n, n, py::ssize_t{3}});
+  py::array_t<std::int32_t> count({n, n});
+  py::array_t<std::uint8_t> source({n, n});
+  for (py::ssize_t b = 0; b < n * n; ++b) {
+    const auto k = static_cast<std::size_t>(b);
+    for (int c = 0; c < 3; ++c) ratio.mutable_data()[3 * b + c] = map.ratio[k][c];
+    count.mutable_data()[b] = map.count[k];
+    source.mutable_data()[b] = map.source[k];
+  }
+  return py::dict("ratio"_a = ratio, "count"_a = count, "source"_a = source, "measured_bins"_a = map.measured_bins());
+}
+
 py::dict IrmSetToPython(const irm::IrmSet& set) {
   const irm::SunSkyModel& model = set.model;
   py::list measured;
-  for (const irm::RatioMap& map : set.maps) measured.append(map.measured_bins());
+  py::dict maps;
+  for (int k = 0; k < 4; ++k) {
+    const irm::RatioMap& map = set.maps[static_cast<std::size_t>(k)];
+    measured.append(map.measured_bins());
+    maps[irm::ToString(static_cast<irm::MapKind>(k))] = MapToPython(map);
+  }
   return py::dict("single_map"_a = set.single_map, "samples_used"_a = set.samples_used,
                   "samples_in_penumbra"_a = set.samples_in_penumbra, "samples_too_dark"_a = set.samples_too_dark,
-                  "measured_bins"_a = measured, "summary"_a = set.summary,
+                  "measured_bins"_a = measured, "maps"_a = maps, "summary"_a = set.summary,
                   "model"_a = py::dict("valid"_a = model.valid, "sun_source"_a = Vec(model.sun_source),
                                        "sun_target"_a = Vec(model.sun_target), "sky_target"_a = Vec(model.sky_target),
                                        "sky_gradient_source"_a = Vec(model.sky_gradient_source),
@@ -203,7 +224,11 @@ Returns:
     is not 1), 'status' uint8 HxW (0 no geometry, 1 relit, 2 no ratio, 3 masked),
     'source_sun', 'target_sun' float32 HxW (per-pixel sun fractions, NaN without geometry),
     'summary' (counts and overlap errors under the names of summary.json's metrics['irm'],
-    timings in seconds), 'irms' (samples, measured bins per map, the sun + sky model).
+    timings in seconds), 'irms' (samples, the sun + sky model, and 'maps': for each of
+    'lit_to_lit', 'shadow_to_shadow', 'lit_to_shadow', 'shadow_to_lit', its 'ratio' float32
+    (bins, bins, 3) target / source per channel on the octahedral square (processing/irm/irm.h;
+    NaN where empty), 'count' int32 (bins, bins) samples, 'source' uint8 (bins, bins): 0 empty,
+    1 measured, 2 smoothing, 3 model).
 
 Raises:
     relume.InvalidArgumentError with relume's message for invalid options, images, cameras,

@@ -56,6 +56,18 @@ def test_irm_relight_in_python_gives_the_numbers_relume_process_writes(tiny_sess
     assert result["irms"]["single_map"] == metrics["single_map"]
     assert np.count_nonzero(result["status"] == 1) == metrics["pixels_relit"]
     assert np.count_nonzero(result["status"] == 3) == metrics["pixels_masked"]
+    # The ratio maps themselves: the irm-build stage's irms.json (floats through JSON, exact).
+    stage = next(d for d in (tmp_path / "cli" / "stages").iterdir() if d.name.startswith("irm-build-"))
+    stored = read_json(stage / "irms.json")
+    assert result["irms"]["samples_used"] == stored["samples_used"] > 0
+    for stored_map in stored["maps"]:
+        ours = result["irms"]["maps"][stored_map["kind"]]
+        bins = stored_map["bins"]
+        ratio = np.array([r if r is not None else [np.nan] * 3 for r in stored_map["ratio"]], np.float32)
+        assert np.array_equal(ours["ratio"], ratio.reshape(bins, bins, 3), equal_nan=True), stored_map["kind"]
+        assert np.array_equal(ours["count"].ravel(), stored_map["count"])
+        assert np.array_equal(ours["source"].ravel(), stored_map["source"])
+    assert sum(m["count"].sum() for m in result["irms"]["maps"].values()) == stored["samples_used"]
     # The relighting did something: the source's overlap error against the target falls.
     assert metrics["overlap_vertex_rms_after"] < 0.1 * metrics["overlap_vertex_rms_before"]
 
