@@ -10,6 +10,7 @@
 #include <pybind11/stl.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -228,22 +229,26 @@ py::dict SolveRadiosity(const py::object& scene, const py::object& lighting, con
   const radiosity::Mesh mesh = SceneFromPython(scene);
   const radiosity::Lighting lights = LightingFromPython(lighting, "lighting");
   const std::vector<Rgb> albedo_override = albedo.is_none() ? std::vector<Rgb>() : Vectors3dFromArray(albedo, "albedo");
-  py::gil_scoped_release release;
-  const radiosity::PatchHierarchy h(mesh, hierarchy_options);
-  const RayCaster caster(radiosity::ToTriangleMesh(mesh));
-  const std::vector<Rgb> patch_albedo = albedo_override.empty() ? h.LeafAlbedo() : albedo_override;
-  if (patch_albedo.size() != static_cast<std::size_t>(h.LeafCount())) {
-    throw InvalidArgumentError("solve_radiosity: albedo has " + std::to_string(patch_albedo.size()) +
-                               " rows, the scene has " + std::to_string(h.LeafCount()) +
-                               " patches at this max_patch_edge_m (patches() lists them)");
-  }
-  const radiosity::DirectLight direct = radiosity::ComputeDirectLight(h, caster, lights, direct_options);
-  radiosity::RadiositySolver solver(h, caster, solver_options);
+  std::optional<radiosity::PatchHierarchy> h;
+  std::vector<Rgb> patch_albedo;
+  radiosity::DirectLight direct;
   radiosity::RadiositySolution solution;
-  const radiosity::RadiositySummary summary =
-      solver.Solve(patch_albedo, direct.irradiance, h.LeafEmission(), &solution);
-  py::gil_scoped_acquire acquire;
-  return py::dict("patches"_a = PatchesToPython(h), "radiosity"_a = RgbToArray(solution.radiosity),
+  radiosity::RadiositySummary summary;
+  {
+    py::gil_scoped_release release;
+    h.emplace(mesh, hierarchy_options);
+    const RayCaster caster(radiosity::ToTriangleMesh(mesh));
+    patch_albedo = albedo_override.empty() ? h->LeafAlbedo() : albedo_override;
+    if (patch_albedo.size() != static_cast<std::size_t>(h->LeafCount())) {
+      throw InvalidArgumentError("solve_radiosity: albedo has " + std::to_string(patch_albedo.size()) +
+                                 " rows, the scene has " + std::to_string(h->LeafCount()) +
+                                 " patches at this max_patch_edge_m (radiosity_patches lists them)");
+    }
+    direct = radiosity::ComputeDirectLight(*h, caster, lights, direct_options);
+    radiosity::RadiositySolver solver(*h, caster, solver_options);
+    summary = solver.Solve(patch_albedo, direct.irradiance, h->LeafEmission(), &solution);
+  }
+  return py::dict("patches"_a = PatchesToPython(*h), "radiosity"_a = RgbToArray(solution.radiosity),
                   "direct_irradiance"_a = RgbToArray(direct.irradiance),
                   "visible_fraction"_a = DoublesToArray(direct.visible_fraction),
                   "indirect_irradiance"_a = RgbToArray(solution.indirect_irradiance),

@@ -63,6 +63,8 @@ def test_a_floor_under_a_point_lamp_gets_inverse_square_cosine_light():
         relume.solve_radiosity(floor, lamp, max_patch_edge_m=0.0)
     with pytest.raises(relume.InvalidArgumentError, match="point light: .*intensity >= 0"):
         relume.solve_radiosity(floor, {"point_lights": [{"intensity_w_per_sr": (-1.0, 0.0, 0.0)}]})
+    with pytest.raises(relume.InvalidArgumentError, match="albedo has 2 rows, the scene has .* patches"):
+        relume.solve_radiosity(floor, lamp, albedo=np.full((2, 3), 0.5))
     with pytest.raises(relume.InvalidArgumentError, match="unknown key 'lamps'"):
         relume.solve_radiosity(floor, {"lamps": []})
 
@@ -86,5 +88,10 @@ def test_reflectance_recovers_the_albedo_a_forward_solve_was_given():
     assert np.median(error) < 0.005 and error.max() < 0.05
     # The ambient first guess (no radiosity) is far off: the indirect light is what the iterations add.
     assert np.abs(estimate["initial_albedo"] - truth).max() > 0.1
+    # The estimated albedo, solved again under the second lamp, gives back what was observed.
+    again = relume.solve_radiosity(unknown, lamps[1], albedo=estimate["albedo"], max_patch_edge_m=0.4,
+                                   residual_tolerance=1e-4)
+    observed = observations[1]["radiance"]
+    assert np.median(np.abs(again["radiosity"] / np.pi / observed - 1)) < 0.01
     with pytest.raises(relume.InvalidArgumentError, match="estimate_reflectance: "):
         relume.estimate_reflectance(unknown, observations, max_patch_edge_m=0.4, albedo_tolerance=-1.0)
