@@ -88,8 +88,12 @@ std::vector<processing::ShObservation> Observations(const py::object& radiance, 
       if (mask_mat.empty() || mask_mat.at<std::uint8_t>(y, x) != 0) points.emplace_back(x, y);
     }
   }
-  py::gil_scoped_release release;
-  return processing::GatherObservations(image, normal, albedo_mat, labels_mat, points);
+  std::vector<processing::ShObservation> observations;
+  {
+    py::gil_scoped_release release;
+    observations = processing::GatherObservations(image, normal, albedo_mat, labels_mat, points);
+  }
+  return observations;
 }
 
 processing::ShFitOptions FitOptions(int max_order, double max_condition_number, double min_solid_angle_order2_sr,
