@@ -8,6 +8,7 @@
 #include "capture/durable_file.h"
 #include "capture/folder_lock.h"
 #include "capture/path_policy.h"
+#include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/clock.h"
 #include "core/error.h"
@@ -248,7 +249,32 @@ std::string DescribeSession(const fs::path& dir) {
   for (const EventRecord& e : reader.Events()) ++event_types[e.type];
   out << "events       ";
   for (const auto& [type, count] : event_types) out << " " << count << " " << type;
-  out << "\ncalibrations  " << reader.Calibrations().size() << "\n";
+  const std::vector<CalibrationRecord> calibrations = reader.Calibrations();
+  std::map<std::string, int> kinds;
+  for (const CalibrationRecord& c : calibrations) ++kinds[c.kind];
+  out << "\ncalibrations  " << calibrations.size();
+  for (const auto& [kind, count] : kinds) out << (kind == kinds.begin()->first ? " (" : ", ") << count << " " << kind;
+  out << (kinds.empty() ? "" : ")") << "\n";
+  // The scene processing will use (core/scene_model.h): the latest scene_model row.
+  if (const CalibrationRecord* row = LatestSceneModelRow(calibrations)) {
+    const std::string what = "calibration row " + std::to_string(row->id);
+    try {
+      const SceneModel model = SceneModelFromJson(row->json, what);
+      out << "scene model   " << DescribeSceneModel(model) << " (" << what << ", from " << model.source << ")\n";
+      for (const SceneModelCamera& c : model.cameras) {
+        const Eigen::Vector3d eye = c.camera.world_from_camera.translation();
+        const Eigen::Vector3d axis = c.camera.world_from_camera.linear().col(2);
+        out << "  camera " << c.device_id << ": " << c.camera.intrinsics.width << "x" << c.camera.intrinsics.height
+            << ", fx " << c.camera.intrinsics.fx << " px, at (" << eye.x() << ", " << eye.y() << ", " << eye.z()
+            << ") m ENU looking (" << axis.x() << ", " << axis.y() << ", " << axis.z() << ")"
+            << (c.distortion.empty() ? "" : ", with distortion") << "\n";
+      }
+    } catch (const Error& e) {
+      out << "scene model   unreadable: " << e.what() << "\n";
+    }
+  } else {
+    out << "scene model   none (processing that needs camera poses or geometry will say what to add)\n";
+  }
   return out.str();
 }
 

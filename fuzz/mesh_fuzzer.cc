@@ -1,7 +1,7 @@
-// OBJ and PLY meshes (`relume process --mesh`, a scene's meshes): sim/world/mesh_io.h. The first
+// OBJ and PLY meshes (`relume process --mesh`, a scene's meshes): core/mesh_io.h. The first
 // byte chooses the format (even: OBJ, odd: PLY); the rest is the file.
+#include "core/mesh_io.h"
 #include "fuzz/fuzz_util.h"
-#include "sim/world/mesh_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
@@ -9,9 +9,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto path = relume::fuzz::WriteScratch(ply ? "mesh.ply" : "mesh.obj", {data + 1, size - 1});
   relume::fuzz::ExpectRelumeErrorsOnly([&] {
     if (ply) {
-      relume::sim::LoadPlyMesh(path.string());
+      relume::LoadPlyMesh(path.string());
     } else {
-      relume::sim::LoadObjMesh(path.string());
+      relume::LoadObjMesh(path.string());
     }
   });
   return 0;

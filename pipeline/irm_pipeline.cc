@@ -149,10 +149,7 @@ SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
     const fs::path& path = *run.request().mesh;
     if (!fs::exists(path)) throw IoError(path.string(), "does not exist (--mesh takes an OBJ or PLY file)");
     const MeshFrame frame = frame_name == "utm" ? MeshFrame::kUtm : MeshFrame::kEnu;
-    if (frame == MeshFrame::kUtm && run.rig() == nullptr) {
-      throw InvalidArgumentError("--mesh in UTM needs the site to convert it, and the session has no stored rig");
-    }
-    const Site site = run.rig() ? run.rig()->site : Site{};
+    const Site site = run.session().info().site;
     const LoadedSceneMesh loaded =
         LoadSceneMesh(path.string(), frame, site, zone > 0 ? std::optional<int>(zone) : std::nullopt, options);
     g.make = [mesh = loaded.mesh] { return mesh; };
@@ -167,22 +164,26 @@ SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
       run.Decide("mesh", "choose", "--mesh " + path.string() + " (ENU at the site)");
     }
     g.origin = path.string();
-  } else if (run.rig() != nullptr && run.rig()->world) {
-    g.make = [world = run.rig()->world, options] { return ProcessingMeshFromScene(world->scene(), options); };
-    // The recorded world's files (rig.yaml, scene.yaml and its meshes) are what the mesh depends on.
-    std::vector<fs::path> files;
-    for (const auto& entry : fs::recursive_directory_iterator(run.session().dir() / "rig")) {
-      if (entry.is_regular_file()) files.push_back(entry.path());
+  } else if (const SceneModel* model = run.scene_model()) {
+    if (model->objects.empty()) {
+      throw InvalidArgumentError(
+          "the irm pipeline needs the scene's geometry, and the session's scene model has no "
+          "object; give --mesh FILE (OBJ or PLY, ENU at the site, or UTM with --set "
+          "mesh_frame=utm)");
     }
-    std::sort(files.begin(), files.end());
-    for (const fs::path& f : files) g.key.AddFileContent(fs::relative(f, run.session().dir()).string(), f);
+    g.make = [model = *model, options] { return ProcessingMeshFromModel(model, options); };
+    g.key.Add("scene_model", run.scene_model_json());
     run.Decide("mesh", "choose",
-               "the session's recorded world (rig/scene.yaml), split to " + std::to_string(options.spacing_m) + " m");
-    g.origin = "session world";
+               "the session's scene model (" + std::to_string(model->objects.size()) + " objects, " +
+                   std::to_string(model->TriangleCount()) + " triangles), split to " +
+                   std::to_string(options.spacing_m) + " m");
+    g.origin = "session scene model";
   } else {
     throw InvalidArgumentError(
-        "the irm pipeline needs the scene's geometry: the session recorded none; give --mesh FILE "
-        "(OBJ or PLY, ENU at the site, or UTM with --set mesh_frame=utm)");
+        "the irm pipeline needs the scene's geometry and cameras, and the session has no scene model (`relume "
+        "session info`): " +
+        SceneModelAdvice(run.session().dir()) +
+        "; --mesh FILE (OBJ or PLY, ENU at the site, or UTM with --set mesh_frame=utm) gives the geometry alone");
   }
   return g;
 }
@@ -983,15 +984,10 @@ void RunIrmPipeline(PipelineRun& run) {
   const bool compare_truth = knobs.compare_truth;
 
   const SceneGeometry geometry = LoadGeometry(run, knobs);
-  const sim::SimDeviceSpec* source_spec = FindDeviceSpec(run.rig(), source_bracket.front().device_id);
-  const sim::SimDeviceSpec* target_spec = FindDeviceSpec(run.rig(), target_bracket.front().device_id);
-  for (const auto& [spec, frame] :
-       {std::pair{source_spec, &source_bracket.front()}, {target_spec, &target_bracket.front()}}) {
-    if (spec == nullptr) {
-      throw InvalidArgumentError("no camera pose and intrinsics for " + frame->device_id +
-                                 ": the session's stored rig does not describe this device");
-    }
-  }
+  const PinholeCamera source_camera =
+      run.RequireCamera(source_bracket.front().device_id, "the irm pipeline's source view").camera;
+  const PinholeCamera target_camera =
+      run.RequireCamera(target_bracket.front().device_id, "the irm pipeline's target view").camera;
   run.Decide("irm", "plan",
              "relight " + source_bracket.front().device_id + " frame " + std::to_string(source_bracket.front().id) +
                  " to the light of frame " + std::to_string(target_bracket.front().id) + " (mesh: " + geometry.origin +
@@ -1002,9 +998,9 @@ void RunIrmPipeline(PipelineRun& run) {
 
   const BracketRadiance source_radiance = LinearRadiance(run, source_bracket);
   const BracketRadiance target_radiance = LinearRadiance(run, target_bracket);
-  irm::View source{&source_radiance.radiance, source_spec->camera, SunDirection(source_radiance, "source"),
+  irm::View source{&source_radiance.radiance, source_camera, SunDirection(source_radiance, "source"),
                    MaskFromStatus(source_radiance.status)};
-  irm::View target{&target_radiance.radiance, target_spec->camera, SunDirection(target_radiance, "target"),
+  irm::View target{&target_radiance.radiance, target_camera, SunDirection(target_radiance, "target"),
                    MaskFromStatus(target_radiance.status)};
   const LazyCaster caster(mesh, source, target, options);
   StageKey source_view_key, target_view_key;

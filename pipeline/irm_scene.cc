@@ -5,7 +5,7 @@
 
 #include "core/error.h"
 #include "core/frames.h"
-#include "sim/world/mesh_io.h"
+#include "core/mesh_io.h"
 
 namespace relume::pipeline {
 
@@ -49,12 +49,12 @@ void AppendSplitTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, con
   }
 }
 
-Eigen::Vector3f FaceAlbedo(const sim::TriangleMesh& mesh, std::size_t face, const Eigen::Vector3d& fallback) {
+Eigen::Vector3f FaceAlbedo(const MeshData& mesh, std::size_t face, const Eigen::Vector3d& fallback) {
   if (face < mesh.face_albedo.size() && mesh.face_albedo[face].allFinite()) return mesh.face_albedo[face].cast<float>();
   return fallback.cast<float>();
 }
 
-TriangleMesh SplitMesh(const sim::TriangleMesh& mesh, const Eigen::Vector3d& albedo, double spacing_m) {
+TriangleMesh SplitMesh(const MeshData& mesh, const Eigen::Vector3d& albedo, double spacing_m) {
   TriangleMesh out;
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const Eigen::Vector3i& t = mesh.triangles[f];
@@ -90,19 +90,32 @@ TriangleMesh Sphere(const Eigen::Vector3d& center, double radius, const Eigen::V
 
 }  // namespace
 
-TriangleMesh ProcessingMeshFromSim(const sim::TriangleMesh& mesh, const IrmMeshOptions& options) {
+TriangleMesh ProcessingMeshFromData(const MeshData& mesh, const IrmMeshOptions& options) {
   ThrowIfInvalid(options, "IRM mesh options");
   return SplitMesh(mesh, Eigen::Vector3d::Constant(0.5), options.spacing_m);
 }
 
-TriangleMesh ProcessingMeshFromScene(const sim::Scene& scene, const IrmMeshOptions& options) {
+TriangleMesh ProcessingMeshFromModel(const SceneModel& model, const IrmMeshOptions& options) {
   ThrowIfInvalid(options, "IRM mesh options");
+  // Known reflectance where the model has it (a chart's patches), else a neutral 0.5: the IRM
+  // itself never reads albedo; it is kept for previews.
+  const auto albedo_of = [&model](int material) -> Eigen::Vector3d {
+    const std::optional<Eigen::Vector3d>& known = model.materials[static_cast<std::size_t>(material)].albedo;
+    return known ? *known : Eigen::Vector3d::Constant(0.5);
+  };
   TriangleMesh out;
-  for (const sim::SceneObject& object : scene.objects) {
-    if (object.shape == sim::SceneObject::Shape::kSphere) {
-      out.Append(Sphere(object.sphere_center, object.sphere_radius_m, object.albedo, options.sphere_segments));
-    } else {
-      out.Append(SplitMesh(object.mesh, object.albedo, options.spacing_m));
+  for (const SceneModelObject& object : model.objects) {
+    if (object.kind == SceneModelObject::Kind::kSphere) {
+      out.Append(
+          Sphere(object.sphere_center, object.sphere_radius_m, albedo_of(object.material), options.sphere_segments));
+      continue;
+    }
+    for (std::size_t f = 0; f < object.triangles.size(); ++f) {
+      const Eigen::Vector3i& t = object.triangles[f];
+      AppendSplitTriangle(object.vertices[static_cast<std::size_t>(t[0])],
+                          object.vertices[static_cast<std::size_t>(t[1])],
+                          object.vertices[static_cast<std::size_t>(t[2])],
+                          albedo_of(object.face_material[f]).cast<float>(), options.spacing_m, &out);
     }
   }
   return out;
@@ -111,7 +124,7 @@ TriangleMesh ProcessingMeshFromScene(const sim::Scene& scene, const IrmMeshOptio
 LoadedSceneMesh LoadSceneMesh(const std::string& path, MeshFrame frame, const Site& site, std::optional<int> utm_zone,
                               const IrmMeshOptions& options) {
   ThrowIfInvalid(options, "IRM mesh options");
-  sim::TriangleMesh mesh = sim::LoadMesh(path);
+  MeshData mesh = LoadMesh(path);
   if (mesh.triangles.empty()) throw InvalidArgumentError("mesh " + path + " has no triangles");
   LoadedSceneMesh loaded;
   if (frame == MeshFrame::kUtm) {
@@ -123,7 +136,7 @@ LoadedSceneMesh LoadSceneMesh(const std::string& path, MeshFrame frame, const Si
   }
   std::string why;
   if (!mesh.IsValid(&why)) throw InvalidArgumentError("mesh " + path + ": " + why);
-  loaded.mesh = ProcessingMeshFromSim(mesh, options);
+  loaded.mesh = ProcessingMeshFromData(mesh, options);
   return loaded;
 }
 

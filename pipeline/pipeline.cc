@@ -12,6 +12,7 @@
 #include "capture/durable_file.h"
 #include "capture/folder_lock.h"
 #include "capture/path_policy.h"
+#include "capture/scene_model_record.h"
 #include "core/error.h"
 
 namespace relume::pipeline {
@@ -21,6 +22,61 @@ PipelineRun::PipelineRun(const PipelineRequest& request, const capture::SessionR
                          std::shared_ptr<const rig::RigConfig> rig)
     : request_(request), session_(session), rig_(std::move(rig)), cache_(request.out_dir / "stages", request.reuse) {
   for (const auto& [key, value] : request_.settings) settings_read_[key] = false;
+}
+
+std::string SceneModelAdvice(const fs::path& session_dir) {
+  return "sessions captured from a simulated rig by this relume have one; an older simulated session gets one with "
+         "`relume session add-scene-model " +
+         session_dir.string() + "`; for real devices write one and store it with `relume session add-scene-model " +
+         session_dir.string() + " --from FILE` (docs/real-data.md)";
+}
+
+const SceneModel* PipelineRun::scene_model() {
+  if (!scene_model_read_) {
+    scene_model_read_ = true;
+    const std::vector<capture::CalibrationRecord> rows = session_.Calibrations();
+    if (const capture::CalibrationRecord* row = capture::LatestSceneModelRow(rows)) {
+      scene_model_row_ = "calibration row " + std::to_string(row->id);
+      scene_model_ = capture::SceneModelFromJson(row->json, session_.dir().string() + ": " + scene_model_row_);
+      scene_model_json_ = row->json;
+    }
+  }
+  return scene_model_ ? &*scene_model_ : nullptr;
+}
+
+const std::string& PipelineRun::scene_model_json() {
+  scene_model();
+  return scene_model_json_;
+}
+
+const SceneModelCamera& PipelineRun::RequireCamera(const std::string& device_id, const std::string& purpose) {
+  const SceneModel* model = scene_model();
+  if (model == nullptr) {
+    throw InvalidArgumentError(
+        purpose + " needs the pose and intrinsics of camera " + device_id + ", and session " + session_.dir().string() +
+        " has no scene model (`relume session info` shows it): " + SceneModelAdvice(session_.dir()));
+  }
+  const SceneModelCamera* camera = model->FindCamera(device_id);
+  if (camera == nullptr) {
+    std::string have;
+    for (const SceneModelCamera& c : model->cameras) have += (have.empty() ? "" : ", ") + c.device_id;
+    throw InvalidArgumentError(
+        purpose + " needs the pose and intrinsics of camera " + device_id + ", and the scene model (" +
+        scene_model_row_ + ") has none for it (it has " + (have.empty() ? "no camera" : have) +
+        "); add the camera to a scene model file and store it with `relume session add-scene-model " +
+        session_.dir().string() + " --from FILE` (docs/real-data.md)");
+  }
+  for (double k : camera->distortion) {
+    if (k != 0.0) {
+      throw InvalidArgumentError(purpose + ": camera " + device_id + " has lens distortion in the scene model (" +
+                                 scene_model_row_ +
+                                 "), and relume's pipelines take pinhole images; undistorting frames is not built yet "
+                                 "(undistort them before import, and store the camera without distortion)");
+    }
+  }
+  Decide("scene", "note",
+         "camera " + device_id + " from the scene model (" + scene_model_row_ + "): " + camera->source);
+  return *camera;
 }
 
 std::vector<std::string> PipelineRun::UnusedSettings() const {

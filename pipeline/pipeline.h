@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "capture/session.h"
+#include "core/scene_model.h"
 #include "pipeline/knobs.h"
 #include "pipeline/stage_cache.h"
 #include "rig/rig_config.h"
@@ -59,6 +60,16 @@ class PipelineRun {
   // null when the session did not record one (sessions older than the world record).
   const rig::RigConfig* rig() const { return rig_.get(); }
   StageCache& cache() { return cache_; }
+  // The session's scene model (its latest scene_model row, core/scene_model.h): the cameras,
+  // geometry and lamps processing uses. Null when the session has none. Read once; IoError when
+  // the row is unreadable.
+  const SceneModel* scene_model();
+  // That row's JSON ("" when there is none), for stage keys.
+  const std::string& scene_model_json();
+  // The pose and intrinsics of session device `device_id` from the scene model. Throws
+  // InvalidArgumentError saying what to add when the session has no scene model or the model
+  // no camera for the device; `purpose` says what needs it ("the irm pipeline's source view").
+  const SceneModelCamera& RequireCamera(const std::string& device_id, const std::string& purpose);
   const std::filesystem::path& out_dir() const { return request_.out_dir; }
 
   // --set keys no ReadKnobs call used (noted in the summary).
@@ -96,6 +107,10 @@ class PipelineRun {
   const capture::SessionReader& session_;
   std::shared_ptr<const rig::RigConfig> rig_;
   StageCache cache_;
+  bool scene_model_read_ = false;
+  std::optional<SceneModel> scene_model_;
+  std::string scene_model_json_;
+  std::string scene_model_row_;  // "calibration row N", for messages
   std::vector<Decision> decisions_;
   nlohmann::json metrics_ = nlohmann::json::object();
   nlohmann::json knobs_json_ = nlohmann::json::object();
@@ -170,6 +185,10 @@ void CheckSettings(const std::map<std::string, std::string>& settings, const std
 // device's stream ("rgbd:color", "dslr:still"), or "all". InvalidArgumentError naming the
 // selector and what the session has when nothing matches.
 std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& session, const std::string& selector);
+
+// What to do about a session without a scene model: "an older simulated session gets one with
+// `relume session add-scene-model S`; for real devices write one (docs/real-data.md)".
+std::string SceneModelAdvice(const std::filesystem::path& session_dir);
 
 // The simulated device spec (camera pose, intrinsics, sensor) of a session device
 // ("sim:dslr" or "dslr"), or null when the rig has no such simulated device.

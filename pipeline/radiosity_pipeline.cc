@@ -194,12 +194,21 @@ struct MaterialGroups {
   std::vector<int> group_of_patch;  // -1: unknown
 };
 
-MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const sim::Scene& scene) {
+// Evaluation only: the true albedo per scene model object, from the simulated world's object of
+// the same name.
+MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const SceneModel& model,
+                            const sim::Scene& scene) {
   MaterialGroups g;
   // Truth per mesh triangle: the object it came from. Triangles of one object are contiguous
   // and in object order, so walk the objects' materials through the mesh.
   std::vector<int> group_of_object;
-  for (const sim::SceneObject& object : scene.objects) {
+  for (const SceneModelObject& model_object : model.objects) {
+    const int index = scene.ObjectIndex(model_object.name);
+    if (index < 0) {
+      throw InvalidArgumentError("compare_truth: scene model object '" + model_object.name +
+                                 "' is not in the session's simulated world; --set compare_truth=false");
+    }
+    const sim::SceneObject& object = scene.objects[static_cast<std::size_t>(index)];
     int found = -1;
     for (size_t i = 0; i < g.truth.size(); ++i) {
       if ((g.truth[i] - object.albedo).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
@@ -215,7 +224,7 @@ MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityS
   }
   // Patch -> object: by the triangle's root, via the object each triangle was built from.
   std::vector<int> triangle_object;
-  for (int o = 0; o < static_cast<int>(scene.objects.size()); ++o) {
+  for (int o = 0; o < static_cast<int>(model.objects.size()); ++o) {
     const int count = rs.object_triangles[o];
     triangle_object.insert(triangle_object.end(), count, o);
   }
@@ -354,7 +363,7 @@ cv::Mat AlbedoPreview(const RadianceImage& albedo) {
 // The simulated world's radiance at a bracket's time, seen by the bracket's camera (input=truth:
 // what an ideal, noise-free, calibrated camera would record), cached as stage "truth-radiance".
 BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket,
-                              const sim::SimDeviceSpec& spec) {
+                              const PinholeCamera& camera) {
   BracketRadiance out;
   out.device_id = bracket.front().device_id;
   out.bracket_id = bracket.front().bracket_id;
@@ -366,7 +375,7 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
       .Add("device", out.device_id)
       .Add("utc", FormatIso8601(out.utc));
   const StageCache::Result stage = run.RunStage("truth-radiance", out.key, [&](const fs::path& dir) {
-    const sim::GroundTruth truth = run.rig()->world->Render(spec.camera, out.utc);
+    const sim::GroundTruth truth = run.rig()->world->Render(camera, out.utc);
     calibration::SaveRadianceExr(truth.radiance, (dir / "radiance.exr").string());
   });
   out.exr = stage.dir / "radiance.exr";
@@ -493,31 +502,38 @@ radiosity::RadiosityOptions SolverOptionsFrom(const Knobs& k) {
 
 // ---- the stages ------------------------------------------------------------------------------
 
-// What every stage reads: the knobs, the session's stored world, and the one camera's spec and
-// still brackets.
+// What every stage reads: the knobs, the session's scene model (geometry, lamps, the camera), the
+// one camera's still brackets, and, for simulated sessions, the world to compare against.
 struct RadiosityInputs {
   Knobs knobs;
-  const sim::World* world = nullptr;
-  const sim::SimDeviceSpec* spec = nullptr;
+  SceneModel model;
+  PinholeCamera camera;
+  const sim::World* world = nullptr;  // evaluation and the truth modes only; null for real sessions
   std::string device;
   std::vector<std::vector<capture::FrameRecord>> brackets;
 };
 
-// The knobs, the world and the camera, checked before any stage runs.
+// The knobs, the scene model and the camera, checked before any stage runs.
 RadiosityInputs ReadRadiosityInputs(PipelineRun& run) {
   RadiosityInputs in;
   in.knobs = ReadRadiosityKnobs(run);
-  const rig::RigConfig* rig = run.rig();
-  if (rig == nullptr || !rig->world) {
-    throw InvalidArgumentError(
-        "the radiosity pipeline needs the room's geometry and lamps: this session has no stored simulated world "
-        "(<session>/rig/); record it with `relume capture --rig config/rigs/sim-indoor.yaml`");
-  }
   if (run.request().mesh) {
     throw InvalidArgumentError(
-        "--mesh is not supported by the radiosity pipeline yet: it takes the geometry and "
-        "lamps from the session's stored world");
+        "--mesh is not supported by the radiosity pipeline yet: it takes the geometry, its objects and the "
+        "lamps from the session's scene model");
   }
+  const SceneModel* model = run.scene_model();
+  if (model == nullptr) {
+    throw InvalidArgumentError("the radiosity pipeline needs the room's geometry and lamps, and session " +
+                               run.session().dir().string() +
+                               " has no scene model (`relume session info`): " + SceneModelAdvice(run.session().dir()));
+  }
+  if (model->lamps.empty()) {
+    throw InvalidArgumentError(
+        "the radiosity pipeline needs the lamps' positions and intensities, and the session's "
+        "scene model has no lamp");
+  }
+  in.model = *model;
   in.brackets = StillBrackets(run.session(), run.request().source);
   if (in.brackets.empty()) throw InvalidArgumentError("the session has no still-camera frames to estimate albedo from");
   in.device = in.brackets.front().front().device_id;
@@ -527,11 +543,26 @@ RadiosityInputs ReadRadiosityInputs(PipelineRun& run) {
                                  " and " + b.front().device_id + ": pick one with --source " + in.device + ":still");
     }
   }
-  in.spec = FindDeviceSpec(rig, in.device);
-  if (in.spec == nullptr) {
-    throw InvalidArgumentError("no simulated camera spec for " + in.device + " in the session's rig");
+  in.camera = run.RequireCamera(in.device, "the radiosity pipeline").camera;
+  const rig::RigConfig* rig = run.rig();
+  if (rig != nullptr && rig->world) in.world = rig->world.get();
+  if (in.world == nullptr) {
+    if (in.knobs.input == "truth") {
+      throw InvalidArgumentError(
+          "--set input=truth takes the simulator's rendered radiance, and this session has no simulated world (a "
+          "real capture): use input=camera");
+    }
+    if (in.knobs.scale == "truth") {
+      in.knobs.scale = "none";
+      run.Decide("radiosity-scale", "warn",
+                 "scale=truth needs the simulator's radiance, and this session has none: albedo stays relative "
+                 "(scale=none); an absolute scale from a chart is not built yet");
+    }
+    if (in.knobs.compare_truth) {
+      in.knobs.compare_truth = false;
+      run.Decide("radiosity", "note", "no simulated world in the session: nothing to compare the albedo against");
+    }
   }
-  in.world = rig->world.get();
   return in;
 }
 
@@ -552,20 +583,17 @@ void WritePatchesCsv(const fs::path& path, const radiosity::PatchHierarchy& h) {
 // Stage radiosity-geometry: the patches, and per pixel its patch and surface point.
 Geometry RunGeometryStage(PipelineRun& run, const RadiosityInputs& in) {
   Geometry geo;
-  geo.scene = RadiositySceneFromWorld(in.world->scene(), in.knobs.material_groups);
+  geo.scene = RadiositySceneFromModel(in.model, in.knobs.material_groups);
   radiosity::HierarchyOptions hopt;
   hopt.max_patch_edge_m = in.knobs.patch_edge_m;
   geo.hierarchy = std::make_unique<radiosity::PatchHierarchy>(geo.scene.mesh, hopt);
   geo.caster = std::make_unique<RayCaster>(radiosity::ToTriangleMesh(geo.scene.mesh));
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
-  geo.key.Add("stage", "radiosity-geometry-v3")
-      .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
-      .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
-      .Add("device", in.device);
+  geo.key.Add("stage", "radiosity-geometry-v4").Add("scene_model", run.scene_model_json()).Add("device", in.device);
   AddKnobsToKey(geo.key, in.knobs, "geometry");
   const StageCache::Result stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
     cv::Mat points_m;
-    WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, in.spec->camera, &points_m));
+    WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, in.camera, &points_m));
     WritePixelMap(dir / "pixel_points_m.bin", points_m);
     WritePatchesCsv(dir / "patches.csv", h);
   });
@@ -619,8 +647,8 @@ radiosity::RadianceObservation ObserveBracket(PipelineRun& run, const RadiosityI
   radiosity::RadianceObservation obs;
   obs.radiance = ReadPatchRgb(stage.dir / "observation.csv", n);
   if (in.knobs.direct_at_pixels) obs.pixel_points = PixelPointsPerPatch(geo, r, obs.radiance);
-  obs.lighting = LightingAt(*in.world, r.utc);
-  obs.camera_position_m = in.spec->camera.world_from_camera.translation();
+  obs.lighting = LightingAt(in.model, r.utc);
+  obs.camera_position_m = in.camera.world_from_camera.translation();
   return obs;
 }
 
@@ -631,7 +659,7 @@ Observations ObserveBrackets(PipelineRun& run, const RadiosityInputs& in, const 
   out.seen = std::vector<bool>(n, false);
   for (const auto& bracket : in.brackets) {
     if (in.knobs.input == "truth") {
-      out.radiance.push_back(TruthRadiance(run, bracket, *in.spec));
+      out.radiance.push_back(TruthRadiance(run, bracket, in.camera));
     } else {
       out.radiance.push_back(LinearRadiance(run, bracket));
     }
@@ -660,7 +688,7 @@ struct AbsoluteScale {
 // truth / measured over well-exposed pixels and channels (robust to the few very bright pixels, a
 // lamp's hot spot, that dominate a least-squares scale), and the ratio's relative spread.
 void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, nlohmann::json* j) {
-  const sim::GroundTruth truth = in.world->Render(in.spec->camera, r.utc);
+  const sim::GroundTruth truth = in.world->Render(in.camera, r.utc);
   std::vector<double> ratios;
   for (int y = 0; y < r.radiance.height(); ++y) {
     for (int x = 0; x < r.radiance.width(); ++x) {
@@ -696,7 +724,9 @@ AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const B
   AbsoluteScale out;
   out.key.Add("stage", "radiosity-scale-v3").AddKey("radiance", bracket0.key);
   AddKnobsToKey(out.key, knobs, "scale");
-  out.key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
+  if (knobs.input == "truth" || knobs.scale == "truth") {
+    out.key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
+  }
   const StageCache::Result stage = run.RunStage("radiosity-scale", out.key, [&](const fs::path& dir) {
     nlohmann::json j = {{"mode", knobs.scale}, {"scale", 1.0}};
     if (knobs.input == "truth") {
@@ -983,7 +1013,8 @@ struct ReflectanceStage {
 // skipped it), its decision and outputs.
 ReflectanceStage RunReflectanceStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
                                      const Observations& observed, const AbsoluteScale& scale, bool skip) {
-  const MaterialGroups groups = GroupPatches(*geo.hierarchy, geo.scene, in.world->scene());
+  const MaterialGroups groups =
+      in.knobs.compare_truth ? GroupPatches(*geo.hierarchy, geo.scene, in.model, in.world->scene()) : MaterialGroups{};
   ReflectanceStage out;
   out.key.Add("stage", "radiosity-reflectance-v4").AddKey("geometry", geo.key).AddKey("scale", scale.key);
   for (size_t s = 0; s < observed.keys.size(); ++s) {
@@ -1069,7 +1100,7 @@ void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const
   lamp.intensity_w_sr = Eigen::Vector3d::Constant(in.knobs.light_intensity_w_sr);
   scene.lamps = {lamp};
   const sim::World truth_world(scene, in.world->options());
-  const sim::GroundTruth truth = truth_world.Render(in.spec->camera, utc);
+  const sim::GroundTruth truth = truth_world.Render(in.camera, utc);
   std::vector<Rgb> sum(n, Rgb::Zero()), relit_sum(n, Rgb::Zero());
   std::vector<int> count(n, 0);
   double pixel_num = 0.0, pixel_den = 0.0;
@@ -1150,7 +1181,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
     run.Decide("radiosity", "note", "the indirect-share test (skip or run radiosity) needs the radiance: not run here");
     return;
   }
-  if (in.world->options().indirect_bounces == 0) {
+  if (in.world != nullptr && in.world->options().indirect_bounces == 0) {
     run.Decide("radiosity", "note",
                "the session's world rendered direct light only (render.indirect_bounces 0): its photographs have no "
                "interreflection, so albedo from a radiosity model is biased low; compare with the skipped result");

@@ -24,10 +24,10 @@ Eigen::Vector3d Barycentric(const radiosity::Triangle& t, const Eigen::Vector3d&
 
 }  // namespace
 
-RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::string& material_groups) {
+RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::string& material_groups) {
   RadiosityScene out;
   // Group name per object ("" = its own material).
-  std::vector<std::string> group(scene.objects.size());
+  std::vector<std::string> group(model.objects.size());
   std::stringstream groups(material_groups);
   std::string one;
   while (std::getline(groups, one, ',')) {
@@ -35,12 +35,12 @@ RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::strin
     std::stringstream members(one);
     std::string name;
     while (std::getline(members, name, '+')) {
-      const int index = scene.ObjectIndex(name);
+      const int index = model.ObjectIndex(name);
       if (index < 0) {
         std::string names;
-        for (const sim::SceneObject& o : scene.objects) names += (names.empty() ? "" : ", ") + o.name;
+        for (const SceneModelObject& o : model.objects) names += (names.empty() ? "" : ", ") + o.name;
         throw InvalidArgumentError("--set material_groups=" + material_groups + ": no scene object '" + name +
-                                   "' (the scene has " + names + ")");
+                                   "' (the scene model has " + names + ")");
       }
       group[index] = one;
     }
@@ -48,27 +48,23 @@ RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::strin
   std::map<std::string, int> group_material;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
-  for (const sim::SceneObject& object : scene.objects) {
-    if (object.shape == sim::SceneObject::Shape::kSphere) {
+  for (const SceneModelObject& object : model.objects) {
+    if (object.kind == SceneModelObject::Kind::kSphere) {
       throw InvalidArgumentError("scene object '" + object.name +
-                                 "' is a sphere; the radiosity pipeline takes planes, boxes and meshes only "
+                                 "' is a sphere; the radiosity pipeline takes surfaces and solids given as triangles "
                                  "(give it as a mesh)");
     }
-    if (!object.motion.IsStatic()) {
-      throw InvalidArgumentError("scene object '" + object.name +
-                                 "' moves; the radiosity pipeline needs static geometry (lamps may move)");
-    }
-    for (const Eigen::Vector3d& v : object.mesh.vertices) {
+    for (const Eigen::Vector3d& v : object.vertices) {
       lo = lo.cwiseMin(v);
       hi = hi.cwiseMax(v);
     }
   }
-  if (!(lo.allFinite() && hi.allFinite())) throw InvalidArgumentError("the scene has no geometry for radiosity");
+  if (!(lo.allFinite() && hi.allFinite())) throw InvalidArgumentError("the scene model has no geometry for radiosity");
   const Eigen::Vector3d scene_center = 0.5 * (lo + hi);
   const double floor_z = lo.z();
 
-  for (int o = 0; o < static_cast<int>(scene.objects.size()); ++o) {
-    const sim::SceneObject& object = scene.objects[o];
+  for (int o = 0; o < static_cast<int>(model.objects.size()); ++o) {
+    const SceneModelObject& object = model.objects[o];
     int material = 0;
     if (group[o].empty()) {
       material = out.mesh.AddMaterial({object.name, radiosity::Rgb::Constant(0.5), radiosity::Rgb::Zero()});
@@ -81,27 +77,27 @@ RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::strin
     out.object_material.push_back(material);
     Eigen::Vector3d object_lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector3d object_hi = -object_lo;
-    for (const Eigen::Vector3d& v : object.mesh.vertices) {
+    for (const Eigen::Vector3d& v : object.vertices) {
       object_lo = object_lo.cwiseMin(v);
       object_hi = object_hi.cwiseMax(v);
     }
-    const bool plane = object.shape == sim::SceneObject::Shape::kPlane;
+    const bool surface = object.kind == SceneModelObject::Kind::kSurface;
     const Eigen::Vector3d object_center = 0.5 * (object_lo + object_hi);
     const int base = static_cast<int>(out.mesh.positions_m.size());
     const int triangles_before = out.mesh.TriangleCount();
-    out.mesh.positions_m.insert(out.mesh.positions_m.end(), object.mesh.vertices.begin(), object.mesh.vertices.end());
-    for (const Eigen::Vector3i& tri : object.mesh.triangles) {
-      const Eigen::Vector3d& a = object.mesh.vertices[tri[0]];
-      const Eigen::Vector3d& b = object.mesh.vertices[tri[1]];
-      const Eigen::Vector3d& c = object.mesh.vertices[tri[2]];
+    out.mesh.positions_m.insert(out.mesh.positions_m.end(), object.vertices.begin(), object.vertices.end());
+    for (const Eigen::Vector3i& tri : object.triangles) {
+      const Eigen::Vector3d& a = object.vertices[tri[0]];
+      const Eigen::Vector3d& b = object.vertices[tri[1]];
+      const Eigen::Vector3d& c = object.vertices[tri[2]];
       const Eigen::Vector3d normal = (b - a).cross(c - a);
       if (!(normal.norm() > 0.0)) continue;  // degenerate: nothing to light
       const Eigen::Vector3d centroid = (a + b + c) / 3.0;
       const Eigen::Vector3d toward =
-          plane ? Eigen::Vector3d(scene_center - centroid) : Eigen::Vector3d(centroid - object_center);
+          surface ? Eigen::Vector3d(scene_center - centroid) : Eigen::Vector3d(centroid - object_center);
       const bool flip = normal.dot(toward) < 0.0;
       const Eigen::Vector3d facing = flip ? Eigen::Vector3d(-normal) : normal;
-      if (!plane && facing.normalized().z() < -0.99 && std::max({a.z(), b.z(), c.z()}) <= floor_z + 1e-3) continue;
+      if (!surface && facing.normalized().z() < -0.99 && std::max({a.z(), b.z(), c.z()}) <= floor_z + 1e-3) continue;
       out.mesh.triangles.push_back(flip ? std::array<int, 3>{base + tri[0], base + tri[2], base + tri[1]}
                                         : std::array<int, 3>{base + tri[0], base + tri[1], base + tri[2]});
       out.mesh.triangle_material.push_back(material);
@@ -111,15 +107,13 @@ RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::strin
   return out;
 }
 
-radiosity::Lighting LightingAt(const sim::World& world, UtcTime utc) {
+radiosity::Lighting LightingAt(const SceneModel& model, UtcTime utc) {
   radiosity::Lighting lighting;
-  const sim::Scene& scene = world.scene();
-  for (int i = 0; i < static_cast<int>(scene.lamps.size()); ++i) {
-    const sim::Lamp& lamp = scene.lamps[i];
+  for (const SceneModelLamp& lamp : model.lamps) {
     radiosity::PointLight light;
-    light.position_m = world.LampPosition(i, utc);
+    light.position_m = lamp.PositionAt(utc);
     light.intensity_w_per_sr = lamp.intensity_w_sr;
-    if (lamp.type == sim::Lamp::Type::kSpot) {
+    if (lamp.type == SceneModelLamp::Type::kSpot) {
       light.spot_direction = lamp.direction.normalized();
       light.cone_half_angle_rad = lamp.cone_half_angle_rad;
       light.falloff_rad = lamp.falloff_rad;

@@ -1,12 +1,13 @@
-// The radiosity pipeline's view of a session's simulated world: the scene's geometry as a
-// radiosity mesh (one material per scene object, values unknown), the lamps at a given
+// The radiosity pipeline's view of a session's scene model (core/scene_model.h): the scene's
+// geometry as a radiosity mesh (one material per object, values unknown), the lamps at a given
 // instant, and which patch each camera pixel sees.
 //
 // Conventions:
-//  - The sim's surfaces are two-sided; radiosity triangles are one-sided (radiosity/scene.h).
-//    A plane is turned to face the centre of the scene's bounding box (a closed room seen from
-//    inside); every triangle of a box or mesh is turned away from its object's centre (closed
-//    objects seen from outside). Box faces lying on the floor, facing down, are left out.
+//  - The model's triangles may wind either way; radiosity triangles are one-sided
+//    (radiosity/scene.h). A surface's triangles are turned to face the centre of the scene's
+//    bounding box (a closed room seen from inside); every triangle of a solid is turned away
+//    from its object's centre (closed objects seen from outside). Solids' faces lying on the
+//    floor, facing down, are left out.
 //  - Materials are per object, named after it, or per user-given group of objects known to share
 //    one material (e.g. walls painted alike); their albedo is a prior (0.5), never the scene's.
 //  - Pixel centres at (u + 0.5, v + 0.5) as in core/pinhole.h and the sim renderer; a pixel's
@@ -18,28 +19,27 @@
 #include <vector>
 
 #include "core/pinhole.h"
+#include "core/scene_model.h"
 #include "core/time.h"
 #include "processing/radiosity/geometry.h"
 #include "processing/radiosity/hierarchy.h"
 #include "processing/radiosity/scene.h"
-#include "sim/world/world.h"
 
 namespace relume::pipeline {
 
 struct RadiosityScene {
   radiosity::Mesh mesh;
-  std::vector<int> object_material;   // per sim::Scene object: index into mesh.materials
+  std::vector<int> object_material;   // per scene model object: index into mesh.materials
   std::vector<int> object_triangles;  // per object: its mesh triangles (contiguous, in object order)
 };
 
 // `material_groups`: "a+b,c+d" puts objects a and b in one material, c and d in another.
 // Throws InvalidArgumentError naming the object for geometry the pipeline cannot model
-// (spheres, moving objects) and for unknown object names in the groups.
-RadiosityScene RadiositySceneFromWorld(const sim::Scene& scene, const std::string& material_groups = "");
+// (spheres) and for unknown object names in the groups.
+RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::string& material_groups = "");
 
-// Every lamp of the world at `utc` (moving lamps where their motion puts them; spots keep
-// their cone).
-radiosity::Lighting LightingAt(const sim::World& world, UtcTime utc);
+// Every lamp of the model at `utc` (where its track puts it; spots keep their cone).
+radiosity::Lighting LightingAt(const SceneModel& model, UtcTime utc);
 
 // The leaf patch containing point `p` of mesh triangle `triangle`.
 int PatchAt(const radiosity::PatchHierarchy& hierarchy, int triangle, const Eigen::Vector3d& p);

@@ -194,26 +194,21 @@ std::vector<RgbdPair> PairFrames(PipelineRun& run, double max_gap_ms) {
   return pairs;
 }
 
-PinholeCamera ColorCamera(const sim::SimDeviceSpec& spec, const capture::FrameRecord& color) {
-  PinholeCamera camera;
-  camera.intrinsics =
-      PinholeIntrinsics::FromHorizontalFov(color.width, color.height, spec.rgbd.color_horizontal_fov_rad);
-  camera.world_from_camera = spec.camera.world_from_camera * spec.rgbd.color_from_depth.inverse();
-  return camera;
-}
+// The colour camera's geometry a session recorded for an RGB-D device (its rgbd_geometry row for
+// the first pair, capture::RgbdGeometryAt, as playback reads it): the colour intrinsics.
+struct RecordedColorGeometry {
+  PinholeIntrinsics intrinsics;
+  std::int64_t row = 0;
+};
 
-// A session recorded from a real RGB-D sensor: the colour camera's intrinsics from the
-// session's own rgbd_geometry row for the first pair (capture::RgbdGeometryAt, as playback
-// reads it), and no pose. The light is then estimated in the camera frame, and its maps are
-// drawn with "up" = image up (-y) and "north" = the viewing direction (+z).
-PinholeCamera ColorCameraFromSession(PipelineRun& run, const RgbdPair& pair, std::string* how) {
+RecordedColorGeometry RecordedGeometry(PipelineRun& run, const RgbdPair& pair) {
   const capture::FrameRecord& color = pair.color;
   const std::vector<capture::CalibrationRecord> rows = run.session().Calibrations();
   const capture::CalibrationRecord* best = capture::RgbdGeometryAt(rows, color.device_id, pair.depth.id);
   if (best == nullptr) {
     throw InvalidArgumentError("the session records no geometry (intrinsics, registration) of RGB-D device " +
                                color.device_id +
-                               " and its rig does not describe it; the SH pipeline cannot place normals without it "
+                               "; the SH pipeline cannot place normals without it "
                                "(relume's session writer stores it with each RGB-D device's first frame)");
   }
   drivers::RgbdFrame geometry;
@@ -229,15 +224,41 @@ PinholeCamera ColorCameraFromSession(PipelineRun& run, const RgbdPair& pair, std
         "x" + std::to_string(geometry.color_intrinsics.height) + " colour, but frame " + std::to_string(color.id) +
         " is " + std::to_string(color.width) + "x" + std::to_string(color.height));
   }
+  return {geometry.color_intrinsics, best->id};
+}
+
+// The colour camera: intrinsics from the recorded geometry (for the recorded size); its pose from
+// the scene model (an RGB-D device's model camera is its colour camera) when the model has one. Without
+// a pose the light is estimated in the camera frame, and its maps are drawn with "up" = image up
+// (-y) and "north" = the viewing direction (+z).
+PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* how) {
+  const RecordedColorGeometry recorded = RecordedGeometry(run, pair);
   PinholeCamera camera;
-  camera.intrinsics = geometry.color_intrinsics;
+  camera.intrinsics = recorded.intrinsics;
+  const std::string intrinsics = "colour intrinsics from the session's rgbd_geometry row " +
+                                 std::to_string(recorded.row) + " (fx " + std::to_string(camera.intrinsics.fx) + " px)";
+  const SceneModel* model = run.scene_model();
+  if (model != nullptr && model->FindCamera(pair.color.device_id) != nullptr) {
+    const SceneModelCamera& device = run.RequireCamera(pair.color.device_id, "the sh pipeline");
+    camera.world_from_camera = device.camera.world_from_camera;
+    *how = intrinsics + "; pose from the scene model";
+    // The model's intrinsics may be for another size; their field of view must be the recorded one's.
+    const double model_fov = device.camera.intrinsics.fx / device.camera.intrinsics.width;
+    const double recorded_fov = camera.intrinsics.fx / camera.intrinsics.width;
+    if (std::abs(model_fov / recorded_fov - 1.0) > 0.01) {
+      run.Decide("geometry", "warn",
+                 "the scene model's camera " + pair.color.device_id + " has fx/width " + std::to_string(model_fov) +
+                     ", the recorded colour stream " + std::to_string(recorded_fov) +
+                     ": is the model's camera this device's colour camera?");
+    }
+    return camera;
+  }
   Eigen::Matrix3d map_from_camera;  // rows: map x = camera x, map y = camera z, map z = -camera y
   map_from_camera << 1, 0, 0, 0, 0, 1, 0, -1, 0;
   camera.world_from_camera = Eigen::Isometry3d(map_from_camera);
-  *how = "colour intrinsics from the session's rgbd_geometry row " + std::to_string(best->id) + " (fx " +
-         std::to_string(camera.intrinsics.fx) +
-         " px); no pose recorded: the light is in the camera frame, its maps "
-         "drawn with image up as up";
+  *how = intrinsics +
+         "; no pose in the session's scene model: the light is in the camera frame, its maps drawn with "
+         "image up as up";
   return camera;
 }
 
@@ -983,13 +1004,9 @@ ShInputs ReadShInputs(PipelineRun& run, const Knobs& k) {
   }
   in.device = in.pairs.front().color.device_id;
   in.spec = FindDeviceSpec(run.rig(), in.device);
-  if (in.spec != nullptr) {
-    in.camera = ColorCamera(*in.spec, in.pairs.front().color);
-  } else {
-    std::string how;
-    in.camera = ColorCameraFromSession(run, in.pairs.front(), &how);
-    run.Decide("geometry", "choose", how);
-  }
+  std::string how;
+  in.camera = ColorCamera(run, in.pairs.front(), &how);
+  run.Decide("geometry", "choose", how);
   // Frames relit: --source (default all); the fits run on every pair (temporal filter chain).
   in.is_source.assign(in.pairs.size(), !run.request().source.has_value());
   if (run.request().source) {

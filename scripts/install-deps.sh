@@ -11,6 +11,8 @@ PACKAGES=(
   libeigen3-dev libgeographiclib-dev liberfa-dev libopencv-dev libopencv-contrib-dev libembree-dev libraw-dev
   # storage, config, CLI, logs, reports
   libsqlite3-dev libtiff-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
+  # `relume session import`: the stills' EXIF (time, exposure, aperture, ISO)
+  libexiv2-dev
   # the Python module (python/, docs/python.md) and its tests
   pybind11-dev python3-dev python3-numpy python3-pytest
   # tests and benchmarks

@@ -14,11 +14,13 @@
 
 #include "apps/relume/device_backends.h"
 #include "capture/playback.h"
+#include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/clock.h"
 #include "core/error.h"
 #include "drivers/device_error.h"
 #include "rig/rig_config.h"
+#include "rig/scene_model_from_rig.h"
 
 namespace relume::app {
 
@@ -246,6 +248,15 @@ std::unique_ptr<capture::SessionWriter> CreateSession(const CaptureRequest& requ
   info.created_utc = clock.NowUtc();
   std::unique_ptr<capture::SessionWriter> writer = capture::SessionWriter::Create(request.out_dir, info, rig.storage);
   rig::StoreRigWithSession(rig, request.out_dir);
+  if (rig.world) {
+    // What processing may know of the place (cameras, geometry, lamps), so that it never reads the
+    // simulator (rig/scene_model_from_rig.h).
+    capture::CalibrationRecord record;
+    record.created_utc = info.created_utc;
+    record.kind = capture::kSceneModelKind;
+    record.json = capture::SceneModelToJson(rig::SceneModelFromRig(rig));
+    writer->AddCalibration(record);
+  }
   return writer;
 }
 

@@ -4,7 +4,15 @@
 #include <iostream>
 #include <memory>
 
+#include "capture/import.h"
+#include "capture/scene_model_record.h"
+#include "capture/session.h"
 #include "capture/session_check.h"
+#include "core/error.h"
+#include "core/scene_model_file.h"
+#include "core/time.h"
+#include "core/yaml_file.h"
+#include "rig/scene_model_from_rig.h"
 
 namespace relume::app {
 
@@ -29,6 +37,62 @@ void AddSessionCommand(CLI::App& app) {
   CLI::App* info = session->add_subcommand("info", "Summarise a session");
   info->add_option("DIR", *dir, "Session folder")->required();
   info->callback([dir]() { std::cout << capture::DescribeSession(*dir); });
-}
+
+  CLI::App* import = session->add_subcommand(
+      "import",
+      "Make a session from still images recorded elsewhere (raw, JPEG, TIFF, PNG): files kept byte for byte with "
+      "SHA-256, time and exposure from their EXIF, brackets grouped, the sun per frame");
+  auto import_options = std::make_shared<capture::ImportOptions>();
+  auto inputs = std::make_shared<std::vector<std::string>>();
+  auto out = std::make_shared<std::string>();
+  auto site_file = std::make_shared<std::string>();
+  auto tz = std::make_shared<std::string>();
+  import->add_option("INPUTS", *inputs, "Image files or folders of them")->required();
+  import->add_option("--out", *out, "The new session's folder")->required();
+  import->add_option("--site", *site_file, "Site file (config/sites/*.yaml): where the photographs were taken")
+      ->required();
+  import->add_option("--tz", *tz,
+                     "UTC offset of the camera's clock (+03:00) for files whose EXIF gives none (no default)");
+  import->add_option("--name", import_options->name, "Session name (default: the folder's)");
+  import->add_option("--camera-id", import_options->camera_id, "Device id (default: from EXIF make and model)");
+  import->add_option("--bracket-gap", import_options->bracket_gap_s,
+                     "Frames closer than this (s), with different exposures, form one bracket (3)");
+  import->add_option("--exposure-time", import_options->exposure_time_s, "Exposure time (s) for files lacking it");
+  import->add_option("--aperture", import_options->aperture_f, "f-number for files lacking it");
+  import->add_option("--iso", import_options->iso, "ISO for files lacking it");
+  import->callback([import_options, inputs, out, site_file, tz]() {
+    capture::ImportOptions options = *import_options;
+  for (const std::string& input : *inputs) options.inputs.emplace_back(input);
+  options.site = LoadSiteConfig(*site_file).site;
+  if (!tz->empty()) {
+    try {
+      options.utc_offset = ParseIso8601("2000-01-01T00:00:00" + *tz).utc_offset;
+    } catch (const InvalidArgumentError&) {
+      throw InvalidArgumentError("--tz " + *tz + ": expected an offset from UTC such as +03:00, -05:00 or Z");
+    }
+  }
+  std::cout << capture::ImportStills(options, *out).Report();
+});
+
+CLI::App* add_model = session->add_subcommand(
+    "add-scene-model",
+    "Store the scene model processing reads (cameras, geometry, lamps): from a file you wrote (--from, "
+    "docs/real-data.md), or for a simulated session captured before scene models existed, from the rig and "
+    "world it keeps in <session>/rig/");
+add_model->add_option("DIR", *dir, "Session folder")->required();
+auto from = std::make_shared<std::string>();
+add_model->add_option("--from", *from, "Scene model YAML (core/scene_model_file.h, docs/real-data.md)");
+add_model->callback([dir, from]() {
+  std::int64_t row = 0;
+  if (from->empty()) {
+    row = rig::AddSceneModelFromStoredRig(*dir);
+  } else {
+    const SceneModel model = LoadSceneModelFile(*from, capture::SessionReader(*dir).info().site);
+    row = capture::StoreSceneModel(*dir, model);
+    std::cout << capture::DescribeSceneModel(model) << "\n";
+  }
+  std::cout << "scene model stored as calibration row " << row << " of " << *dir << "\n";
+});
+}  // namespace relume::app
 
 }  // namespace relume::app

@@ -20,61 +20,6 @@ bool IsFiniteVector(const Eigen::Vector3d& v) {
 }
 }  // namespace
 
-void TriangleMesh::Append(const TriangleMesh& other) {
-  // Per-face and per-vertex arrays stay aligned; entries a side did not have are NaN, which
-  // means "use the object's albedo" (faces) or is filled by the face/object albedo (vertices).
-  const Eigen::Vector3d unset = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  const bool faces = !face_albedo.empty() || !other.face_albedo.empty();
-  const bool materials = !face_material.empty() || !other.face_material.empty();
-  const bool per_vertex = !vertex_albedo.empty() || !other.vertex_albedo.empty();
-  if (faces) face_albedo.resize(triangles.size(), unset);
-  if (materials) face_material.resize(triangles.size());
-  if (per_vertex) vertex_albedo.resize(vertices.size(), unset);
-  const int base = static_cast<int>(vertices.size());
-  vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
-  for (const Eigen::Vector3i& t : other.triangles) triangles.push_back(t + Eigen::Vector3i::Constant(base));
-  if (faces) {
-    face_albedo.insert(face_albedo.end(), other.face_albedo.begin(), other.face_albedo.end());
-    face_albedo.resize(triangles.size(), unset);
-  }
-  if (materials) {
-    face_material.insert(face_material.end(), other.face_material.begin(), other.face_material.end());
-    face_material.resize(triangles.size());
-  }
-  if (per_vertex) {
-    vertex_albedo.insert(vertex_albedo.end(), other.vertex_albedo.begin(), other.vertex_albedo.end());
-    vertex_albedo.resize(vertices.size(), unset);
-  }
-}
-
-bool TriangleMesh::IsValid(std::string* why) const {
-  if (triangles.empty()) return Fail(why, "the mesh has no triangles");
-  for (const Eigen::Vector3d& v : vertices) {
-    if (!IsFiniteVector(v)) return Fail(why, "a vertex is not finite");
-  }
-  const int n = static_cast<int>(vertices.size());
-  for (const Eigen::Vector3i& t : triangles) {
-    if (t.minCoeff() < 0 || t.maxCoeff() >= n) return Fail(why, "a triangle refers to a vertex that does not exist");
-  }
-  if (!vertex_albedo.empty() && vertex_albedo.size() != vertices.size()) {
-    return Fail(why, "per-vertex albedo must have one value per vertex");
-  }
-  if (!face_albedo.empty() && face_albedo.size() != triangles.size()) {
-    return Fail(why, "per-face albedo must have one value per triangle");
-  }
-  // NaN entries mean "not given here" (the object's albedo applies).
-  auto in_range = [](const Eigen::Vector3d& a) {
-    return a.hasNaN() || (a.allFinite() && a.minCoeff() >= 0.0 && a.maxCoeff() <= 1.0);
-  };
-  for (const auto& a : vertex_albedo) {
-    if (!in_range(a)) return Fail(why, "a per-vertex albedo is outside [0, 1]");
-  }
-  for (const auto& a : face_albedo) {
-    if (!in_range(a)) return Fail(why, "a per-face albedo is outside [0, 1]");
-  }
-  return true;
-}
-
 const char* ToString(Motion::Type type) {
   switch (type) {
     case Motion::Type::kStatic: return "static";

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "core/mesh_io.h"
 #include "core/pinhole.h"
 #include "core/site.h"
 #include "core/sun/sun_position.h"
@@ -28,18 +29,9 @@
 
 namespace relume::sim {
 
-// Triangles in the scene frame. Albedo sources, first found wins: per-vertex (interpolated),
-// per-face, the object's albedo.
-struct TriangleMesh {
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<Eigen::Vector3i> triangles;      // vertex indices
-  std::vector<Eigen::Vector3d> vertex_albedo;  // empty, or one per vertex (NaN = not given)
-  std::vector<Eigen::Vector3d> face_albedo;    // empty, or one per triangle (NaN = not given)
-  std::vector<std::string> face_material;      // empty, or one per triangle (OBJ usemtl)
-
-  void Append(const TriangleMesh& other);
-  bool IsValid(std::string* why) const;
-};
+// Triangles in the scene frame (core/mesh_io.h); their colours are albedo. Albedo sources,
+// first found wins: per-vertex (interpolated), per-face, the object's albedo.
+using TriangleMesh = ::relume::MeshData;
 
 // A rigid translation over time. OffsetAt(t, anchor) is how far an object whose reference
 // point is `anchor` has moved from its described place at time t.

@@ -8,8 +8,8 @@
 #include "core/color.h"
 #include "core/error.h"
 #include "core/frames.h"
+#include "core/mesh_io.h"
 #include "core/yaml_file.h"
-#include "sim/world/mesh_io.h"
 
 namespace relume::sim {
 

@@ -4,6 +4,7 @@
 #include "pipeline/irm_pipeline.h"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -22,6 +23,7 @@
 #include "processing/irm/relight.h"
 #include "processing/irm/testing_reference.h"
 #include "rig/rig_config.h"
+#include "rig/scene_model_from_rig.h"
 #include "tests/apps/cli_runner.h"
 
 namespace relume::pipeline {
@@ -39,7 +41,7 @@ TEST(IrmSceneTest, SplitTrianglesKeepTheSurfaceAndTheirFlatNormals) {
   sim::TriangleMesh box = sim::MakeBox({0, 0, 5}, {12, 8, 10}, 0.0);
   IrmMeshOptions options;
   options.spacing_m = 1.0;
-  const TriangleMesh mesh = ProcessingMeshFromSim(box, options);
+  const TriangleMesh mesh = ProcessingMeshFromData(box, options);
   std::string why;
   ASSERT_TRUE(mesh.IsValid(&why)) << why;
   double area = 0.0;
@@ -147,7 +149,7 @@ NoiseFreeCase RunNoiseFree(bool penumbra, bool sky_gradient = true, int width = 
   const sim::World world(rig.world->scene(), quality);
   const sim::GroundTruth source = world.Render(camera, morning);
   const sim::GroundTruth target = world.Render(camera, afternoon);
-  const TriangleMesh mesh = ProcessingMeshFromScene(rig.world->scene(), IrmMeshOptions{});
+  const TriangleMesh mesh = ProcessingMeshFromModel(rig::SceneModelFromRig(rig), IrmMeshOptions{});
   const RayCaster caster(mesh);
   irm::RelightOptions options;
   options.use_penumbra_fractions = penumbra;
@@ -223,7 +225,7 @@ TEST(IrmAccuracyTest, RelightPixelsMatchesItsDefinitionOnTheWorld) {
   const UtcTime afternoon = ParseIso8601("2026-06-21T15:00:00+03:00").utc;
   const sim::GroundTruth source = rig.world->Render(camera, morning);
   const sim::GroundTruth target = rig.world->Render(camera, afternoon);
-  const TriangleMesh mesh = ProcessingMeshFromScene(rig.world->scene(), IrmMeshOptions{});
+  const TriangleMesh mesh = ProcessingMeshFromModel(rig::SceneModelFromRig(rig), IrmMeshOptions{});
   int smooth_triangles = 0;
   for (const Eigen::Vector3i& t : mesh.triangles) {
     const Eigen::Vector3f& n0 = mesh.normals[static_cast<std::size_t>(t[0])];
@@ -382,6 +384,94 @@ TEST(IrmCliTest, AUtmMeshRelightsAsWellAsTheRecordedWorld) {
   EXPECT_LT(b["relative_rms_shadow"].get<double>(), 0.1) << b.dump(1);
   EXPECT_NEAR(b["relative_rms_lit"].get<double>(), a["relative_rms_lit"].get<double>(), 0.005) << a.dump(1);
   EXPECT_NEAR(b["relative_rms_shadow"].get<double>(), a["relative_rms_shadow"].get<double>(), 0.01) << a.dump(1);
+  fs::remove_all(dir);
+}
+
+// The real-data path (docs/real-data.md): a scene model written by hand (the camera measured in
+// ENU, the site's photogrammetry mesh in UTM) and stored with `session add-scene-model --from`
+// replaces the one capture wrote; processing then takes cameras and geometry from it and relights
+// as well as from the simulated rig's own model.
+TEST(IrmCliTest, AHandWrittenSceneModelRelightsAsWellAsTheRigsOwn) {
+  const fs::path dir = TempDir("scene-file");
+  const fs::path session = dir / "session";
+  const testing::CliResult capture = testing::RunRelume(
+      "capture --rig " + kSource + "/tests/data/rigs/sim-tiny-irm-no-dome.yaml --out " + session.string());
+  ASSERT_EQ(capture.exit_code, 0) << capture.output;
+  const std::string base = "process " + session.string() + " --pipeline irm --source bracket:1 --target bracket:2";
+  const testing::CliResult rig_model = testing::RunRelume(base + " --out " + (dir / "rig-model").string());
+  ASSERT_EQ(rig_model.exit_code, 0) << rig_model.output;
+
+  std::ofstream(dir / "scene.yaml") << "frame: enu\n"
+                                       "utm_zone: 34\n"
+                                       "cameras:\n"
+                                       "  - device: sim:dslr\n"
+                                       "    intrinsics: {width: 160, height: 120, horizontal_fov_deg: 70}\n"
+                                       "    position_m: [-6, -34, 1.7]\n"
+                                       "    look_at_m: [-2, 0, 5]\n"
+                                       "objects:\n"
+                                       "  - {name: site, kind: solid, frame: utm, mesh: "
+                                    << kSource << "/config/scenes/meshes/building-utm.obj}\n";
+  const testing::CliResult add =
+      testing::RunRelume("session add-scene-model " + session.string() + " --from " + (dir / "scene.yaml").string());
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  EXPECT_NE(add.output.find("scene model stored as calibration row"), std::string::npos) << add.output;
+  const testing::CliResult info = testing::RunRelume("session info " + session.string());
+  EXPECT_NE(info.output.find("2 scene_model"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("from scene model file"), std::string::npos) << info.output;
+
+  const testing::CliResult file_model = testing::RunRelume(base + " --out " + (dir / "file-model").string());
+  ASSERT_EQ(file_model.exit_code, 0) << file_model.output;
+  EXPECT_NE(file_model.output.find("scene model file"), std::string::npos) << file_model.output;
+  const nlohmann::json a = ReadJsonFile(dir / "rig-model" / "summary.json")["metrics"]["truth"]["relit"];
+  const nlohmann::json b = ReadJsonFile(dir / "file-model" / "summary.json")["metrics"]["truth"]["relit"];
+  EXPECT_LT(b["relative_rms_lit"].get<double>(), 0.02) << b.dump(1);
+  EXPECT_NEAR(b["relative_rms_lit"].get<double>(), a["relative_rms_lit"].get<double>(), 0.005) << a.dump(1);
+  EXPECT_NEAR(b["relative_rms_shadow"].get<double>(), a["relative_rms_shadow"].get<double>(), 0.01) << a.dump(1);
+
+  // A camera the model does not have: the pipeline says what to add.
+  std::ofstream(dir / "no-camera.yaml") << "utm_zone: 34\nobjects:\n  - {name: site, kind: solid, frame: utm, mesh: "
+                                        << kSource << "/config/scenes/meshes/building-utm.obj}\n";
+  ASSERT_EQ(
+      testing::RunRelume("session add-scene-model " + session.string() + " --from " + (dir / "no-camera.yaml").string())
+          .exit_code,
+      0);
+  const testing::CliResult refused = testing::RunRelume(base + " --out " + (dir / "refused").string());
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("has none for it"), std::string::npos) << refused.output;
+  fs::remove_all(dir);
+}
+
+// A simulated session recorded before capture stored scene models (its row removed here) is
+// refused with the command that gives it one; that command writes the model from the rig and
+// world the session keeps, once.
+TEST(IrmCliTest, AnOlderSimulatedSessionGetsItsSceneModelFromItsStoredRig) {
+  const fs::path dir = TempDir("old-session");
+  const fs::path session = dir / "session";
+  ASSERT_EQ(
+      testing::RunRelume("capture --rig " + kSource + "/tests/data/rigs/sim-tiny-irm.yaml --out " + session.string())
+          .exit_code,
+      0);
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((session / "session.sqlite").c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "DELETE FROM calibrations WHERE kind = 'scene_model'", nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  EXPECT_NE(testing::RunRelume("session info " + session.string()).output.find("scene model   none"),
+            std::string::npos);
+
+  const std::string process = "process " + session.string() + " --pipeline irm --out ";
+  const testing::CliResult refused = testing::RunRelume(process + (dir / "refused").string());
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("relume session add-scene-model"), std::string::npos) << refused.output;
+
+  const testing::CliResult add = testing::RunRelume("session add-scene-model " + session.string());
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  const testing::CliResult again = testing::RunRelume("session add-scene-model " + session.string());
+  EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.output.find("already has a scene model"), std::string::npos) << again.output;
+  const testing::CliResult run = testing::RunRelume(process + (dir / "run").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("the session's scene model"), std::string::npos) << run.output;
   fs::remove_all(dir);
 }
 

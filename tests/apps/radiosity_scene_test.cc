@@ -1,10 +1,11 @@
-// The radiosity pipeline's view of a sim world (pipeline/radiosity_scene.h): patch
+// The radiosity pipeline's view of a sim world's scene model (pipeline/radiosity_scene.h): patch
 // orientation, the pixel -> patch map against the renderer's object ids, and lamps over time.
 #include "pipeline/radiosity_scene.h"
 
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "rig/scene_model_from_rig.h"
 #include "sim/world/scene_yaml.h"
 
 namespace relume::pipeline {
@@ -14,9 +15,15 @@ sim::Scene Room() {
   return sim::LoadScene(std::string(RELUME_SOURCE_DIR) + "/config/scenes/indoor-room.yaml");
 }
 
+// What capture stores for the room (rig/scene_model_from_rig.h), lamps tracked over 10 minutes.
+SceneModel Model(const sim::Scene& scene) {
+  return rig::SceneModelFromSimScene(scene, "test", scene.time - std::chrono::minutes(1),
+                                     scene.time + std::chrono::minutes(10));
+}
+
 TEST(RadiositySceneTest, RoomPlanesFaceInwardAndBoxesOutward) {
   const sim::Scene scene = Room();
-  const RadiosityScene rs = RadiositySceneFromWorld(scene);
+  const RadiosityScene rs = RadiositySceneFromModel(Model(scene));
   std::string why;
   ASSERT_TRUE(rs.mesh.IsValid(&why)) << why;
   ASSERT_EQ(rs.object_triangles.size(), scene.objects.size());
@@ -46,17 +53,17 @@ TEST(RadiositySceneTest, RoomPlanesFaceInwardAndBoxesOutward) {
   EXPECT_EQ(rs.object_triangles[scene.ObjectIndex("monitor")], 12);
   // Materials: one per object, or one per group; never the scene's albedo.
   EXPECT_EQ(rs.mesh.materials.size(), scene.objects.size());
-  const RadiosityScene grouped = RadiositySceneFromWorld(scene, "wall-west+wall-east,wall-south+wall-north");
+  const RadiosityScene grouped = RadiositySceneFromModel(Model(scene), "wall-west+wall-east,wall-south+wall-north");
   EXPECT_EQ(grouped.mesh.materials.size(), scene.objects.size() - 2);
   EXPECT_EQ(grouped.object_material[scene.ObjectIndex("wall-west")],
             grouped.object_material[scene.ObjectIndex("wall-east")]);
   for (const radiosity::Material& m : grouped.mesh.materials) EXPECT_EQ(m.albedo, radiosity::Rgb::Constant(0.5));
-  EXPECT_THROW(RadiositySceneFromWorld(scene, "wall-west+sofa"), InvalidArgumentError);
+  EXPECT_THROW(RadiositySceneFromModel(Model(scene), "wall-west+sofa"), InvalidArgumentError);
 }
 
 TEST(RadiositySceneTest, PixelPatchesLieOnTheObjectTheRendererHits) {
   sim::Scene scene = Room();
-  const RadiosityScene rs = RadiositySceneFromWorld(scene);
+  const RadiosityScene rs = RadiositySceneFromModel(Model(scene));
   radiosity::HierarchyOptions options;
   options.max_patch_edge_m = 0.5;
   const radiosity::PatchHierarchy h(rs.mesh, options);
@@ -88,8 +95,8 @@ TEST(RadiositySceneTest, PixelPatchesLieOnTheObjectTheRendererHits) {
 TEST(RadiositySceneTest, LampsMoveAndSpotsKeepTheirCone) {
   const sim::World world(Room());
   const UtcTime t0 = world.scene().time;
-  const radiosity::Lighting at0 = LightingAt(world, t0);
-  const radiosity::Lighting at60 = LightingAt(world, t0 + std::chrono::seconds(60));
+  const radiosity::Lighting at0 = LightingAt(Model(world.scene()), t0);
+  const radiosity::Lighting at60 = LightingAt(Model(world.scene()), t0 + std::chrono::seconds(60));
   ASSERT_EQ(at0.point_lights.size(), 2u);
   EXPECT_TRUE(at0.point_lights[0].position_m.isApprox(Eigen::Vector3d(0, 0, 2.8)));
   EXPECT_EQ(at0.point_lights[0].spot_direction.norm(), 0.0);

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "capture/session.h"
 #include "tests/apps/cli_runner.h"
@@ -53,6 +54,30 @@ TEST(SessionCliTest, VerifyRecoverInfo) {
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("relume: error: /nonexistent/session: no session here"), std::string::npos)
       << missing.output;
+}
+
+// `relume session import`'s flags reach the library and its errors reach the user (the import
+// itself is tested in capture/import_test.cc): a JPEG without EXIF is refused, naming the file
+// and what it lacks, and nothing is created; a malformed --tz is refused naming the flag.
+TEST(SessionCliTest, ImportRefusesFilesWithoutTheirTimeAndBadFlags) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("session_import_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "card");
+  cv::imwrite((dir / "card" / "IMG_0001.JPG").string(), cv::Mat(8, 8, CV_8UC3, cv::Scalar(10, 20, 30)));
+  const std::string base = "session import " + (dir / "card").string() + " --out " + (dir / "s").string() + " --site " +
+                           RELUME_SOURCE_DIR + "/config/sites/athens-acropolis.yaml";
+  const testing::CliResult no_time = testing::RunRelume(base + " --tz +03:00");
+  EXPECT_NE(no_time.exit_code, 0);
+  EXPECT_NE(no_time.output.find("IMG_0001.JPG: its EXIF has no DateTimeOriginal"), std::string::npos) << no_time.output;
+  EXPECT_FALSE(fs::exists(dir / "s"));
+  const testing::CliResult bad_tz = testing::RunRelume(base + " --tz 3h");
+  EXPECT_NE(bad_tz.exit_code, 0);
+  EXPECT_NE(bad_tz.output.find("--tz 3h: expected an offset from UTC"), std::string::npos) << bad_tz.output;
+  const testing::CliResult no_site =
+      testing::RunRelume("session import " + (dir / "card").string() + " --out " + (dir / "s").string());
+  EXPECT_NE(no_site.exit_code, 0);
+  EXPECT_NE(no_site.output.find("--site"), std::string::npos) << no_site.output;
+  fs::remove_all(dir);
 }
 
 }  // namespace

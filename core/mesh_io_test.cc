@@ -1,4 +1,4 @@
-#include "sim/world/mesh_io.h"
+#include "core/mesh_io.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include "core/color.h"
 #include "core/error.h"
 
-namespace relume::sim {
+namespace relume {
 namespace {
 
 std::string Write(const std::string& name, const std::string& text) {
@@ -32,7 +32,7 @@ TEST(MeshIoTest, ObjQuadsNegativeIndicesMaterialsAndVertexColours) {
                                  "# a quad and a triangle\n"
                                  "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 1 1 0 0 0 1\nv 0 1 0 1 1 1\n"
                                  "vn 0 0 1\nusemtl red\nf 1//1 2//1 3//1 4//1\nusemtl blue\nf -1 -3 -2\n");
-  const TriangleMesh mesh = LoadObjMesh(path);
+  const MeshData mesh = LoadObjMesh(path);
   ASSERT_EQ(mesh.triangles.size(), 3u);
   EXPECT_EQ(mesh.triangles[1], Eigen::Vector3i(0, 2, 3));
   EXPECT_EQ(mesh.triangles[2], Eigen::Vector3i(3, 1, 2));
@@ -59,7 +59,7 @@ TEST(MeshIoTest, AsciiPlyWithFaceAndVertexColours) {
                                  "property float red\nproperty float green\nproperty float blue\nend_header\n"
                                  "0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 128 128 128\n"
                                  "4 0 1 2 3 0.25 0.5 0.75\n");
-  const TriangleMesh mesh = LoadPlyMesh(path);
+  const MeshData mesh = LoadPlyMesh(path);
   ASSERT_EQ(mesh.triangles.size(), 2u);
   ASSERT_EQ(mesh.face_albedo.size(), 2u);
   EXPECT_EQ(mesh.face_albedo[1], Eigen::Vector3d(0.25, 0.5, 0.75));          // float: linear as is
@@ -85,10 +85,10 @@ TEST(MeshIoTest, PlyErrors) {
 }
 
 TEST(MeshIoTest, ShippedUtmMeshLoads) {
-  const TriangleMesh mesh = LoadObjMesh("config/scenes/meshes/building-utm.obj");
+  const MeshData mesh = LoadObjMesh("config/scenes/meshes/building-utm.obj");
   EXPECT_EQ(mesh.triangles.size(), 2u + 3 * 12u);
   EXPECT_GT(mesh.vertices[0].y(), 4e6);  // northing
 }
 
 }  // namespace
-}  // namespace relume::sim
+}  // namespace relume

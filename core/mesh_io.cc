@@ -1,4 +1,4 @@
-#include "sim/world/mesh_io.h"
+#include "core/mesh_io.h"
 
 #include <algorithm>
 #include <cctype>
@@ -6,15 +6,25 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "core/color.h"
 #include "core/error.h"
 #include "core/input_file.h"
 
-namespace relume::sim {
+namespace relume {
 
 namespace {
+
+bool Fail(std::string* why, const std::string& reason) {
+  if (why != nullptr) *why = reason;
+  return false;
+}
+
+bool IsFiniteVector(const Eigen::Vector3d& v) {
+  return v.allFinite();
+}
 
 std::vector<std::string> Tokens(const std::string& line) {
   std::vector<std::string> tokens;
@@ -42,9 +52,64 @@ std::ifstream OpenOrThrow(const std::string& path) {
 
 }  // namespace
 
-TriangleMesh LoadObjMesh(const std::string& path) {
+void MeshData::Append(const MeshData& other) {
+  // Per-face and per-vertex arrays stay aligned; entries a side did not have are NaN, which
+  // means "use the object's albedo" (faces) or is filled by the face/object albedo (vertices).
+  const Eigen::Vector3d unset = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const bool faces = !face_albedo.empty() || !other.face_albedo.empty();
+  const bool materials = !face_material.empty() || !other.face_material.empty();
+  const bool per_vertex = !vertex_albedo.empty() || !other.vertex_albedo.empty();
+  if (faces) face_albedo.resize(triangles.size(), unset);
+  if (materials) face_material.resize(triangles.size());
+  if (per_vertex) vertex_albedo.resize(vertices.size(), unset);
+  const int base = static_cast<int>(vertices.size());
+  vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
+  for (const Eigen::Vector3i& t : other.triangles) triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  if (faces) {
+    face_albedo.insert(face_albedo.end(), other.face_albedo.begin(), other.face_albedo.end());
+    face_albedo.resize(triangles.size(), unset);
+  }
+  if (materials) {
+    face_material.insert(face_material.end(), other.face_material.begin(), other.face_material.end());
+    face_material.resize(triangles.size());
+  }
+  if (per_vertex) {
+    vertex_albedo.insert(vertex_albedo.end(), other.vertex_albedo.begin(), other.vertex_albedo.end());
+    vertex_albedo.resize(vertices.size(), unset);
+  }
+}
+
+bool MeshData::IsValid(std::string* why) const {
+  if (triangles.empty()) return Fail(why, "the mesh has no triangles");
+  for (const Eigen::Vector3d& v : vertices) {
+    if (!IsFiniteVector(v)) return Fail(why, "a vertex is not finite");
+  }
+  const int n = static_cast<int>(vertices.size());
+  for (const Eigen::Vector3i& t : triangles) {
+    if (t.minCoeff() < 0 || t.maxCoeff() >= n) return Fail(why, "a triangle refers to a vertex that does not exist");
+  }
+  if (!vertex_albedo.empty() && vertex_albedo.size() != vertices.size()) {
+    return Fail(why, "per-vertex albedo must have one value per vertex");
+  }
+  if (!face_albedo.empty() && face_albedo.size() != triangles.size()) {
+    return Fail(why, "per-face albedo must have one value per triangle");
+  }
+  // NaN entries mean "not given here" (the object's albedo applies).
+  auto in_range = [](const Eigen::Vector3d& a) {
+    return a.hasNaN() || (a.allFinite() && a.minCoeff() >= 0.0 && a.maxCoeff() <= 1.0);
+  };
+  for (const auto& a : vertex_albedo) {
+    if (!in_range(a)) return Fail(why, "a per-vertex albedo is outside [0, 1]");
+  }
+  for (const auto& a : face_albedo) {
+    if (!in_range(a)) return Fail(why, "a per-face albedo is outside [0, 1]");
+  }
+  return true;
+}
+
+MeshData LoadObjMesh(const std::string& path) {
   std::ifstream stream = OpenOrThrow(path);
-  TriangleMesh mesh;
+  MeshData mesh;
   std::string current_material;
   bool any_material = false;
   bool any_color = false;
@@ -128,7 +193,7 @@ double ColorValue(double raw, const std::string& type) {
 
 }  // namespace
 
-TriangleMesh LoadPlyMesh(const std::string& path) {
+MeshData LoadPlyMesh(const std::string& path) {
   std::ifstream stream = OpenOrThrow(path);
   std::string line;
   int line_number = 0;
@@ -170,7 +235,7 @@ TriangleMesh LoadPlyMesh(const std::string& path) {
   }
   if (!ascii) throw ConfigError(path, line_number, "format", "missing 'format ascii 1.0'");
 
-  TriangleMesh mesh;
+  MeshData mesh;
   for (const PlyElement& element : elements) {
     auto find = [&](const char* name) {
       for (std::size_t i = 0; i < element.properties.size(); ++i) {
@@ -257,7 +322,7 @@ TriangleMesh LoadPlyMesh(const std::string& path) {
   return mesh;
 }
 
-TriangleMesh LoadMesh(const std::string& path) {
+MeshData LoadMesh(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -266,4 +331,4 @@ TriangleMesh LoadMesh(const std::string& path) {
   throw InvalidArgumentError("mesh '" + path + "': unknown format '" + extension + "'; use .obj or .ply");
 }
 
-}  // namespace relume::sim
+}  // namespace relume
