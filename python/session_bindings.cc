@@ -9,17 +9,19 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "core/scene_model.h"
 #include "pipeline/irm_scene.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/radiance.h"
 #include "python/bindings.h"
 #include "python/convert.h"
 #include "python/numpy_mat.h"
-#include "rig/rig_config.h"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -162,36 +164,50 @@ class Session {
                                std::to_string(frames_.size()) + " frames; Session.frames lists them)");
   }
 
-  // The rig stored with the session (rig/), read at first use; InvalidArgumentError without one.
-  const rig::RigConfig& Rig(const char* what) const {
-    if (!rig_) rig_ = rig::LoadSessionRig(reader_->dir());
-    if (!rig_) {
-      throw InvalidArgumentError(std::string(what) + ": session " + path() +
-                                 " stored no rig (recorded before sessions kept their rig in rig/)");
+  // The session's scene model (its latest scene_model calibration row, core/scene_model.h): the
+  // cameras and geometry the pipelines use. Read at first use; InvalidArgumentError without one.
+  const SceneModel& Model(const char* what) const {
+    if (!model_) {
+      const std::vector<capture::CalibrationRecord> rows = reader_->Calibrations();
+      const capture::CalibrationRecord* row = capture::LatestSceneModelRow(rows);
+      if (row == nullptr) {
+        throw InvalidArgumentError(std::string(what) + ": session " + path() +
+                                   " has no scene model: " + pipeline::SceneModelAdvice(reader_->dir()));
+      }
+      model_ = capture::SceneModelFromJson(row->json, path() + ": calibration row " + std::to_string(row->id));
     }
-    return *rig_;
+    return *model_;
   }
 
  public:
   py::dict Camera(const std::string& device_id) const {
-    const sim::SimDeviceSpec* spec = pipeline::FindDeviceSpec(&Rig("camera"), device_id);
-    if (spec == nullptr) {
-      throw InvalidArgumentError("camera: the session's stored rig describes no simulated device '" + device_id +
-                                 "' (Session.devices lists the session's devices)");
+    const SceneModel& model = Model("camera");
+    const SceneModelCamera* camera = model.FindCamera(device_id);
+    if (camera == nullptr) {
+      std::string have;
+      for (const SceneModelCamera& c : model.cameras) have += (have.empty() ? "" : ", ") + c.device_id;
+      throw InvalidArgumentError("camera: the session's scene model has no camera '" + device_id + "' (it has " +
+                                 (have.empty() ? "none" : have) + ")");
     }
-    return CameraToPython(spec->camera);
+    py::dict d = CameraToPython(camera->camera);
+    d["device_id"] = camera->device_id;
+    d["distortion"] = camera->distortion;
+    d["source"] = camera->source;
+    d["reprojection_error_px"] = camera->reprojection_error_px < 0.0
+                                     ? py::object(py::none())
+                                     : py::object(py::float_(camera->reprojection_error_px));
+    return d;
   }
   py::dict SceneMesh(double spacing_m, int sphere_segments) const {
     pipeline::IrmMeshOptions options;
     options.spacing_m = spacing_m;
     options.sphere_segments = sphere_segments;
     ThrowIfInvalid(options, "scene_mesh");
-    const rig::RigConfig& rig = Rig("scene_mesh");
-    if (!rig.world) throw InvalidArgumentError("scene_mesh: the session's rig has no simulated world (scene:)");
+    const SceneModel& model = Model("scene_mesh");
     TriangleMesh mesh;
     {
       py::gil_scoped_release release;
-      mesh = pipeline::ProcessingMeshFromScene(rig.world->scene(), options);
+      mesh = pipeline::ProcessingMeshFromModel(model, options);
     }
     return MeshToPython(mesh);
   }
@@ -234,7 +250,7 @@ class Session {
  private:
   std::unique_ptr<capture::SessionReader> reader_;
   std::vector<capture::FrameRecord> frames_;
-  mutable std::shared_ptr<rig::RigConfig> rig_;
+  mutable std::optional<SceneModel> model_;
 };
 
 }  // namespace
@@ -271,19 +287,22 @@ Raises relume.IoError (an OSError) when the folder holds no session.)doc")
 (mono or a raw Bayer mosaic; the frame's layout, black_level and white_level say which).
 Raises relume.IoError when the file is missing, its checksum differs or it cannot be decoded.)doc")
       .def("camera", &Session::Camera, "device_id"_a,
-           R"doc(A device's camera as the session's stored rig describes it (simulated rigs):
-dict {'width', 'height', 'fx', 'fy', 'cx', 'cy' (pixels; pixel centres at +0.5),
-'world_from_camera' (float64 4x4, metres, ENU at the site; camera x right, y down, z forward)},
-the camera `relume process` relights with. device_id: 'sim:dslr' or 'dslr' (a frame's 'device').
-For an RGB-D sensor, its depth camera. Raises relume.InvalidArgumentError when the rig has none.)doc")
+           R"doc(A device's camera from the session's scene model (its latest scene_model calibration
+row; what the pipelines use): dict {'width', 'height', 'fx', 'fy', 'cx', 'cy' (pixels; pixel
+centres at +0.5), 'world_from_camera' (float64 4x4, metres, ENU at the site; camera x right,
+y down, z forward), 'device_id', 'distortion' (OpenCV k1, k2, p1, p2[, k3]; empty: none; the
+pipelines and irm_relight take pinhole images), 'source', 'reprojection_error_px' (None: not
+measured)}. device_id: 'sim:dslr' or 'dslr' (a frame's 'device'). Raises
+relume.InvalidArgumentError when the session has no scene model or the model no such camera.)doc")
       .def("scene_mesh", &Session::SceneMesh, py::kw_only(), "spacing_m"_a = pipeline::IrmMeshOptions{}.spacing_m,
            "sphere_segments"_a = pipeline::IrmMeshOptions{}.sphere_segments,
-           R"doc(The recorded simulated world as the IRM pipeline's mesh (pipeline/irm_scene.h).
+           R"doc(The session's scene model as the IRM pipeline's mesh (pipeline/irm_scene.h ProcessingMeshFromModel).
 
 Every triangle split so that no edge exceeds spacing_m (metres; the irm pipeline's
 mesh_spacing_m knob) with its own vertices and flat normal; spheres tessellated with
 sphere_segments around the equator. Returns dict {'positions' (N, 3) float32 metres in ENU at
-the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit}, what irm_relight takes.)doc")
+the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit}, what irm_relight takes.
+Raises relume.InvalidArgumentError when the session has no scene model.)doc")
       .def("linear_radiance", &Session::LinearRadiance, "frames"_a, py::kw_only(), "use_calibrations"_a = true,
            "merge_black_margin"_a = calibration::HdrMergeOptions{}.black_margin,
            "merge_saturation_margin"_a = calibration::HdrMergeOptions{}.saturation_margin,

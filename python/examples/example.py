@@ -53,8 +53,8 @@ def main(session_dir, out_dir):
     print(f"irm: {irm['headline']}")
     print(f"report: {result['report']}")
 
-    # 5. The same relighting step by step from arrays: merge each bracket, take the stored rig's
-    #    camera and world, the sun of each bracket's first frame, and relight with the IRMs.
+    # 5. The same relighting step by step from arrays: merge each bracket, take the camera and the
+    #    geometry from the session's scene model, the sun of each bracket's first frame, and relight.
     views = []
     for bracket_id in (1, 2):
         frames = [f for f in session.frames if f["bracket_id"] == bracket_id]

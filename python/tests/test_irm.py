@@ -1,7 +1,7 @@
 """Issue 22's acceptance test: a captured session loaded, its brackets merged and the first relit
-to the second's light with IRM, step by step from Python (Session, merge_hdr, Session.camera,
-Session.scene_mesh, enu_direction, irm_relight), against what `relume process --pipeline irm`
-writes for the same session."""
+to the second's light with IRM, step by step from Python (Session, merge_hdr, Session.camera and
+Session.scene_mesh from the session's scene model, enu_direction, irm_relight), against what
+`relume process --pipeline irm` writes for the same session."""
 import numpy as np
 import pytest
 
@@ -94,7 +94,8 @@ def test_session_camera_and_enu_direction(irm_inputs):
     assert (camera["width"], camera["height"]) == (session.frames[0]["width"], session.frames[0]["height"])
     rotation = camera["world_from_camera"][:3, :3]
     assert np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-9)
-    with pytest.raises(relume.InvalidArgumentError, match="no simulated device 'nosuch'"):
+    assert camera["distortion"] == [] and camera["device_id"] == session.frames[0]["device"]
+    with pytest.raises(relume.InvalidArgumentError, match="scene model has no camera 'nosuch'"):
         session.camera("nosuch")
     # East at azimuth 90 deg on the horizon, up at elevation 90 deg, north at azimuth 0.
     assert np.allclose(relume.enu_direction(90.0, 0.0), [1, 0, 0], atol=1e-12)
