@@ -158,6 +158,23 @@ std::vector<KnobInfo> WithRadianceKnobs(std::vector<KnobInfo> knobs) {
   return knobs;
 }
 
+DeviceCalibrations RecordedCalibrations(const capture::SessionReader& session, const std::string& device_id) {
+  DeviceCalibrations c;
+  const auto profile_record = SessionCalibration(session, device_id, "profile");
+  const auto response_record = SessionCalibration(session, device_id, "response");
+  if (profile_record) {
+    c.profile = profile_record->first;
+    c.profile_id = profile_record->second;
+  }
+  if (response_record) c.response_id = response_record->second;
+  if (c.profile && c.profile->response) {
+    c.response = c.profile->response;
+  } else if (response_record && response_record->first.response) {
+    c.response = response_record->first.response;
+  }
+  return c;
+}
+
 BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket) {
   RELUME_CHECK(!bracket.empty());
   const capture::SessionReader& session = run.session();
@@ -179,18 +196,11 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   if (!merge.IsValid(&why)) throw InvalidArgumentError("merge settings: " + why);
   if (!response_options.IsValid(&why)) throw InvalidArgumentError("response settings: " + why);
 
-  const auto profile_record = SessionCalibration(session, out.device_id, "profile");
-  const auto response_record = SessionCalibration(session, out.device_id, "response");
-  const std::int64_t profile_id = profile_record ? profile_record->second : 0;
-  const std::int64_t response_id = response_record ? response_record->second : 0;
-  std::optional<calibration::CalibrationProfile> profile;
-  if (profile_record) profile = profile_record->first;
-  std::optional<calibration::CameraResponse> response;
-  if (profile && profile->response) {
-    response = profile->response;
-  } else if (response_record && response_record->first.response) {
-    response = response_record->first.response;
-  }
+  const DeviceCalibrations calibrations = RecordedCalibrations(session, out.device_id);
+  const std::int64_t profile_id = calibrations.profile_id;
+  const std::int64_t response_id = calibrations.response_id;
+  const std::optional<calibration::CalibrationProfile>& profile = calibrations.profile;
+  const std::optional<calibration::CameraResponse>& response = calibrations.response;
 
   StageKey& key = out.key;
   key.Add("stage", "radiance-v2");

@@ -93,6 +93,19 @@ LinearisedBracket LineariseBracket(const capture::SessionReader& session,
 std::optional<std::pair<calibration::CalibrationProfile, std::int64_t>> SessionCalibration(
     const capture::SessionReader& session, const std::string& device_id, const std::string& kind);
 
+// The calibrations LinearRadiance uses for a device's frames: its newest profile (gain + CCM,
+// applied to the radiance), and the inverse response for camera-encoded frames (the profile's
+// when it holds one, else the newest "response" calibration's); the calibration ids (0: none)
+// key the radiance stage. LineariseBracket(session, bracket, c.response, c.profile, ...) is then
+// what the radiance stage computes.
+struct DeviceCalibrations {
+  std::optional<calibration::CalibrationProfile> profile;
+  std::optional<calibration::CameraResponse> response;
+  std::int64_t profile_id = 0;
+  std::int64_t response_id = 0;
+};
+DeviceCalibrations RecordedCalibrations(const capture::SessionReader& session, const std::string& device_id);
+
 // Settings read (all optional): merge_black_margin, merge_saturation_margin (codes),
 // response_samples, response_lambda, response_smoothness (code or log-code). Throws InvalidArgumentError when the
 // frames cannot be linearised (an encoded single frame and no recorded response: the message says to run `relume

@@ -16,6 +16,18 @@ void BindHdr(pybind11::module_& m);
 void BindSession(pybind11::module_& m);
 // relume.process, relume.pipelines.
 void BindProcess(pybind11::module_& m);
+// relume.enu_direction, relume.irm_relight.
+void BindIrm(pybind11::module_& m);
+// relume.bilateral_filter_depth, temporal_filter_depth, estimate_depth_noise, estimate_normals,
+// vertex_map.
+void BindDepth(pybind11::module_& m);
+// relume.fit_sh, fit_sh_unknown_albedo, segment_by_color, sh_irradiance, sh_radiance, relight_sh.
+void BindSh(pybind11::module_& m);
+// relume.load_colorchecker_reference, detect_colorchecker, chart_from_corners, sample_patches,
+// fit_colorchecker, apply_color_profile, preview_linear, delta_e_2000.
+void BindColor(pybind11::module_& m);
+// relume.radiosity_patches, solve_radiosity, estimate_reflectance.
+void BindRadiosity(pybind11::module_& m);
 
 // A JSON value as the equivalent Python object (dict, list, str, float, int, bool, None).
 pybind11::object JsonToPython(const std::string& json_text);

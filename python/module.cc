@@ -6,7 +6,10 @@
 PYBIND11_MODULE(relume, m) {
   m.doc() =
       "relume: sun positions, HDR calibration and merging, recorded sessions and the processing\n"
-      "pipelines, from Python (a binding of relume's library; docs/python.md).\n\n"
+      "pipelines, and the processing and calibration functions on numpy arrays (IRM relighting,\n"
+      "depth filters and normals, SH lighting, the ColorChecker, radiosity and reflectance), from\n"
+      "Python (a binding of relume's library; docs/python.md). Options are keyword arguments checked\n"
+      "by the library before any work.\n\n"
       "Errors raise relume.Error subclasses carrying relume's messages: InvalidArgumentError\n"
       "(also a ValueError), ConfigError (also a ValueError) and IoError (also an OSError).";
   relume::python::BindErrors(m);
@@ -14,4 +17,9 @@ PYBIND11_MODULE(relume, m) {
   relume::python::BindHdr(m);
   relume::python::BindSession(m);
   relume::python::BindProcess(m);
+  relume::python::BindIrm(m);
+  relume::python::BindDepth(m);
+  relume::python::BindSh(m);
+  relume::python::BindColor(m);
+  relume::python::BindRadiosity(m);
 }

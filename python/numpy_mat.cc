@@ -22,6 +22,7 @@ py::array_t<T, py::array::c_style> ContiguousArray(const py::array& array, const
 
 template py::array_t<std::uint8_t, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 template py::array_t<std::uint16_t, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
+template py::array_t<std::int32_t, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 template py::array_t<float, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 template py::array_t<double, py::array::c_style> ContiguousArray(const py::array&, const std::string&);
 
@@ -39,6 +40,7 @@ py::dtype NumpyType(int cv_depth) {
   switch (cv_depth) {
     case CV_8U: return py::dtype::of<std::uint8_t>();
     case CV_16U: return py::dtype::of<std::uint16_t>();
+    case CV_32S: return py::dtype::of<std::int32_t>();
     case CV_32F: return py::dtype::of<float>();
     case CV_64F: return py::dtype::of<double>();
     default: throw Error("an image of OpenCV depth " + std::to_string(cv_depth) + " has no numpy dtype here");

@@ -9,11 +9,18 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/error.h"
+#include "core/scene_model.h"
+#include "pipeline/irm_scene.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/radiance.h"
 #include "python/bindings.h"
+#include "python/convert.h"
 #include "python/numpy_mat.h"
 
 namespace py = pybind11;
@@ -157,8 +164,93 @@ class Session {
                                std::to_string(frames_.size()) + " frames; Session.frames lists them)");
   }
 
+  // The session's scene model (its latest scene_model calibration row, core/scene_model.h): the
+  // cameras and geometry the pipelines use. Read at first use; InvalidArgumentError without one.
+  const SceneModel& Model(const char* what) const {
+    if (!model_) {
+      const std::vector<capture::CalibrationRecord> rows = reader_->Calibrations();
+      const capture::CalibrationRecord* row = capture::LatestSceneModelRow(rows);
+      if (row == nullptr) {
+        throw InvalidArgumentError(std::string(what) + ": session " + path() +
+                                   " has no scene model: " + pipeline::SceneModelAdvice(reader_->dir()));
+      }
+      model_ = capture::SceneModelFromJson(row->json, path() + ": calibration row " + std::to_string(row->id));
+    }
+    return *model_;
+  }
+
+ public:
+  py::dict Camera(const std::string& device_id) const {
+    const SceneModel& model = Model("camera");
+    const SceneModelCamera* camera = model.FindCamera(device_id);
+    if (camera == nullptr) {
+      std::string have;
+      for (const SceneModelCamera& c : model.cameras) have += (have.empty() ? "" : ", ") + c.device_id;
+      throw InvalidArgumentError("camera: the session's scene model has no camera '" + device_id + "' (it has " +
+                                 (have.empty() ? "none" : have) + ")");
+    }
+    py::dict d = CameraToPython(camera->camera);
+    d["device_id"] = camera->device_id;
+    d["distortion"] = camera->distortion;
+    d["source"] = camera->source;
+    d["reprojection_error_px"] = camera->reprojection_error_px < 0.0
+                                     ? py::object(py::none())
+                                     : py::object(py::float_(camera->reprojection_error_px));
+    return d;
+  }
+  py::dict SceneMesh(double spacing_m, int sphere_segments) const {
+    pipeline::IrmMeshOptions options;
+    options.spacing_m = spacing_m;
+    options.sphere_segments = sphere_segments;
+    ThrowIfInvalid(options, "scene_mesh");
+    const SceneModel& model = Model("scene_mesh");
+    TriangleMesh mesh;
+    {
+      py::gil_scoped_release release;
+      mesh = pipeline::ProcessingMeshFromModel(model, options);
+    }
+    return MeshToPython(mesh);
+  }
+
+  py::dict LinearRadiance(const py::object& frames, bool use_calibrations, int merge_black_margin,
+                          int merge_saturation_margin, int response_samples, double response_lambda,
+                          const std::string& response_smoothness) const {
+    calibration::HdrMergeOptions merge;
+    merge.black_margin = merge_black_margin;
+    merge.saturation_margin = merge_saturation_margin;
+    ThrowIfInvalid(merge, "linear_radiance");
+    calibration::ResponseOptions response_options;
+    response_options.sample_count = response_samples;
+    response_options.lambda = response_lambda;
+    response_options.smoothness = calibration::ResponseSmoothnessFromString(response_smoothness);
+    ThrowIfInvalid(response_options, "linear_radiance");
+    const std::string selector = py::str(frames).cast<std::string>();
+    const auto brackets = pipeline::StillBrackets(*reader_, selector);
+    if (brackets.size() != 1) {
+      throw InvalidArgumentError("linear_radiance: " + selector + " selects " + std::to_string(brackets.size()) +
+                                 " still brackets; select one (bracket:N or a frame id)");
+    }
+    const std::vector<capture::FrameRecord>& bracket = brackets.front();
+    pipeline::DeviceCalibrations calibrations;
+    if (use_calibrations) calibrations = pipeline::RecordedCalibrations(*reader_, bracket.front().device_id);
+    pipeline::LinearisedBracket linear;
+    {
+      py::gil_scoped_release release;
+      linear = pipeline::LineariseBracket(*reader_, bracket, calibrations.response, calibrations.profile, merge,
+                                          response_options);
+    }
+    py::list ids;
+    for (const capture::FrameRecord& f : bracket) ids.append(f.id);
+    return py::dict("radiance"_a = MatToArray(std::move(linear.radiance.pixels)),
+                    "status"_a = MatToArray(std::move(linear.status)), "response_source"_a = linear.response_source,
+                    "frame_ids"_a = ids, "profile_id"_a = calibrations.profile_id,
+                    "response_id"_a = calibrations.response_id);
+  }
+
+ private:
   std::unique_ptr<capture::SessionReader> reader_;
   std::vector<capture::FrameRecord> frames_;
+  mutable std::optional<SceneModel> model_;
 };
 
 }  // namespace
@@ -194,6 +286,48 @@ Raises relume.IoError (an OSError) when the folder holds no session.)doc")
            R"doc(A still or colour frame's pixels as stored: uint8 or uint16, HxWx3 in RGB order, or HxW
 (mono or a raw Bayer mosaic; the frame's layout, black_level and white_level say which).
 Raises relume.IoError when the file is missing, its checksum differs or it cannot be decoded.)doc")
+      .def("camera", &Session::Camera, "device_id"_a,
+           R"doc(A device's camera from the session's scene model (its latest scene_model calibration
+row; what the pipelines use): dict {'width', 'height', 'fx', 'fy', 'cx', 'cy' (pixels; pixel
+centres at +0.5), 'world_from_camera' (float64 4x4, metres, ENU at the site; camera x right,
+y down, z forward), 'device_id', 'distortion' (OpenCV k1, k2, p1, p2[, k3]; empty: none; the
+pipelines and irm_relight take pinhole images), 'source', 'reprojection_error_px' (None: not
+measured)}. device_id: 'sim:dslr' or 'dslr' (a frame's 'device'). Raises
+relume.InvalidArgumentError when the session has no scene model or the model no such camera.)doc")
+      .def("scene_mesh", &Session::SceneMesh, py::kw_only(), "spacing_m"_a = pipeline::IrmMeshOptions{}.spacing_m,
+           "sphere_segments"_a = pipeline::IrmMeshOptions{}.sphere_segments,
+           R"doc(The session's scene model as the IRM pipeline's mesh (pipeline/irm_scene.h ProcessingMeshFromModel).
+
+Every triangle split so that no edge exceeds spacing_m (metres; the irm pipeline's
+mesh_spacing_m knob) with its own vertices and flat normal; spheres tessellated with
+sphere_segments around the equator. Returns dict {'positions' (N, 3) float32 metres in ENU at
+the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit}, what irm_relight takes.
+Raises relume.InvalidArgumentError when the session has no scene model.)doc")
+      .def("linear_radiance", &Session::LinearRadiance, "frames"_a, py::kw_only(), "use_calibrations"_a = true,
+           "merge_black_margin"_a = calibration::HdrMergeOptions{}.black_margin,
+           "merge_saturation_margin"_a = calibration::HdrMergeOptions{}.saturation_margin,
+           "response_samples"_a = calibration::ResponseOptions{}.sample_count,
+           "response_lambda"_a = calibration::ResponseOptions{}.lambda,
+           "response_smoothness"_a = calibration::ToString(calibration::ResponseOptions{}.smoothness),
+           R"doc(One still bracket (or frame) as linear radiance, as the pipelines' radiance stage makes it
+(pipeline/radiance.h LineariseBracket): raw frames through their levels (Bayer mosaics
+demosaiced), camera-encoded ones through the device's recorded response (else one recovered
+from the bracket), merged with the exposures t * ISO / 100, and the device's recorded colour
+profile applied. `relume process --pipeline radiance` writes the same pixels.
+
+Args:
+    frames: a selector of one bracket: 'bracket:N' or a frame id.
+    use_calibrations: use the session's recorded response and profile (False: neither; raw
+        frames stay as they are, encoded ones get a response recovered from the bracket).
+    merge_black_margin, merge_saturation_margin, response_samples, response_lambda,
+        response_smoothness: the radiance knobs of `relume process --set` (codes; pixels;
+        smoothness weight; 'log-code' or 'code').
+
+Returns:
+    dict: radiance float32 HxWx3 (relative units), status uint8 HxW (0 good, 1 saturated
+    everywhere, 2 black everywhere), response_source (how the frames were linearised),
+    frame_ids, profile_id and response_id (the calibrations used; 0: none).
+)doc")
       .def("load_depth", &Session::LoadDepth, "frame_id"_a, py::kw_only(), "verify_checksum"_a = true,
            "A depth frame as float32 HxW metres, NaN where there was no measurement.");
 }

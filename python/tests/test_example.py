@@ -12,4 +12,6 @@ def test_the_worked_example_runs(tiny_session, tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     assert "sun: highest" in result.stdout
     assert "irm: four IRMs" in result.stdout
+    assert "the same as the pipeline's relit.exr" in result.stdout
+    assert "normals: 19200 valid" in result.stdout
     assert (tmp_path / "irm" / "summary.json").exists()

@@ -127,6 +127,25 @@ def test_merging_a_bracket_in_python_gives_the_radiance_relume_process_writes(ti
         assert np.array_equal(radiance, expected, equal_nan=True), np.nanmax(np.abs(radiance - expected))
 
 
+def test_linear_radiance_is_the_radiance_stage(tiny_session, tmp_path, cli):
+    """Session.linear_radiance: the pipelines' linearisation of one bracket in one call (here raw
+    frames; test_color.py checks it with a recorded colour profile)."""
+    cli("process", tiny_session, "--pipeline", "radiance", "--out", tmp_path / "cli")
+    summary = read_json(tmp_path / "cli" / "summary.json")
+    session = relume.Session(tiny_session)
+    for bracket in summary["metrics"]["brackets"]:
+        bracket_id = next(f["bracket_id"] for f in session.frames if f["id"] == bracket["frames"][0])
+        linear = session.linear_radiance(f"bracket:{bracket_id}")
+        assert linear["frame_ids"] == bracket["frames"] and linear["response_source"] == "sensor-linear"
+        assert linear["profile_id"] == 0 and linear["status"].dtype == np.uint8
+        expected = relume.load_radiance_exr(tmp_path / "cli" / bracket["exr"])
+        assert np.array_equal(linear["radiance"], expected, equal_nan=True)
+    with pytest.raises(relume.InvalidArgumentError, match="selects 2 still brackets"):
+        session.linear_radiance("all")
+    with pytest.raises(relume.InvalidArgumentError, match="linear_radiance: "):
+        session.linear_radiance("bracket:1", merge_black_margin=-1)
+
+
 def test_a_session_from_a_newer_relume_raises_config_error_like_the_cli(tiny_session, tmp_path, cli):
     copy = tmp_path / "newer"
     shutil.copytree(tiny_session, copy)

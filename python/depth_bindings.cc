@@ -1,0 +1,198 @@
+// Depth filtering and normals from depth on numpy arrays (processing/depth_filter.h,
+// processing/normals.h): float32 HxW depth in metres along z (NaN, <= 0 or Inf: a hole) in, the
+// library's results out. C-contiguous float32 arrays are read in place; the GIL is released.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+#include "core/error.h"
+#include "processing/depth_filter.h"
+#include "processing/normals.h"
+#include "python/bindings.h"
+#include "python/convert.h"
+#include "python/numpy_mat.h"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace relume::python {
+
+namespace {
+
+py::array BilateralFilterDepth(const py::object& depth_m, int radius_px, double spatial_sigma_px,
+                               double range_sigma_at_1m_m, double edge_cut_sigmas) {
+  processing::BilateralDepthOptions options;
+  options.radius_px = radius_px;
+  options.spatial_sigma_px = spatial_sigma_px;
+  options.range_sigma_at_1m_m = range_sigma_at_1m_m;
+  options.edge_cut_sigmas = edge_cut_sigmas;
+  ThrowIfInvalid(options, "bilateral_filter_depth");
+  py::array keep;
+  const cv::Mat depth = FloatMatFromArray(depth_m, 1, "depth_m", &keep);
+  cv::Mat filtered;
+  {
+    py::gil_scoped_release release;
+    filtered = processing::BilateralFilterDepth(depth, options);
+  }
+  return MatToArray(std::move(filtered));
+}
+
+py::tuple TemporalFilterDepth(const py::object& current_m, const py::object& previous_m, double weight,
+                              double max_difference_sigmas, double range_sigma_at_1m_m) {
+  processing::TemporalDepthOptions options;
+  options.weight = weight;
+  options.max_difference_sigmas = max_difference_sigmas;
+  options.range_sigma_at_1m_m = range_sigma_at_1m_m;
+  ThrowIfInvalid(options, "temporal_filter_depth");
+  py::array keep[2];
+  const cv::Mat current = FloatMatFromArray(current_m, 1, "current_m", &keep[0]);
+  const cv::Mat previous = previous_m.is_none() ? cv::Mat() : FloatMatFromArray(previous_m, 1, "previous_m", &keep[1]);
+  if (!previous.empty() && previous.size() != current.size()) {
+    throw InvalidArgumentError("temporal_filter_depth: previous_m is " + std::to_string(previous.cols) + "x" +
+                               std::to_string(previous.rows) + ", current_m " + std::to_string(current.cols) + "x" +
+                               std::to_string(current.rows));
+  }
+  cv::Mat blended;
+  int blended_count = 0;
+  {
+    py::gil_scoped_release release;
+    blended = processing::TemporalFilterDepth(current, previous, options, &blended_count);
+  }
+  return py::make_tuple(MatToArray(std::move(blended)), blended_count);
+}
+
+py::dict EstimateDepthNoise(const py::object& depth_m, double edge_jump_fraction) {
+  if (!(edge_jump_fraction > 0.0)) throw InvalidArgumentError("estimate_depth_noise: edge_jump_fraction must be > 0");
+  py::array keep;
+  const cv::Mat depth = FloatMatFromArray(depth_m, 1, "depth_m", &keep);
+  processing::DepthNoiseEstimate e;
+  {
+    py::gil_scoped_release release;
+    e = processing::EstimateDepthNoise(depth, edge_jump_fraction);
+  }
+  return py::dict("sigma_at_1m_m"_a = e.sigma_at_1m_m, "samples"_a = e.samples, "valid_pixels"_a = e.valid_pixels,
+                  "stair_fraction"_a = e.stair_fraction,
+                  "noise_free"_a = e.NoiseFree(processing::kDenoiseSkipBelowAt1mM), "describe"_a = e.Describe());
+}
+
+py::dict EstimateNormals(const py::object& depth_m, const py::dict& intrinsics, int window_radius_px,
+                         double depth_change_ratio, double min_valid_fraction) {
+  processing::NormalOptions options;
+  options.window_radius_px = window_radius_px;
+  options.depth_change_ratio = depth_change_ratio;
+  options.min_valid_fraction = min_valid_fraction;
+  ThrowIfInvalid(options, "estimate_normals");
+  const PinholeIntrinsics k = IntrinsicsFromPython(intrinsics, "intrinsics");
+  py::array keep;
+  const cv::Mat depth = FloatMatFromArray(depth_m, 1, "depth_m", &keep);
+  processing::NormalMap map;
+  {
+    py::gil_scoped_release release;
+    map = processing::EstimateNormals(depth, k, options);
+  }
+  return py::dict("normals"_a = MatToArray(std::move(map.normal_in_camera)),
+                  "valid"_a = MatToArray(std::move(map.valid)).attr("astype")("bool"),
+                  "method"_a = MatToArray(std::move(map.method)), "integral_count"_a = map.integral_count,
+                  "cross_count"_a = map.cross_count, "invalid_count"_a = map.invalid_count);
+}
+
+py::array VertexMap(const py::object& depth_m, const py::dict& intrinsics) {
+  const PinholeIntrinsics k = IntrinsicsFromPython(intrinsics, "intrinsics");
+  py::array keep;
+  const cv::Mat depth = FloatMatFromArray(depth_m, 1, "depth_m", &keep);
+  if (depth.cols != k.width || depth.rows != k.height) {
+    throw InvalidArgumentError("vertex_map: depth_m is " + std::to_string(depth.cols) + "x" +
+                               std::to_string(depth.rows) + ", the intrinsics " + std::to_string(k.width) + "x" +
+                               std::to_string(k.height));
+  }
+  cv::Mat vertices;
+  {
+    py::gil_scoped_release release;
+    vertices = processing::VertexMap(depth, k);
+  }
+  return MatToArray(std::move(vertices));
+}
+
+}  // namespace
+
+void BindDepth(py::module_& m) {
+  const processing::BilateralDepthOptions b;
+  m.def("bilateral_filter_depth", &BilateralFilterDepth, "depth_m"_a, py::kw_only(), "radius_px"_a = b.radius_px,
+        "spatial_sigma_px"_a = b.spatial_sigma_px, "range_sigma_at_1m_m"_a = b.range_sigma_at_1m_m,
+        "edge_cut_sigmas"_a = b.edge_cut_sigmas,
+        R"doc(Edge-preserving bilateral filter of a depth map (Ogura & Saito 2015, eq. 1).
+
+Args:
+    depth_m: float32 HxW, metres along the optical axis; NaN, <= 0 or Inf is a hole and stays
+        one (no pixel is ever filled).
+    radius_px: window half-size in pixels (window (2 r + 1)^2).
+    spatial_sigma_px: the spatial Gaussian's sigma, pixels.
+    range_sigma_at_1m_m: the range Gaussian's sigma at 1 m, metres; it grows as z^2.
+    edge_cut_sigmas: neighbours further than this many range sigmas from the centre get weight
+        0 (no averaging across depth discontinuities).
+
+Returns:
+    float32 HxW, metres. Raises relume.InvalidArgumentError for invalid options.
+)doc");
+  const processing::TemporalDepthOptions t;
+  m.def("temporal_filter_depth", &TemporalFilterDepth, "current_m"_a, "previous_m"_a, py::kw_only(),
+        "weight"_a = t.weight, "max_difference_sigmas"_a = t.max_difference_sigmas,
+        "range_sigma_at_1m_m"_a = t.range_sigma_at_1m_m,
+        R"doc(Two-frame temporal depth filter (Ogura & Saito 2015, eq. 2).
+
+D = (D_t (w + 1) + D_{t-1} w) / (2 w + 1) where both frames are valid and differ by at most
+max_difference_sigmas range sigmas (range_sigma_at_1m_m * z^2, metres); elsewhere D_t.
+
+Args:
+    current_m, previous_m: float32 HxW depth in metres (the previous frame's bilateral
+        output, as the paper does); previous_m may be None (first frame: D_t is returned).
+    weight: w above (0 disables the blend).
+    max_difference_sigmas, range_sigma_at_1m_m: the blend's gate.
+
+Returns:
+    (depth_m float32 HxW, blended_pixels int).
+)doc");
+  m.def("estimate_depth_noise", &EstimateDepthNoise, "depth_m"_a, "edge_jump_fraction"_a = 0.02,
+        R"doc(A depth map's own noise, without a reference (processing/depth_filter.h).
+
+Fourth differences along rows and columns (cancelling any locally cubic surface), each divided
+by sqrt(70) z^2: the noise at 1 m under the z^2 law, metres (the unit of range_sigma_at_1m_m).
+A window is used only when its five samples are valid and within edge_jump_fraction of the
+centre's depth.
+
+Returns:
+    dict: sigma_at_1m_m (NaN when not measurable), samples, valid_pixels, stair_fraction (share
+    of sloped rows with quantisation stairs), noise_free (below the SH pipeline's skip
+    threshold, 5e-5 m), describe (the sentence the pipeline logs).
+)doc");
+  const processing::NormalOptions n;
+  m.def("estimate_normals", &EstimateNormals, "depth_m"_a, "intrinsics"_a, py::kw_only(),
+        "window_radius_px"_a = n.window_radius_px, "depth_change_ratio"_a = n.depth_change_ratio,
+        "min_valid_fraction"_a = n.min_valid_fraction,
+        R"doc(Surface normals from a depth map and pinhole intrinsics (processing/normals.h).
+
+Integral-image box averages of the vertex map (Holzer et al. 2012), falling back to the cross
+product of neighbour differences (Ogura & Saito eq. 3) at depth discontinuities.
+
+Args:
+    depth_m: float32 HxW, metres along z; NaN, <= 0 or Inf is a hole.
+    intrinsics: dict {'width', 'height', 'fx', 'fy', 'cx', 'cy'} in pixels (pixel centres at
+        +0.5; Session.camera's dict works), of the depth map's size.
+    window_radius_px: r: boxes of (2 r + 1) x r pixels; 0: cross products only.
+    depth_change_ratio: |dz| / z above which 4-neighbours are on different surfaces.
+    min_valid_fraction: of each half box, for the smooth estimate.
+
+Returns:
+    dict: 'normals' float32 HxWx3, unit, camera frame (x right, y down, z forward), facing the
+    camera (n . p < 0), NaN where invalid; 'valid' bool HxW; 'method' uint8 HxW (0 invalid,
+    1 integral image, 2 neighbour cross product); 'integral_count', 'cross_count',
+    'invalid_count' (pixels with depth but no normal).
+)doc");
+  m.def("vertex_map", &VertexMap, "depth_m"_a, "intrinsics"_a,
+        "The camera-frame point of every pixel, z * ((u + 0.5 - cx) / fx, (v + 0.5 - cy) / fy, 1): float32 HxWx3 "
+        "metres, NaN at holes. intrinsics as for estimate_normals.");
+}
+
+}  // namespace relume::python
