@@ -23,7 +23,7 @@ bool HasGlobCharacters(const std::string& text) {
 // The paths a glob matches, sorted (glob(3) sorts); empty when none.
 std::vector<fs::path> Glob(const std::string& pattern) {
   glob_t found{};
-  const int rc = ::glob(pattern.c_str(), GLOB_ERR, nullptr, &found);
+  const int rc = ::glob(pattern.c_str(), 0, nullptr, &found);
   std::vector<fs::path> paths;
   if (rc == 0) {
     for (std::size_t i = 0; i < found.gl_pathc; ++i) paths.emplace_back(found.gl_pathv[i]);

@@ -23,7 +23,7 @@ struct BatchArgs {
   std::string sessions_from;
   std::string out;
   PipelineArgs pipeline;
-  int local = 0;
+  int local = -1;  // -1: not given
   bool slurm = false;
   batch::SlurmOptions slurm_options;
   bool no_wait = false;
@@ -72,7 +72,7 @@ std::vector<std::string> TaskCommand() {
 
 void Run(const BatchArgs& args) {
   if (args.out.empty()) throw InvalidArgumentError("relume batch: give the batch's output folder (--out DIR)");
-  if (args.local > 0 && args.slurm) throw InvalidArgumentError("relume batch: give --local N or --slurm, not both");
+  if (args.local >= 0 && args.slurm) throw InvalidArgumentError("relume batch: give --local N or --slurm, not both");
   if (args.collect) {
     if (!args.sessions.empty() || !args.sessions_from.empty() || args.only_failed) {
       throw InvalidArgumentError("--collect reads the batch in --out as it stands; give no sessions or --only-failed");
@@ -87,12 +87,16 @@ void Run(const BatchArgs& args) {
   if (!args.only_failed) {
     options.sessions = batch::ExpandSessions(
         args.sessions, args.sessions_from.empty() ? std::nullopt : std::optional<fs::path>(args.sessions_from));
+  } else {
+    // Unexpanded: --only-failed takes none, and BatchOptions::IsValid says so.
+    options.sessions.assign(args.sessions.begin(), args.sessions.end());
+    if (!args.sessions_from.empty()) options.sessions.emplace_back(args.sessions_from);
   }
   options.out_dir = args.out;
   options.request = PipelineRequestFromArgs(args.pipeline);
   options.backend = args.slurm ? batch::Backend::kSlurm : batch::Backend::kLocal;
   options.local_workers =
-      args.local > 0 ? args.local : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+      args.local >= 0 ? args.local : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   options.slurm = args.slurm_options;
   options.slurm.wait = !args.no_wait;
   options.only_failed = args.only_failed;
