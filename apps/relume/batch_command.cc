@@ -36,7 +36,9 @@ void PrintTaskEnd(const batch::TaskOutcome& t) {
   std::cout << "task " << std::setw(3) << t.index << " " << std::left << std::setw(7) << batch::TaskStateName(t.state)
             << std::right;
   if (t.seconds > 0) std::cout << " " << std::fixed << std::setprecision(1) << t.seconds << " s" << std::defaultfloat;
-  std::cout << "  " << fs::path(t.session).filename().string();
+  // The session's folder and its parent: sessions are often all called "session".
+  const fs::path session(t.session);
+  std::cout << "  " << (session.parent_path().filename() / session.filename()).string();
   if (t.state == batch::TaskState::kDone) {
     for (const batch::PipelineOutcome& p : t.pipelines) {
       if (p.error.empty() && !p.headline.empty()) std::cout << "\n           " << p.name << ": " << p.headline;

@@ -113,12 +113,14 @@ echo "cluster up: slurmctld on 127.0.0.1:$ctld_port, slurmd on :$slurmd_port, $(
 # 10 tiny sessions and one slower one (a 640x480 camera), recorded by the CLI on simulated rigs.
 start=$(date +%s)
 for i in $(seq -w 1 10); do
-  "$relume" capture --rig "$src/tests/data/rigs/sim-tiny-irm.yaml" --out "$tmp/field/day$i/session" >/dev/null
+  "$relume" capture --rig "$src/tests/data/rigs/sim-tiny-irm.yaml" --out "$tmp/field/day$i/session" \
+    >"$tmp/log/capture-$i.txt" 2>&1 || { cat "$tmp/log/capture-$i.txt"; fail "capture $i failed"; }
   echo "$tmp/field/day$i/session" >>"$tmp/sessions.txt"
 done
 sed "s|scene: ../../../config|scene: $src/config|; s/width: 160, height: 120/width: 640, height: 480/" \
   "$src/tests/data/rigs/sim-tiny-irm.yaml" >"$tmp/slow-rig.yaml"
-"$relume" capture --rig "$tmp/slow-rig.yaml" --out "$tmp/field/slow/session" >/dev/null
+"$relume" capture --rig "$tmp/slow-rig.yaml" --out "$tmp/field/slow/session" >"$tmp/log/capture-slow.txt" 2>&1 ||
+  { cat "$tmp/log/capture-slow.txt"; fail "capture of the slow session failed"; }
 slow="$tmp/field/slow/session"
 # The slow session is task 5 of 11.
 sed -i "5a $slow" "$tmp/sessions.txt"
@@ -178,4 +180,21 @@ for f in "$out"/sessions/*/result/report.html; do [ -f "$f" ] || fail "missing r
 reused=$(grep -c '"action": "reuse"' "$slow_folder/result/summary.json" || true)
 [ "$reused" -ge 1 ] || fail "the resubmitted task did not reuse the stages the cancelled one finished"
 echo "the resubmitted task reused $reused stage(s) of the cancelled one"
-echo "PASSED in $(($(date +%s) - start)) s (sessions, both submissions and checks)"
+
+# 3. The whole batch again, submitted without waiting, then collected: every stage is reused.
+rerun_start=$(date +%s.%N)
+"$relume" batch --sessions-from "$tmp/sessions.txt" --out "$out" --slurm --pipeline irm --no-wait \
+  >"$tmp/log/batch-3.txt" 2>&1 || { cat "$tmp/log/batch-3.txt"; fail "the rerun was not submitted"; }
+cat "$tmp/log/batch-3.txt"
+grep -q "^job id: [0-9]*$" "$tmp/log/batch-3.txt" || fail "--no-wait did not print the job id"
+"$relume" batch --out "$out" --collect --wait --poll 0.3 >"$tmp/log/batch-4.txt" 2>&1 ||
+  { cat "$tmp/log/batch-4.txt"; fail "--collect --wait failed"; }
+rerun_end=$(date +%s.%N)
+grep -q "^11 session(s): 11 done; index: $out/index.html" "$tmp/log/batch-4.txt" || fail "the collected index is not complete"
+ran=$(python3 -c '
+import json, sys
+print(sum(d.get("cache", False) and d["action"] == "run" for f in sys.argv[1:] for d in json.load(open(f))["decisions"]))
+' "$out"/sessions/*/result/summary.json)
+[ "$ran" -eq 0 ] || fail "an unchanged rerun recomputed $ran stage(s)"
+echo "unchanged rerun of 11 sessions through Slurm (submit, run, collect): $(awk "BEGIN {print $rerun_end - $rerun_start}") s"
+echo "PASSED in $(($(date +%s) - start)) s (sessions, three submissions and the checks)"
