@@ -40,7 +40,8 @@ void RunLocalTasks(const std::vector<int>& indices, int workers, const std::vect
         ++it;
       }
     }
-    if (!ended) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    // 5 ms: a worker ending waits at most that long for the next task (about 1 % of a tiny task).
+    if (!ended) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
 }
 
