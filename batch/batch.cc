@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <map>
 #include <optional>
 #include <set>
 #include <span>
@@ -187,6 +188,9 @@ void SettleOrphanedLocalTasks(const fs::path& out_dir, const BatchPlan& plan, St
 void FollowSlurmJob(const fs::path& out_dir, const BatchPlan& plan, State& state, const std::string& job_id,
                     const SlurmOptions& slurm, bool wait, const BatchCallbacks& callbacks) {
   int polls_unknown = 0;
+  // Polls since Slurm said a task ended while its record did not say so yet (a shared
+  // filesystem may show the task's last write late).
+  std::map<int, int> polls_unrecorded;
   for (;;) {
     const std::map<int, std::string> states = ArrayTaskStates(slurm, job_id);
     polls_unknown = states.empty() ? polls_unknown + 1 : 0;
@@ -211,6 +215,12 @@ void FollowSlurmJob(const fs::path& out_dir, const BatchPlan& plan, State& state
         }
         a.end = recorded ? "ended" : "unknown to Slurm";
       } else {
+        const TaskRecord record = ReadTaskRecord(out_dir / task.folder);
+        const bool recorded = record.attempt == a.id && record.state != TaskState::kRunning;
+        if (it->second == "COMPLETED" && !recorded && ++polls_unrecorded[task.index] < 5) {
+          active = true;
+          continue;
+        }
         a.end = it->second;
       }
       changed = true;
