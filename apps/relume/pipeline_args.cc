@@ -12,7 +12,8 @@ void AddPipelineOptions(CLI::App& cmd, PipelineArgs& args) {
   cmd.add_option("--target", args.target, "Target frames: id, bracket:N, DEVICE:STREAM or all");
   cmd.add_option("--mesh", args.mesh, "Scene geometry when the session did not record it");
   cmd.add_option("--target-light", args.target_light, "Destination lighting: frame selector, SH .json or env map");
-  cmd.add_option("--set", args.settings, "A pipeline knob, KEY=VALUE (repeatable)");
+  // One value per --set, so that a session folder after it is not taken for a knob.
+  cmd.add_option("--set", args.settings, "A pipeline knob, KEY=VALUE (repeatable)")->allow_extra_args(false);
   cmd.add_flag("--force", args.force, "Recompute every stage, even unchanged ones");
 }
 

@@ -73,8 +73,9 @@ std::map<std::string, int> CacheActions(const fs::path& out) {
 
 TEST_F(BatchCliTest, LocalWorkersProcessEverySessionIntoOneIndexAndARerunReusesEveryStage) {
   const fs::path out = Field().parent_path() / "batch-all";
-  const std::string command = "batch '" + (Field() / "*" / "session").string() + "' --out " + out.string() +
-                              " --local 2 --pipeline irm --set bins=16";
+  // --set before the sessions: one value per --set, the glob is not taken for a knob.
+  const std::string command = "batch --set bins=16 '" + (Field() / "*" / "session").string() + "' --out " +
+                              out.string() + " --local 2 --pipeline irm";
   const testing::CliResult first = RunRelume(command);
   ASSERT_EQ(first.exit_code, 0) << first.output;
   EXPECT_NE(first.output.find("running 10 task(s) on 2 local worker(s)"), std::string::npos) << first.output;
