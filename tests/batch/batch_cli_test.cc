@@ -207,5 +207,19 @@ TEST_F(BatchCliTest, UserErrorsNameWhatIsWrongAndWhatToDo) {
   ExpectUserError(RunRelume("batch" + one + " --out " + (dir / "mine").string()), "not a relume batch folder");
 }
 
+// A full disk: the batch stops with a message naming the file and what to do (run only where the
+// test may mount a small tmpfs, i.e. as root with the capability; skipped with a message otherwise).
+TEST_F(BatchCliTest, AFullDiskIsNamedWithWhatToDo) {
+  const fs::path tiny = Field().parent_path() / "tiny-disk";
+  fs::create_directories(tiny);
+  if (RunCommand("mount -t tmpfs -o size=600k tmpfs " + tiny.string()).exit_code != 0) {
+    GTEST_SKIP() << "cannot mount a 600 KiB tmpfs here (needs root and CAP_SYS_ADMIN)";
+  }
+  const testing::CliResult full = RunRelume("batch " + (Field() / "day0/session").string() + " --out " +
+                                            (tiny / "batch").string() + " --local 1 --pipeline irm");
+  RunCommand("umount " + tiny.string());
+  ExpectUserError(full, "No space left on device (the disk is full: free space or choose another --out folder");
+}
+
 }  // namespace
 }  // namespace relume::batch
