@@ -183,8 +183,10 @@ void SettleOrphanedLocalTasks(const fs::path& out_dir, const BatchPlan& plan, St
   }
 }
 
-// Polls Slurm until no task of `job_id` among `indices` may still run (or once, without `wait`),
-// recording each task's end in `state` (saved as it changes).
+// Polls Slurm until no task of the plan submitted as `job_id` may still run (or once, without
+// `wait`), recording each task's end in `state` (saved as it changes). A task Slurm no longer
+// knows, whose record does not say it ended, is given up after three polls that know nothing of
+// the whole job (one without `wait`: the caller has just asked and found nothing active).
 void FollowSlurmJob(const fs::path& out_dir, const BatchPlan& plan, State& state, const std::string& job_id,
                     const SlurmOptions& slurm, bool wait, const BatchCallbacks& callbacks) {
   int polls_unknown = 0;
@@ -209,7 +211,7 @@ void FollowSlurmJob(const fs::path& out_dir, const BatchPlan& plan, State& state
         // give up after a few polls that know nothing of the whole job.
         const TaskRecord record = ReadTaskRecord(out_dir / task.folder);
         const bool recorded = record.attempt == a.id && record.state != TaskState::kRunning;
-        if (!recorded && polls_unknown < 3) {
+        if (!recorded && polls_unknown < (wait ? 3 : 1)) {
           active = true;
           continue;
         }
@@ -273,6 +275,12 @@ BatchSummary RunBatch(const BatchOptions& options, const BatchCallbacks& callbac
     plan = LoadCurrentPlan(out_dir, state);
     state.tasks.resize(plan.tasks.size());
     SettleOrphanedLocalTasks(out_dir, plan, state);
+    // A job submitted without waiting and never collected: its tasks ended (CheckNoActiveJob).
+    std::set<std::string> jobs;
+    for (const Attempt& a : state.tasks) {
+      if (a.backend == "slurm" && a.end.empty()) jobs.insert(a.job_id);
+    }
+    for (const std::string& job : jobs) FollowSlurmJob(out_dir, plan, state, job, options.slurm, false, {});
     indices = Gather(out_dir, plan, state).Unfinished();
   } else {
     const bool all = options.request.pipeline.empty() || options.request.pipeline == "all";
