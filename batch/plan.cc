@@ -83,7 +83,13 @@ nlohmann::json RequestToJson(const pipeline::PipelineRequest& r) {
   j["source"] = r.source ? nlohmann::json(*r.source) : nlohmann::json();
   j["target"] = r.target ? nlohmann::json(*r.target) : nlohmann::json();
   j["mesh"] = r.mesh ? nlohmann::json(fs::absolute(*r.mesh).string()) : nlohmann::json();
-  j["target_light"] = r.target_light ? nlohmann::json(*r.target_light) : nlohmann::json();
+  // A file (SH .json, environment map) by its absolute path: tasks may run in another folder. A
+  // frame selector stays as given.
+  std::error_code ec;
+  j["target_light"] = !r.target_light ? nlohmann::json()
+                      : fs::is_regular_file(*r.target_light, ec)
+                          ? nlohmann::json(fs::absolute(*r.target_light).string())
+                          : nlohmann::json(*r.target_light);
   j["settings"] = r.settings;
   j["reuse"] = r.reuse;
   return j;
