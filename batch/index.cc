@@ -90,6 +90,12 @@ std::string Href(const std::string& path) {
   return out;
 }
 
+// The session folder with its parent ("day3/session"): sessions are often all called "session".
+std::string ShortName(const std::string& session) {
+  const fs::path path(session);
+  return (path.parent_path().filename() / path.filename()).string();
+}
+
 std::string Seconds(double s) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.2f", s);
@@ -221,8 +227,8 @@ std::string IndexHtml(const BatchSummary& summary) {
     std::string css = TaskStateName(t.state);
     std::replace(css.begin(), css.end(), ' ', '-');
     h += "<tr><td>" + std::to_string(t.index) + "</td><td title=\"" + Html(t.session) + "\">" +
-         Html(fs::path(t.session).filename().string()) + "</td><td class=\"" + css + "\">" + TaskStateName(t.state) +
-         "</td><td>" + (t.seconds > 0 ? Seconds(t.seconds) : "") + "</td>";
+         Html(ShortName(t.session)) + "</td><td class=\"" + css + "\">" + TaskStateName(t.state) + "</td><td>" +
+         (t.seconds > 0 ? Seconds(t.seconds) : "") + "</td>";
     for (const std::string& name : pipelines) h += "<td>" + Html(PipelineText(FindPipeline(t, name))) + "</td>";
     h += "<td>" + (t.report.empty() ? std::string() : "<a href=\"" + Href(t.report) + "\">report</a>") + "</td></tr>\n";
   }
