@@ -75,10 +75,11 @@ function(relume_add_library name)
   endif()
 endfunction()
 
-# relume_add_test(NAME SOURCES ... DEPS ... [LABELS ...] [WHOLE_SUITES SUITE ...]): one
-# GoogleTest executable, its tests discovered into CTest (each WHOLE_SUITES suite as one test).
+# relume_add_test(NAME SOURCES ... DEPS ... [LABELS ...] [WHOLE_SUITES SUITE ...] [TEST_PREFIX P]):
+# one GoogleTest executable, its tests discovered into CTest (each WHOLE_SUITES suite as one test),
+# their CTest names prefixed with P when given (`batch.` lets `ctest -R batch` find a layer's tests).
 function(relume_add_test name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS;WHOLE_SUITES" ${ARGN})
+  cmake_parse_arguments(ARG "" "TEST_PREFIX" "SOURCES;DEPS;LABELS;WHOLE_SUITES" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gmock GTest::gtest_main relume_compile_options)
   if(RELUME_PCH)
@@ -91,21 +92,23 @@ function(relume_add_test name)
   # CTest test, in one process, so the setup is paid once instead of once per case.
   set(filter "")
   foreach(suite ${ARG_WHOLE_SUITES})
-    add_test(NAME ${suite}.all COMMAND ${name} --gtest_filter=${suite}.*
+    add_test(NAME ${ARG_TEST_PREFIX}${suite}.all COMMAND ${name} --gtest_filter=${suite}.*
              WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
-    set_tests_properties(${suite}.all PROPERTIES LABELS "${ARG_LABELS}")
+    set_tests_properties(${ARG_TEST_PREFIX}${suite}.all PROPERTIES LABELS "${ARG_LABELS}")
     string(APPEND filter ":${suite}.*")
   endforeach()
   if(filter)
     string(SUBSTRING "${filter}" 1 -1 filter)
     gtest_discover_tests(${name}
       WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+      TEST_PREFIX "${ARG_TEST_PREFIX}"
       TEST_FILTER "-${filter}"
       PROPERTIES LABELS "${ARG_LABELS}"
       DISCOVERY_TIMEOUT 60)
   else()
     gtest_discover_tests(${name}
       WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+      TEST_PREFIX "${ARG_TEST_PREFIX}"
       PROPERTIES LABELS "${ARG_LABELS}"
       DISCOVERY_TIMEOUT 60)
   endif()

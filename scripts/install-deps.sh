@@ -19,6 +19,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # the HTML report is checked by loading it in headless Chromium
   chromium
+  # `relume batch --slurm` is tested on a one-node Slurm cluster the test starts (tests/batch/)
+  slurm-wlm munge
   # device backends and their simulated devices
   libgphoto2-dev libusb-1.0-0-dev libopenni2-dev libaravis-dev aravis-tools umockdev libumockdev-dev
 )

@@ -7,6 +7,7 @@
 #include <new>
 #include <string>
 
+#include "apps/relume/batch_command.h"
 #include "apps/relume/bench_command.h"
 #include "apps/relume/calibrate_command.h"
 #include "apps/relume/capture_command.h"
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
     relume::app::AddHdrCommand(app);
     relume::app::AddBenchCommand(app);
     relume::app::AddProcessCommand(app);
+    relume::app::AddBatchCommand(app);
     relume::app::AddDevicesCommand(app);
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 
+#include "apps/relume/pipeline_args.h"
 #include "core/error.h"
 #include "pipeline/process.h"
 
@@ -17,14 +18,8 @@ namespace {
 struct ProcessArgs {
   std::string session;
   std::string out;
-  std::string pipeline;
-  std::string source;
-  std::string target;
-  std::string mesh;
-  std::string target_light;
-  std::vector<std::string> settings;
+  PipelineArgs pipeline;
   bool explain = false;
-  bool force = false;
   bool list = false;
   bool verbose = false;
 };
@@ -142,30 +137,17 @@ void ListPipelines(const std::string& name) {
 
 void Run(const ProcessArgs& args) {
   if (args.list) {
-    ListPipelines(args.pipeline);
+    ListPipelines(args.pipeline.pipeline);
     return;
   }
   if (args.session.empty()) throw InvalidArgumentError("relume process: give the session folder");
-  const bool all = args.pipeline.empty() || args.pipeline == "all";
-  pipeline::PipelineRequest request;
+  pipeline::PipelineRequest request = PipelineRequestFromArgs(args.pipeline);
+  const bool all = request.pipeline.empty() || request.pipeline == "all";
   request.session_dir = args.session;
   request.out_dir = args.out.empty()
-                        ? std::filesystem::path(args.session) / "processed" / (all ? std::string() : args.pipeline)
+                        ? std::filesystem::path(args.session) / "processed" / (all ? std::string() : request.pipeline)
                         : std::filesystem::path(args.out);
-  request.pipeline = args.pipeline;
-  if (!args.source.empty()) request.source = args.source;
-  if (!args.target.empty()) request.target = args.target;
-  if (!args.mesh.empty()) request.mesh = args.mesh;
-  if (!args.target_light.empty()) request.target_light = args.target_light;
-  for (const std::string& kv : args.settings) {
-    const std::size_t eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0) {
-      throw InvalidArgumentError("--set " + kv + ": expected KEY=VALUE (e.g. --set sh_order=1)");
-    }
-    request.settings[kv.substr(0, eq)] = kv.substr(eq + 1);
-  }
   request.explain = args.explain;
-  request.reuse = !args.force;
   const pipeline::ProcessResult result = pipeline::ProcessSession(request, [&](const pipeline::PipelineReport& r) {
     if (!r.summary.is_null()) {
       Print(r.summary, r.out_dir.string(), args.verbose);
@@ -193,15 +175,9 @@ void AddProcessCommand(CLI::App& app) {
   CLI::App* cmd =
       app.add_subcommand("process", "Reprocess a recorded session through a pipeline (reuses unchanged stages)");
   cmd->add_option("SESSION", args->session, "Session folder (from relume capture)");
-  cmd->add_option("--pipeline", args->pipeline, "Pipeline to run (--list names them; default: all of them)");
   cmd->add_option("--out", args->out, "Output folder (default SESSION/processed[/PIPELINE])");
-  cmd->add_option("--source", args->source, "Source frames: id, bracket:N, DEVICE:STREAM or all");
-  cmd->add_option("--target", args->target, "Target frames: id, bracket:N, DEVICE:STREAM or all");
-  cmd->add_option("--mesh", args->mesh, "Scene geometry when the session did not record it");
-  cmd->add_option("--target-light", args->target_light, "Destination lighting: frame selector, SH .json or env map");
-  cmd->add_option("--set", args->settings, "A pipeline knob, KEY=VALUE (repeatable)");
+  AddPipelineOptions(*cmd, args->pipeline);
   cmd->add_flag("--explain", args->explain, "Print the plan and its reasons; run nothing expensive");
-  cmd->add_flag("--force", args->force, "Recompute every stage, even unchanged ones");
   cmd->add_flag("--verbose", args->verbose, "Print every decision (stage reuse too) and every file written");
   cmd->add_flag("--list", args->list, "List the pipelines of this build (with --pipeline: its knobs and defaults)");
   cmd->callback([args]() { Run(*args); });
