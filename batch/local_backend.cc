@@ -2,12 +2,14 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <map>
 #include <thread>
 
 #include "batch/subprocess.h"
+#include "core/parallel.h"
 
 namespace relume::batch {
 
@@ -24,7 +26,10 @@ void RunLocalTasks(const std::vector<int>& indices, int workers, const std::vect
       argv.push_back(plan_file.string());
       argv.push_back(std::to_string(index));
       argv.push_back(attempt);
-      running[SpawnWithLog(argv, log_of(index))] = index;
+      // The workers share the CPUs: each task's parallel loops get its share (core/parallel.h),
+      // not every CPU each (two workers on two cores ran 0.67x of one after another, not 0.5x).
+      const int share = std::max(1, DefaultThreads() / std::max(1, workers));
+      running[SpawnWithLog(argv, log_of(index), {"RELUME_THREADS=" + std::to_string(share)})] = index;
     }
     // Only our own children are waited for (never waitpid(-1): the caller may have others).
     bool ended = false;

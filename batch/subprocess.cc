@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -68,7 +69,21 @@ ProgramResult RunProgram(const std::vector<std::string>& args, const std::string
   return result;
 }
 
-pid_t SpawnWithLog(const std::vector<std::string>& args, const std::filesystem::path& log) {
+pid_t SpawnWithLog(const std::vector<std::string>& args, const std::filesystem::path& log,
+                   const std::vector<std::string>& environment) {
+  // This process's environment, the given variables replacing any of the same name.
+  std::vector<std::string> variables;
+  for (char** e = environ; *e != nullptr; ++e) {
+    const std::string entry(*e);
+    const std::string name = entry.substr(0, entry.find('='));
+    const bool replaced = std::any_of(environment.begin(), environment.end(),
+                                      [&name](const std::string& v) { return v.substr(0, v.find('=')) == name; });
+    if (!replaced) variables.push_back(entry);
+  }
+  variables.insert(variables.end(), environment.begin(), environment.end());
+  std::vector<char*> envp;
+  for (std::string& v : variables) envp.push_back(v.data());
+  envp.push_back(nullptr);
   const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (fd < 0) throw IoError(log.string(), std::string("cannot open the task's log: ") + std::strerror(errno));
   posix_spawn_file_actions_t actions;
@@ -78,7 +93,7 @@ pid_t SpawnWithLog(const std::vector<std::string>& args, const std::filesystem::
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   std::vector<char*> argv = Argv(args);
   pid_t pid = 0;
-  const int rc = ::posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  const int rc = ::posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   ::close(fd);
   if (rc != 0) ThrowSpawnError(args.front(), rc, "give the relume program that runs tasks");

@@ -20,8 +20,10 @@ struct ProgramResult {
 ProgramResult RunProgram(const std::vector<std::string>& argv, const std::string& missing_hint);
 
 // Starts argv with standard output and error appended to `log` (created) and standard input from
-// /dev/null; returns its pid. IoError naming the log when it cannot be opened.
-pid_t SpawnWithLog(const std::vector<std::string>& argv, const std::filesystem::path& log);
+// /dev/null, in this process's environment with `environment` ("NAME=value") set on top; returns
+// its pid. IoError naming the log when it cannot be opened.
+pid_t SpawnWithLog(const std::vector<std::string>& argv, const std::filesystem::path& log,
+                   const std::vector<std::string>& environment = {});
 
 // "exit code 1", "signal 9 (Killed)" for a waitpid status.
 std::string DescribeWaitStatus(int status);

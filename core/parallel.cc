@@ -1,7 +1,10 @@
 #include "core/parallel.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <system_error>
@@ -19,11 +22,38 @@ namespace {
 constexpr std::int64_t kChunksPerThread = 16;
 }  // namespace
 
+namespace {
+
+// A positive whole number from the environment, or 0.
+int ThreadsFromEnvironment(const char* name) {
+  const char* text = std::getenv(name);
+  if (text == nullptr) return 0;
+  char* end = nullptr;
+  const long value = std::strtol(text, &end, 10);
+  return end != text && *end == '\0' && value > 0 && value <= 4096 ? static_cast<int>(value) : 0;
+}
+
+int CountDefaultThreads() {
+  if (const int n = ThreadsFromEnvironment("RELUME_THREADS")) return n;
+  if (const int n = ThreadsFromEnvironment("SLURM_CPUS_PER_TASK")) return n;
+  cpu_set_t mask;
+  CPU_ZERO(&mask);
+  if (sched_getaffinity(0, sizeof(mask), &mask) == 0 && CPU_COUNT(&mask) > 0) return CPU_COUNT(&mask);
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+}  // namespace
+
+int DefaultThreads() {
+  static const int threads = CountDefaultThreads();
+  return threads;
+}
+
 int ParallelThreads(std::int64_t begin, std::int64_t end, int threads, std::int64_t min_chunk) {
   RELUME_CHECK(begin <= end);
   RELUME_CHECK(threads >= 0);
   RELUME_CHECK(min_chunk >= 1);
-  if (threads == 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (threads == 0) threads = DefaultThreads();
   return static_cast<int>(std::clamp<std::int64_t>((end - begin) / min_chunk, 1, threads));
 }
 

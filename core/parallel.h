@@ -10,7 +10,7 @@
 //    indices take fewer chunks. Which thread runs which chunk, and when, is not fixed: body must
 //    give each index the same result whatever its chunk (write per index, or sum integers), which
 //    keeps the callers' outputs bit-identical for any thread count.
-//  - threads: how many threads run chunks (0 = std::thread::hardware_concurrency()), the calling
+//  - threads: how many threads run chunks (0 = DefaultThreads()), the calling
 //    thread being one of them. No more than (end - begin) / min_chunk are used (at least one),
 //    so that no thread is started for fewer than min_chunk indices. With one, body(begin, end)
 //    runs once, inline, on the calling thread (ParallelThreads says how many a call will use).
@@ -25,8 +25,15 @@
 
 namespace relume {
 
+// The threads a call with threads = 0 uses: the RELUME_THREADS environment variable when it is a
+// positive number (what `relume batch` gives each of its workers), else SLURM_CPUS_PER_TASK (a
+// Slurm task's share), else the CPUs this process may run on (its affinity mask, which
+// taskset, cgroups' cpusets and schedulers set; std::thread::hardware_concurrency counts the
+// machine's). Read once per process.
+int DefaultThreads();
+
 // How many threads (the caller's included) ParallelFor(begin, end, ..., threads, min_chunk) runs
-// chunks on: min(threads or the hardware's, (end - begin) / min_chunk), at least 1.
+// chunks on: min(threads or DefaultThreads(), (end - begin) / min_chunk), at least 1.
 int ParallelThreads(std::int64_t begin, std::int64_t end, int threads = 0, std::int64_t min_chunk = 1);
 
 void ParallelFor(std::int64_t begin, std::int64_t end,

@@ -1,10 +1,12 @@
 #include "core/parallel.h"
 
 #include <gtest/gtest.h>
+#include <sched.h>
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
 #include <mutex>
 #include <set>
 #include <stdexcept>
@@ -122,8 +124,39 @@ TEST(ParallelForTest, ThreadCountIsLimitedByTheRangeAndMinChunk) {
   EXPECT_EQ(ParallelThreads(0, 5, 8, 8), 1);
   EXPECT_EQ(ParallelThreads(0, 0, 4, 1), 1);
   EXPECT_EQ(ParallelThreads(-10, 10, 64, 1), 20);
-  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  EXPECT_EQ(ParallelThreads(0, 1'000'000, 0, 1), hardware);
+  EXPECT_EQ(ParallelThreads(0, 1'000'000, 0, 1), DefaultThreads());
+}
+
+// DefaultThreads is read once per process, so each case runs in a fresh one (threadsafe death
+// tests re-run the binary): RELUME_THREADS wins over SLURM_CPUS_PER_TASK, which wins over the
+// affinity mask; a malformed value is ignored.
+TEST(ParallelForTest, DefaultThreadsFollowTheEnvironmentAndTheAffinityMask) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        setenv("RELUME_THREADS", "3", 1);
+        setenv("SLURM_CPUS_PER_TASK", "5", 1);
+        std::exit(DefaultThreads() == 3 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+  EXPECT_EXIT(
+      {
+        setenv("RELUME_THREADS", "many", 1);
+        setenv("SLURM_CPUS_PER_TASK", "5", 1);
+        std::exit(DefaultThreads() == 5 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+  EXPECT_EXIT(
+      {
+        unsetenv("RELUME_THREADS");
+        unsetenv("SLURM_CPUS_PER_TASK");
+        cpu_set_t one;
+        CPU_ZERO(&one);
+        CPU_SET(0, &one);
+        if (sched_setaffinity(0, sizeof(one), &one) != 0) std::exit(2);
+        std::exit(DefaultThreads() == 1 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
 }
 
 TEST(ParallelForTest, TwoThreadsRunChunksAtTheSameTime) {

@@ -116,7 +116,8 @@ struct IrmKnobs {
            {"build"});
     v.Knob("exact_shadow_edges", relight.exact_shadow_edges,
            "ray-cast the sun fraction of pixels on triangles a shadow edge crosses", {"relight"});
-    v.Knob("threads", relight.threads, "threads for per-pixel relighting (no effect on results)", {"none"});
+    v.Knob("threads", relight.threads,
+           "threads for per-pixel relighting, 0: the CPUs this process may use (no effect on results)", {"none"});
     v.Knob("compare_truth", compare_truth, "compare the relit image with the simulated world's truth", {"report"});
   }
   bool IsValid(std::string* why) const {

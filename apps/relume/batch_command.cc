@@ -12,6 +12,7 @@
 #include "batch/batch.h"
 #include "batch/plan.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace relume::app {
 
@@ -97,8 +98,7 @@ void Run(const BatchArgs& args) {
   options.out_dir = args.out;
   options.request = PipelineRequestFromArgs(args.pipeline);
   options.backend = args.slurm ? batch::Backend::kSlurm : batch::Backend::kLocal;
-  options.local_workers =
-      args.local >= 0 ? args.local : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.local_workers = args.local >= 0 ? args.local : DefaultThreads();
   options.slurm = args.slurm_options;
   options.slurm.wait = !args.no_wait;
   options.only_failed = args.only_failed;

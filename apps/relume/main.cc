@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core/utility.hpp>
 #include <iostream>
 #include <new>
 #include <string>
@@ -18,6 +19,7 @@
 #include "apps/relume/sim_command.h"
 #include "apps/relume/sun_command.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace {
 
@@ -35,6 +37,9 @@ int ReportError(const std::string& what) {
 // check, and are bugs to fix at their source, but still not crashes.
 int main(int argc, char** argv) {
   std::ios::sync_with_stdio(false);
+  // OpenCV's own loops get the same CPUs as relume's (core/parallel.h: RELUME_THREADS, a Slurm
+  // task's share, the affinity mask), so that batch workers do not oversubscribe the machine.
+  cv::setNumThreads(relume::DefaultThreads());
   CLI::App app{"relume: capture rig control, radiometric calibration and relighting"};
   // Parse errors read like every other error (CLI11's own text after the prefix).
   app.failure_message([](const CLI::App* failed, const CLI::Error& e) {

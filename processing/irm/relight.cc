@@ -117,8 +117,8 @@ bool RelightOptions::IsValid(std::string* why) const {
     if (why) *why = "sky_samples must be within 0..65536 (0: no sky view)";
     return false;
   }
-  if (threads < 1 || threads > 256) {
-    if (why) *why = "threads must be within 1..256";
+  if (threads < 0 || threads > 256) {
+    if (why) *why = "threads must be within 0..256 (0: the CPUs this process may use)";
     return false;
   }
   return true;

@@ -53,7 +53,7 @@ struct RelightOptions {
   // vertex under a wall: ground that runs beneath a building sees no sky there, and its
   // triangle's visible part would get a fraction of its sky view).
   bool exact_shadow_edges = true;
-  int threads = 2;
+  int threads = 0;  // 0: core/parallel.h's DefaultThreads() (RELUME_THREADS, a Slurm task's share, the CPUs)
   bool IsValid(std::string* why) const;
 };
 
