@@ -217,7 +217,7 @@ Args:
     sun_angular_radius_rad: the sun's angular radius (radians).
     penumbra: fractional sun visibility (False: the paper's 0/1 bits).
     exact_shadow_edges: pixels on triangles a shadow edge crosses cast their own sun rays.
-    threads: worker threads (no effect on the results).
+    threads: worker threads, 0 = the CPUs this process may use (no effect on the results).
 
 Returns:
     dict: 'relit' float32 HxWx3 (the source under the target's light; untouched where status
