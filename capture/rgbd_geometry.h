@@ -32,5 +32,8 @@ struct CalibrationRecord;  // capture/session.h
 // when none is. Used by playback and by processing, so both read a session the same way.
 const CalibrationRecord* RgbdGeometryAt(const std::vector<CalibrationRecord>& rows, const std::string& device_id,
                                         std::int64_t frame_id);
+// The result points into `rows`: a temporary would leave it dangling, so it is refused at compile time.
+const CalibrationRecord* RgbdGeometryAt(std::vector<CalibrationRecord>&& rows, const std::string& device_id,
+                                        std::int64_t frame_id) = delete;
 
 }  // namespace relume::capture

@@ -46,6 +46,8 @@ std::optional<SceneModel> LatestSceneModel(const std::filesystem::path& session_
 struct CalibrationRecord;  // capture/session.h
 // The latest kSceneModelKind row (in row order), or null when the session has none.
 const CalibrationRecord* LatestSceneModelRow(const std::vector<CalibrationRecord>& rows);
+// The result points into `rows`: a temporary would leave it dangling, so it is refused at compile time.
+const CalibrationRecord* LatestSceneModelRow(std::vector<CalibrationRecord>&& rows) = delete;
 
 // One line per part ("3 cameras, 7 objects (1204 triangles), 9 materials (1 with known albedo),
 // 2 lamps") for `relume session info` and messages.

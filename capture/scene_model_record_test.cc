@@ -114,7 +114,8 @@ TEST(SceneModelRecordTest, TheLatestRowApplies) {
   rows[2].id = 3;
   ASSERT_NE(LatestSceneModelRow(rows), nullptr);
   EXPECT_EQ(LatestSceneModelRow(rows)->id, 3);
-  EXPECT_EQ(LatestSceneModelRow({}), nullptr);
+  const std::vector<CalibrationRecord> none;
+  EXPECT_EQ(LatestSceneModelRow(none), nullptr);
   EXPECT_EQ(DescribeSceneModel(ExampleModel()),
             "1 camera, 2 objects (2 triangles), 2 materials (1 with known albedo), 1 lamp");
 }

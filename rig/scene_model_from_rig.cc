@@ -159,7 +159,8 @@ std::int64_t AddSceneModelFromStoredRig(const std::filesystem::path& session_dir
   UtcTime first = UtcTime::max(), last = UtcTime::min();
   {
     const capture::SessionReader reader(session_dir);
-    if (const capture::CalibrationRecord* row = capture::LatestSceneModelRow(reader.Calibrations())) existing = row->id;
+    const std::vector<capture::CalibrationRecord> rows = reader.Calibrations();
+    if (const capture::CalibrationRecord* row = capture::LatestSceneModelRow(rows)) existing = row->id;
     for (const capture::FrameRecord& f : reader.Frames()) {
       first = std::min(first, f.utc);
       last = std::max(last, f.utc);
