@@ -25,6 +25,7 @@
 #include "pipeline/radiance.h"
 #include "pipeline/radiosity_scene.h"
 #include "processing/radiosity/direct_light.h"
+#include "processing/radiosity/reference_scale.h"
 #include "processing/radiosity/reflectance.h"
 
 namespace relume::pipeline {
@@ -47,7 +48,9 @@ struct Knobs {
   // Divide each patch's mean pixel radiance by the direct light averaged over the same pixels'
   // surface points (true), or over samples spread on the patch (false, the per-patch model).
   bool direct_at_pixels = true;
-  std::string scale = "truth";   // truth | none
+  // auto: a chart's (known-albedo materials of the scene model) when the first bracket sees one,
+  // else none. chart: required. truth: the simulated world's radiance (an evaluation oracle).
+  std::string scale = "auto";
   std::string material_groups;   // "a+b,c+d": objects known to share a material
   std::string input = "camera";  // camera | truth (the world's rendered radiance: no camera, noise-free)
   bool compare_truth = true;
@@ -60,7 +63,8 @@ struct Knobs {
     v.Knob("material_groups", material_groups, "objects known to share a material: \"a+b,c+d\"", {"geometry"});
     v.Knob("min_patch_pixels", min_patch_pixels, "pixels a patch needs to be observed", {"observe"});
     v.Knob("input", input, "camera, or truth (the world's radiance: no camera, noise-free)", {"observe", "scale"});
-    v.Knob("scale", scale, "absolute scale of the first bracket: truth or none", {"scale"});
+    v.Knob("scale", scale, "absolute scale of the first bracket: auto, chart, none, or truth (simulation oracle)",
+           {"scale"});
     v.Knob("iterations", iterations, "reflectance iterations at most", {"reflectance"});
     v.Knob("tolerance", tolerance, "albedo change that stops iterating; an indirect share below it skips radiosity",
            {"reflectance"});
@@ -89,7 +93,9 @@ Knobs ReadRadiosityKnobs(PipelineRun& run) {
   if (!(k.residual_tolerance > 0.0 && k.residual_tolerance < 1.0)) bad("--set residual_tolerance must be in (0, 1)");
   if (k.direct_samples < 1 || k.direct_samples > 256) bad("--set direct_samples must be in [1, 256]");
   if (k.min_patch_pixels < 1) bad("--set min_patch_pixels must be >= 1");
-  if (k.scale != "truth" && k.scale != "none") bad("--set scale must be truth or none (docs/radiosity.md)");
+  if (k.scale != "auto" && k.scale != "chart" && k.scale != "truth" && k.scale != "none") {
+    bad("--set scale must be auto, chart, none or truth (docs/radiosity.md)");
+  }
   if (k.input != "camera" && k.input != "truth") bad("--set input must be camera or truth (docs/radiosity.md)");
   if (!(k.light_intensity_w_sr >= 0.0)) bad("--set light_intensity must be >= 0 (W/sr)");
   return k;
@@ -194,41 +200,43 @@ struct MaterialGroups {
   std::vector<int> group_of_patch;  // -1: unknown
 };
 
-// Evaluation only: the true albedo per scene model object, from the simulated world's object of
-// the same name.
+// Evaluation only: the true albedo per mesh triangle, from the simulated world's object of the
+// same name (its face's albedo where the object has one per face, e.g. a ColorChecker's
+// patches), grouped by value: materials of equal albedo form one group.
 MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const SceneModel& model,
                             const sim::Scene& scene) {
   MaterialGroups g;
-  // Truth per mesh triangle: the object it came from. Triangles of one object are contiguous
-  // and in object order, so walk the objects' materials through the mesh.
-  std::vector<int> group_of_object;
+  std::vector<int> sim_object;
   for (const SceneModelObject& model_object : model.objects) {
     const int index = scene.ObjectIndex(model_object.name);
     if (index < 0) {
       throw InvalidArgumentError("compare_truth: scene model object '" + model_object.name +
                                  "' is not in the session's simulated world; --set compare_truth=false");
     }
-    const sim::SceneObject& object = scene.objects[static_cast<std::size_t>(index)];
+    sim_object.push_back(index);
+  }
+  std::vector<int> group_of_triangle(rs.triangle_object.size(), -1);
+  for (std::size_t t = 0; t < rs.triangle_object.size(); ++t) {
+    const sim::SceneObject& object = scene.objects[static_cast<std::size_t>(sim_object[rs.triangle_object[t]])];
+    const auto face = static_cast<std::size_t>(rs.triangle_face[t]);
+    const Rgb truth = face < object.mesh.face_albedo.size() && object.mesh.face_albedo[face].allFinite()
+                          ? Rgb(object.mesh.face_albedo[face])
+                          : Rgb(object.albedo);
+    const std::string& name = rs.mesh.materials[rs.mesh.triangle_material[t]].name;
     int found = -1;
     for (size_t i = 0; i < g.truth.size(); ++i) {
-      if ((g.truth[i] - object.albedo).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
+      if ((g.truth[i] - truth).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
     }
     if (found < 0) {
       found = static_cast<int>(g.truth.size());
-      g.truth.push_back(object.albedo);
-      g.names.push_back(object.name);
-    } else {
-      g.names[found] += "+" + object.name;
+      g.truth.push_back(truth);
+      g.names.push_back(name);
+    } else if (("+" + g.names[found] + "+").find("+" + name + "+") == std::string::npos) {
+      g.names[found] += "+" + name;
     }
-    group_of_object.push_back(found);
+    group_of_triangle[t] = found;
   }
-  // Patch -> object: by the triangle's root, via the object each triangle was built from.
-  std::vector<int> triangle_object;
-  for (int o = 0; o < static_cast<int>(model.objects.size()); ++o) {
-    const int count = rs.object_triangles[o];
-    triangle_object.insert(triangle_object.end(), count, o);
-  }
-  for (int p = 0; p < h.LeafCount(); ++p) g.group_of_patch.push_back(group_of_object[triangle_object[h.leaf(p).root]]);
+  for (int p = 0; p < h.LeafCount(); ++p) g.group_of_patch.push_back(group_of_triangle[h.leaf(p).root]);
   return g;
 }
 
@@ -386,6 +394,9 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
 // ---- the pipeline --------------------------------------------------------------------------
 
 // The radiosity-geometry stage's result.
+// Pixels clear of its edges a chart patch needs to enter scale=chart.
+constexpr int kMinReferencePixels = 3;
+
 struct Geometry {
   RadiosityScene scene;
   std::unique_ptr<radiosity::PatchHierarchy> hierarchy;
@@ -553,10 +564,9 @@ RadiosityInputs ReadRadiosityInputs(PipelineRun& run) {
           "real capture): use input=camera");
     }
     if (in.knobs.scale == "truth") {
-      in.knobs.scale = "none";
-      run.Decide("radiosity-scale", "warn",
-                 "scale=truth needs the simulator's radiance, and this session has none: albedo stays relative "
-                 "(scale=none); an absolute scale from a chart is not built yet");
+      throw InvalidArgumentError(
+          "--set scale=truth takes the simulator's rendered radiance, and this session has no simulated world (a "
+          "real capture): use scale=chart with a ColorChecker in view (docs/radiosity.md) or scale=none");
     }
     if (in.knobs.compare_truth) {
       in.knobs.compare_truth = false;
@@ -716,35 +726,160 @@ void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, nloh
   (*j)["relative_spread"] = 0.5 * (*hi - p16) / k;
 }
 
+// The reference patches of scale=chart: leaves of a material with known albedo (a chart's
+// patches), measured on bracket 0's good pixels whose 3 x 3 neighbourhood lies on the same
+// material (a pixel straddling a patch edge mixes two reflectances); at least `min_pixels` each.
+std::vector<radiosity::ReferencePatch> ChartReferences(const Geometry& geo, const BracketRadiance& r, int min_pixels) {
+  const radiosity::PatchHierarchy& h = *geo.hierarchy;
+  auto material_at = [&](int y, int x) {
+    if (y < 0 || x < 0 || y >= geo.ids.rows || x >= geo.ids.cols) return -1;
+    const int p = geo.ids.at<int>(y, x);
+    return p < 0 ? -1 : h.leaf(p).material;
+  };
+  std::vector<radiosity::ReferencePatch> per_leaf(static_cast<std::size_t>(h.LeafCount()));
+  std::vector<int> count(per_leaf.size(), 0);
+  for (int y = 0; y < geo.ids.rows; ++y) {
+    for (int x = 0; x < geo.ids.cols; ++x) {
+      const int p = geo.ids.at<int>(y, x);
+      if (p < 0) continue;
+      const int material = h.leaf(p).material;
+      if (!geo.scene.known_albedo[material]) continue;
+      if (!r.status.empty() && r.status.at<std::uint8_t>(y, x) != 0) continue;
+      bool inside = true;
+      for (int dy = -1; dy <= 1 && inside; ++dy) {
+        for (int dx = -1; dx <= 1 && inside; ++dx) inside = material_at(y + dy, x + dx) == material;
+      }
+      const cv::Vec3f v = r.radiance.pixels.at<cv::Vec3f>(y, x);
+      const cv::Vec3f xyz = geo.points_m.at<cv::Vec3f>(y, x);
+      if (!inside || !std::isfinite(v[0] + v[1] + v[2]) || !std::isfinite(xyz[0] + xyz[1] + xyz[2])) continue;
+      radiosity::ReferencePatch& ref = per_leaf[static_cast<std::size_t>(p)];
+      ref.patch = p;
+      ref.albedo = *geo.scene.known_albedo[material];
+      ref.radiance += Rgb(v[0], v[1], v[2]);
+      ref.points.emplace_back(xyz[0], xyz[1], xyz[2]);
+      ++count[static_cast<std::size_t>(p)];
+    }
+  }
+  std::vector<radiosity::ReferencePatch> out;
+  for (std::size_t p = 0; p < per_leaf.size(); ++p) {
+    if (count[p] < min_pixels) continue;
+    per_leaf[p].radiance /= count[p];
+    out.push_back(std::move(per_leaf[p]));
+  }
+  return out;
+}
+
+bool HasKnownAlbedo(const Geometry& geo) {
+  return std::any_of(geo.scene.known_albedo.begin(), geo.scene.known_albedo.end(),
+                     [](const auto& a) { return a.has_value(); });
+}
+
+// scale=chart's work: the fixed point of the reference patches' scale (reference_scale.h), into `j`.
+void AddScaleFromChart(const RadiosityInputs& in, const Geometry& geo, const Observations& observed,
+                       const std::vector<radiosity::ReferencePatch>& references, nlohmann::json* j) {
+  const radiosity::ReferenceScaleResult r =
+      radiosity::EstimateReferenceScale(*geo.hierarchy, *geo.caster, observed.patches, references,
+                                        ReflectanceOptionsFrom(in.knobs, false), radiosity::ReferenceScaleOptions());
+  (*j)["scale"] = r.scale;
+  (*j)["direct_only_scale"] = r.direct_only_scale;
+  (*j)["relative_spread"] = r.relative_spread;
+  (*j)["samples"] = r.samples;
+  (*j)["reference_patches"] = r.patches;
+  (*j)["indirect_share"] = r.indirect_share;
+  (*j)["history"] = r.history;
+  (*j)["solves"] = r.solves;
+  (*j)["converged"] = r.converged;
+  (*j)["reason"] = r.reason;
+  (*j)["seconds"] = r.time_s;
+}
+
+// The scale mode a run uses: auto becomes chart when the scene model has materials of known
+// albedo and bracket 0 sees them, else none (said in a decision). chart without references throws.
+std::string ResolveScaleMode(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
+                             const std::vector<radiosity::ReferencePatch>& references) {
+  const std::string& mode = in.knobs.scale;
+  if (mode != "auto" && mode != "chart") return mode;
+  if (!references.empty()) return "chart";
+  const std::string why = !HasKnownAlbedo(geo)
+                              ? "the session's scene model has no material of known albedo (a chart's patches)"
+                              : "the first bracket sees no patch of known albedo with at least " +
+                                    std::to_string(kMinReferencePixels) + " pixels clear of its edges";
+  if (mode == "chart") {
+    throw InvalidArgumentError("--set scale=chart: " + why +
+                               "; put a ColorChecker in view of the first bracket and give its patches' albedo (the "
+                               "scene file's known_albedo, docs/real-data.md), or use scale=none");
+  }
+  run.Decide("radiosity-scale", "warn",
+             why +
+                 ": albedo stays relative (bracket 0's units). For absolute albedo put a ColorChecker in view "
+                 "(docs/radiosity.md)");
+  return "none";
+}
+
 // Stage radiosity-scale: an EV-only camera's radiance is relative (and differs per bracket, which
-// the reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from the
-// simulated world's rendered radiance (standing in for a radiometric calibration), or stays 1.
-AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const BracketRadiance& bracket0) {
+// the reflectance fit corrects against bracket 0). Bracket 0's absolute scale comes from a
+// chart's patches of known albedo (scale=chart), from the simulated world's rendered radiance
+// (scale=truth, an oracle for evaluation), or stays 1 (none).
+AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
+                            const Observations& observed) {
   const Knobs& knobs = in.knobs;
+  const BracketRadiance& bracket0 = observed.radiance.front();
+  const std::vector<radiosity::ReferencePatch> references = knobs.input == "truth"
+                                                                ? std::vector<radiosity::ReferencePatch>()
+                                                                : ChartReferences(geo, bracket0, kMinReferencePixels);
+  const std::string mode = knobs.input == "truth" ? "input=truth" : ResolveScaleMode(run, in, geo, references);
   AbsoluteScale out;
-  out.key.Add("stage", "radiosity-scale-v3").AddKey("radiance", bracket0.key);
+  out.key.Add("stage", "radiosity-scale-v4").AddKey("radiance", bracket0.key).Add("mode", mode);
   AddKnobsToKey(out.key, knobs, "scale");
-  if (knobs.input == "truth" || knobs.scale == "truth") {
+  if (knobs.input == "truth" || mode == "truth") {
     out.key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
   }
+  if (mode == "chart") {
+    out.key.AddKey("geometry", geo.key);
+    for (const StageKey& k : observed.keys) out.key.AddKey("observe", k);
+    AddKnobsToKey(out.key, knobs, "reflectance");
+  }
   const StageCache::Result stage = run.RunStage("radiosity-scale", out.key, [&](const fs::path& dir) {
-    nlohmann::json j = {{"mode", knobs.scale}, {"scale", 1.0}};
-    if (knobs.input == "truth") {
+    nlohmann::json j = {{"mode", mode}, {"scale", 1.0}};
+    if (mode == "input=truth") {
       j["mode"] = "input=truth: already absolute";
-    } else if (knobs.scale == "truth") {
+    } else if (mode == "truth") {
       AddScaleFromTruth(in, bracket0, &j);
+    } else if (mode == "chart") {
+      AddScaleFromChart(in, geo, observed, references, &j);
+      if (in.world != nullptr && knobs.compare_truth) {  // evaluation only: the oracle's scale beside it
+        nlohmann::json truth;
+        AddScaleFromTruth(in, bracket0, &truth);
+        j["truth_scale"] = truth["scale"];
+        j["error_against_truth"] = j["scale"].get<double>() / truth["scale"].get<double>() - 1.0;
+      }
     }
     WriteJson(dir / "scale.json", j);
   });
   const nlohmann::json scale = ReadJson(stage.dir / "scale.json");
   out.k = scale["scale"].get<double>();
   run.metrics()["absolute_scale"] = scale;
-  run.Decide("radiosity-scale", "choose",
-             knobs.input == "truth" ? "input=truth: the world's radiance is absolute (W m^-2 sr^-1); no camera"
-             : knobs.scale == "truth"
-                 ? "bracket 0's absolute scale from the simulated world's radiance (a stand-in for radiometric "
-                   "calibration; the EV-only camera gives relative radiance only)"
-                 : "scale=none: albedo is relative (bracket 0's units), not absolute");
+  std::string text;
+  if (knobs.input == "truth") {
+    text = "input=truth: the world's radiance is absolute (W m^-2 sr^-1); no camera";
+  } else if (mode == "truth") {
+    text =
+        "bracket 0's absolute scale from the simulated world's radiance (an evaluation oracle; the EV-only camera "
+        "gives "
+        "relative radiance only)";
+  } else if (mode == "chart") {
+    char buffer[320];
+    std::snprintf(buffer, sizeof(buffer),
+                  "bracket 0's absolute scale from %d chart patch(es) of known albedo: %.5g (direct light alone "
+                  "%.5g; indirect %.0f %% of their light; per-patch spread %.1f %%; %s)",
+                  scale.value("reference_patches", 0), out.k, scale.value("direct_only_scale", 0.0),
+                  100.0 * scale.value("indirect_share", 0.0), 100.0 * scale.value("relative_spread", 0.0),
+                  scale.value("converged", false) ? "converged" : "NOT converged");
+    text = buffer;
+  } else {
+    text = "scale=none: albedo is relative (bracket 0's units), not absolute";
+  }
+  run.Decide("radiosity-scale", mode == "chart" && !scale.value("converged", false) ? "warn" : "choose", text);
   return out;
 }
 
@@ -1188,7 +1323,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
   }
   const Geometry geo = RunGeometryStage(run, in);
   Observations observed = ObserveBrackets(run, in, geo);
-  const AbsoluteScale scale = RunScaleStage(run, in, observed.radiance.front());
+  const AbsoluteScale scale = RunScaleStage(run, in, geo, observed);
   for (auto& obs : observed.patches) {
     for (Rgb& v : obs.radiance) v *= scale.k;
   }

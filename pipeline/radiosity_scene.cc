@@ -45,7 +45,6 @@ RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::strin
       group[index] = one;
     }
   }
-  std::map<std::string, int> group_material;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
   for (const SceneModelObject& object : model.objects) {
@@ -63,18 +62,33 @@ RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::strin
   const Eigen::Vector3d scene_center = 0.5 * (lo + hi);
   const double floor_z = lo.z();
 
+  // One radiosity material per (object or group, scene model material when the object's faces
+  // carry several).
+  std::map<std::pair<std::string, int>, int> material_of;
+  auto material_for = [&](int o, int model_material, bool split) {
+    const SceneModelObject& object = model.objects[o];
+    const std::string base_name = group[o].empty() ? object.name : group[o];
+    const bool known_index = model_material >= 0 && model_material < static_cast<int>(model.materials.size());
+    const std::pair<std::string, int> key(base_name, split ? model_material : -1);
+    if (const auto it = material_of.find(key); it != material_of.end()) return it->second;
+    const std::string name = split && known_index ? model.materials[model_material].name : base_name;
+    const int material = out.mesh.AddMaterial({name, radiosity::Rgb::Constant(0.5), radiosity::Rgb::Zero()});
+    std::optional<Eigen::Vector3d> known;
+    if (known_index && (split || group[o].empty())) known = model.materials[model_material].albedo;
+    out.known_albedo.push_back(known);
+    material_of[key] = material;
+    return material;
+  };
   for (int o = 0; o < static_cast<int>(model.objects.size()); ++o) {
     const SceneModelObject& object = model.objects[o];
-    int material = 0;
-    if (group[o].empty()) {
-      material = out.mesh.AddMaterial({object.name, radiosity::Rgb::Constant(0.5), radiosity::Rgb::Zero()});
-    } else if (const auto it = group_material.find(group[o]); it != group_material.end()) {
-      material = it->second;
-    } else {
-      material = out.mesh.AddMaterial({group[o], radiosity::Rgb::Constant(0.5), radiosity::Rgb::Zero()});
-      group_material[group[o]] = material;
-    }
-    out.object_material.push_back(material);
+    const bool split =
+        !object.face_material.empty() && std::any_of(object.face_material.begin(), object.face_material.end(),
+                                                     [&](int m) { return m != object.face_material.front(); });
+    auto face_material = [&](std::size_t f) {
+      if (f < object.face_material.size()) return object.face_material[f];
+      return object.material;
+    };
+    out.object_material.push_back(material_for(o, face_material(0), split));
     Eigen::Vector3d object_lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector3d object_hi = -object_lo;
     for (const Eigen::Vector3d& v : object.vertices) {
@@ -86,7 +100,8 @@ RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::strin
     const int base = static_cast<int>(out.mesh.positions_m.size());
     const int triangles_before = out.mesh.TriangleCount();
     out.mesh.positions_m.insert(out.mesh.positions_m.end(), object.vertices.begin(), object.vertices.end());
-    for (const Eigen::Vector3i& tri : object.triangles) {
+    for (std::size_t f = 0; f < object.triangles.size(); ++f) {
+      const Eigen::Vector3i& tri = object.triangles[f];
       const Eigen::Vector3d& a = object.vertices[tri[0]];
       const Eigen::Vector3d& b = object.vertices[tri[1]];
       const Eigen::Vector3d& c = object.vertices[tri[2]];
@@ -100,7 +115,9 @@ RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::strin
       if (!surface && facing.normalized().z() < -0.99 && std::max({a.z(), b.z(), c.z()}) <= floor_z + 1e-3) continue;
       out.mesh.triangles.push_back(flip ? std::array<int, 3>{base + tri[0], base + tri[2], base + tri[1]}
                                         : std::array<int, 3>{base + tri[0], base + tri[1], base + tri[2]});
-      out.mesh.triangle_material.push_back(material);
+      out.mesh.triangle_material.push_back(material_for(o, face_material(f), split));
+      out.triangle_object.push_back(o);
+      out.triangle_face.push_back(static_cast<int>(f));
     }
     out.object_triangles.push_back(out.mesh.TriangleCount() - triangles_before);
   }

@@ -10,11 +10,17 @@
 //    floor, facing down, are left out.
 //  - Materials are per object, named after it, or per user-given group of objects known to share
 //    one material (e.g. walls painted alike); their albedo is a prior (0.5), never the scene's.
+//    An object whose faces carry several scene model materials (a ColorChecker: frame and 24
+//    patches) gets one radiosity material per scene model material, named after that.
+//  - `known_albedo` per radiosity material: the scene model material's known reflectance (a
+//    chart's reference values) where it has one. Only a radiometric reference (the absolute scale
+//    from a chart) reads it; the reflectance estimate still measures every material.
 //  - Pixel centres at (u + 0.5, v + 0.5) as in core/pinhole.h and the sim renderer; a pixel's
 //    patch is the leaf hit by its centre ray (-1: no surface).
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,8 +35,11 @@ namespace relume::pipeline {
 
 struct RadiosityScene {
   radiosity::Mesh mesh;
-  std::vector<int> object_material;   // per scene model object: index into mesh.materials
+  std::vector<int> object_material;   // per scene model object: index into mesh.materials (its first face's)
   std::vector<int> object_triangles;  // per object: its mesh triangles (contiguous, in object order)
+  std::vector<int> triangle_object;   // per mesh triangle: the scene model object it came from
+  std::vector<int> triangle_face;     // per mesh triangle: its index in that object's triangles
+  std::vector<std::optional<Eigen::Vector3d>> known_albedo;  // per mesh material (see above)
 };
 
 // `material_groups`: "a+b,c+d" puts objects a and b in one material, c and d in another.

@@ -35,8 +35,14 @@ def test_a_recorded_response_merges_the_brackets_as_relume_process_does(tmp_path
         assert linear["response_source"] == "recorded" and linear["response_id"] == recorded[0]["id"]
         assert np.array_equal(linear["radiance"], expected, equal_nan=True)
         # Without the recorded curve each bracket recovers its own: bracket 1's is the recorded one
-        # (`calibrate response` recovered it from bracket 1 with the same options), bracket 2's not.
+        # (`calibrate response` recovered it from bracket 1 with the same options), so its merge
+        # differs only by the exposure ratios the recovery refines beside the curve (EV-only,
+        # RecoverResponseFromEv: measured 3.6e-4 at most on this 3-frame bracket; none for 2
+        # frames, whose ratio is anchored). Bracket 2's curve is its own: up to 28 % apart.
         own = session.linear_radiance(f"bracket:{frames[0]['bracket_id']}", use_calibrations=False)
         assert own["response_source"].startswith("recovered from the bracket")
-        same = np.array_equal(own["radiance"], expected, equal_nan=True)
-        assert same == (frames[0]["bracket_id"] == 1)
+        relative = np.abs(own["radiance"] - expected) / np.maximum(expected, 1e-9)
+        if frames[0]["bracket_id"] == 1:
+            assert np.nanmax(relative) < 2e-3, np.nanmax(relative)
+        else:
+            assert np.nanmax(relative) > 1e-2, np.nanmax(relative)

@@ -61,18 +61,32 @@ TEST_F(RadiosityPipelineTest, EstimatesAlbedoRelightsReusesStagesAndSkips) {
   ASSERT_EQ(summary["outputs"].size(), 9u) << summary["outputs"].dump(2);
   EXPECT_EQ(Actions(summary, "radiosity"), (std::vector<std::string>{"plan", "run"})) << first.output;
 
+  // The absolute scale comes from the chart in the room (scale=auto finds its patches of known
+  // albedo in the scene model): the fixed point of its direct and indirect light converges.
+  const nlohmann::json& scale = summary["metrics"]["absolute_scale"];
+  EXPECT_EQ(scale["mode"], "chart") << scale.dump(2);
+  EXPECT_TRUE(scale["converged"].get<bool>()) << scale.dump(2);
+  EXPECT_GE(scale["reference_patches"].get<int>(), 10) << scale.dump(2);
+  // Direct light alone is a lower bound: about half the chart's light is indirect in this room.
+  EXPECT_LT(scale["direct_only_scale"].get<double>(), 0.7 * scale["scale"].get<double>()) << scale.dump(2);
+  EXPECT_GT(scale["indirect_share"].get<double>(), 0.3) << scale.dump(2);
+
   // Albedo against the world's truth. Iteration 0 (one ambient term) against the result of the
   // radiosity iterations: the per-patch error and the bias of every material's mean fall. The
   // test world renders 4 bounces with 8 samples (cheap, noisy; docs/radiosity.md has the figures
-  // at higher quality), so the bounds are looser than the docs' numbers.
+  // at higher quality), so the bounds are looser than the docs' numbers. Measured 2026-12-03:
+  // material means within 0.011 of the truth (with the simulator's radiance as the scale instead,
+  // scale=truth, they were 0.025-0.030 low: the chart's own light misses the same bounces, so
+  // its scale compensates for them).
   const nlohmann::json& refl = summary["metrics"]["reflectance"];
   const double before = refl["truth_before"]["mean_abs_error"].get<double>();
   const double after = refl["truth_after"]["mean_abs_error"].get<double>();
   EXPECT_LT(after, 0.8 * before) << refl.dump(2);
   EXPECT_LT(after, 0.04);
-  EXPECT_LT(refl["truth_after"]["max_error_of_material_mean"].get<double>(), 0.04);
+  EXPECT_LT(refl["truth_after"]["max_error_of_material_mean"].get<double>(), 0.02);
   EXPECT_LT(refl["truth_after"]["max_spread_sd"].get<double>(), refl["truth_before"]["max_spread_sd"].get<double>());
-  EXPECT_LE(refl["iterations"].get<int>(), 4);
+  // The chart's small patches (a few pixels each) settle last: 8 iterations measured.
+  EXPECT_LE(refl["iterations"].get<int>(), 12);
   EXPECT_TRUE(refl["converged"].get<bool>()) << refl["reason"];
   // The per-pixel reflectance map (each pixel's own direct light): every seen pixel has an
   // estimate, as close to the truth as the test world's 8-sample Monte Carlo noise allows (0.058).
@@ -85,8 +99,10 @@ TEST_F(RadiosityPipelineTest, EstimatesAlbedoRelightsReusesStagesAndSkips) {
   EXPECT_GT(refl["scale_samples"][1].get<int>(), 50);
   // The relit rendering against the world rendered with the same new lamp, per patch.
   const nlohmann::json& relight = summary["metrics"]["relight"];
+  // The world renders 4 bounces and so lacks some of the light the radiosity relighting adds:
+  // with the albedo near the truth the relit image is brighter than it by 7.6 % (measured).
   EXPECT_LT(relight["truth_relative_rms_per_patch"].get<double>(), 0.15) << relight.dump(2);
-  EXPECT_NEAR(relight["truth_mean_ratio"].get<double>(), 1.0, 0.06);
+  EXPECT_NEAR(relight["truth_mean_ratio"].get<double>(), 1.05, 0.05);
   // Per pixel the truth carries the renderer's Monte Carlo noise (8 samples here).
   EXPECT_LT(relight["truth_relative_rms_per_pixel"].get<double>(), 0.3) << relight.dump(2);
 
@@ -125,6 +141,9 @@ TEST_F(RadiosityPipelineTest, EstimatesAlbedoRelightsReusesStagesAndSkips) {
   const relume::testing::CliResult bad_edge = Process("bad", "--set patch_edge_m=0");
   EXPECT_NE(bad_edge.exit_code, 0);
   EXPECT_NE(bad_edge.output.find("patch_edge_m must be in"), std::string::npos) << bad_edge.output;
+  const relume::testing::CliResult bad_scale = Process("bad", "--set scale=ruler");
+  EXPECT_NE(bad_scale.exit_code, 0);
+  EXPECT_NE(bad_scale.output.find("scale must be auto, chart, none or truth"), std::string::npos) << bad_scale.output;
   const relume::testing::CliResult bad_group =
       relume::testing::RunRelume("process " + (dir_ / "session").string() + " --pipeline radiosity --out " +
                                  (dir_ / "bad").string() + " --set material_groups=wall-west+sofa");

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include "core/error.h"
 #include "rig/scene_model_from_rig.h"
 #include "sim/world/scene_yaml.h"
@@ -59,6 +61,47 @@ TEST(RadiositySceneTest, RoomPlanesFaceInwardAndBoxesOutward) {
             grouped.object_material[scene.ObjectIndex("wall-east")]);
   for (const radiosity::Material& m : grouped.mesh.materials) EXPECT_EQ(m.albedo, radiosity::Rgb::Constant(0.5));
   EXPECT_THROW(RadiositySceneFromModel(Model(scene), "wall-west+sofa"), InvalidArgumentError);
+}
+
+// The test room with its chart (tests/data/scenes/indoor-room-bounces.yaml): the chart's faces
+// carry 25 scene model materials (frame + 24 patches), and the radiosity scene keeps them apart;
+// the patches' reference albedo is known, the frame's and the room's are not.
+TEST(RadiositySceneTest, AChartKeepsOneMaterialPerPatchWithItsKnownAlbedo) {
+  const sim::Scene scene =
+      sim::LoadScene(std::string(RELUME_SOURCE_DIR) + "/tests/data/scenes/indoor-room-bounces.yaml");
+  const SceneModel model = Model(scene);
+  const RadiosityScene rs = RadiositySceneFromModel(model, "wall-west+wall-east");
+  const int chart = scene.ObjectIndex("chart");
+  ASSERT_GE(chart, 0);
+  ASSERT_EQ(rs.triangle_object.size(), static_cast<std::size_t>(rs.mesh.TriangleCount()));
+  ASSERT_EQ(rs.triangle_face.size(), rs.triangle_object.size());
+  ASSERT_EQ(rs.known_albedo.size(), rs.mesh.materials.size());
+  std::set<int> chart_materials;
+  int known = 0;
+  for (int t = 0; t < rs.mesh.TriangleCount(); ++t) {
+    const int o = rs.triangle_object[t];
+    const int m = rs.mesh.triangle_material[t];
+    // Each triangle's material is its scene model face's.
+    const SceneModelObject& object = model.objects[o];
+    const int face_material = object.face_material[rs.triangle_face[t]];
+    if (o == chart) {
+      chart_materials.insert(m);
+      EXPECT_EQ(rs.mesh.materials[m].name, model.materials[face_material].name);
+      EXPECT_EQ(rs.known_albedo[m].has_value(), model.materials[face_material].albedo.has_value());
+      if (rs.known_albedo[m]) {
+        EXPECT_EQ(*rs.known_albedo[m], *model.materials[face_material].albedo);
+        // The reference value is the simulated chart's own face albedo.
+        EXPECT_LT((*rs.known_albedo[m] - scene.objects[chart].mesh.face_albedo[rs.triangle_face[t]]).norm(), 1e-12);
+      }
+    } else {
+      EXPECT_FALSE(rs.known_albedo[m].has_value()) << rs.mesh.materials[m].name;
+    }
+  }
+  for (const auto& a : rs.known_albedo) known += a.has_value() ? 1 : 0;
+  EXPECT_EQ(chart_materials.size(), 25u);  // the frame and 24 patches
+  EXPECT_EQ(known, 24);
+  // Groups still merge whole objects.
+  EXPECT_EQ(rs.object_material[scene.ObjectIndex("wall-west")], rs.object_material[scene.ObjectIndex("wall-east")]);
 }
 
 TEST(RadiositySceneTest, PixelPatchesLieOnTheObjectTheRendererHits) {
