@@ -99,6 +99,12 @@ struct IrmKnobs {
   std::string mesh_frame = "enu";
   int mesh_utm_zone = 0;  // 0: the site's
   bool compare_truth = true;
+  // A truth made outside relume (another renderer, a measurement): a folder with target.exr (the
+  // scene from the source camera under the target's light, linear), source_sun.exr and
+  // target_sun.exr (R: the sun's visible fraction per pixel, NaN where the surface faces away;
+  // G: 1 on a surface, 0 for sky) and optionally source.exr (the source photograph's truth: the
+  // floor the relit image inherits). See docs/irm.md.
+  std::string truth_dir;
 
   template <typename V>
   void VisitKnobs(V& v) {
@@ -119,6 +125,9 @@ struct IrmKnobs {
     v.Knob("threads", relight.threads,
            "threads for per-pixel relighting, 0: the CPUs this process may use (no effect on results)", {"none"});
     v.Knob("compare_truth", compare_truth, "compare the relit image with the simulated world's truth", {"report"});
+    v.Knob("truth_dir", truth_dir,
+           "compare with a truth made outside relume: a folder of target.exr, source_sun.exr, target_sun.exr",
+           {"report"});
   }
   bool IsValid(std::string* why) const {
     if (!relight.IsValid(why) || !mesh.IsValid(why)) return false;
@@ -778,6 +787,64 @@ nlohmann::json CompareIrmWithTruth(const sim::World& world, const RayCaster& cas
   return t;
 }
 
+// A float image of `truth_dir` that must match the source camera's size.
+cv::Mat ExternalTruthImage(const fs::path& truth_dir, const char* name, const PinholeCamera& camera) {
+  const fs::path path = truth_dir / name;
+  if (!fs::exists(path)) {
+    throw IoError(path.string(),
+                  "is missing: --set truth_dir needs target.exr, source_sun.exr and target_sun.exr "
+                  "(docs/irm.md)");
+  }
+  const RadianceImage image = calibration::LoadRadianceExr(path.string());
+  if (image.width() != camera.intrinsics.width || image.height() != camera.intrinsics.height) {
+    throw InvalidArgumentError(path.string() + " is " + std::to_string(image.width()) + "x" +
+                               std::to_string(image.height()) + "; the source camera's photographs are " +
+                               std::to_string(camera.intrinsics.width) + "x" +
+                               std::to_string(camera.intrinsics.height));
+  }
+  return image.pixels;
+}
+
+// The relit source against a truth made outside relume (`truth_dir`, IrmKnobs::truth_dir): per
+// region from the truth's own sun fractions, on relit pixels the truth marks as surface.
+nlohmann::json CompareIrmWithExternalTruth(const fs::path& truth_dir, const irm::View& source,
+                                           const fs::path& relight_dir, const fs::path& error_png) {
+  const cv::Mat truth = ExternalTruthImage(truth_dir, "target.exr", source.camera);
+  std::vector<cv::Mat> source_sun, target_sun;
+  cv::split(ExternalTruthImage(truth_dir, "source_sun.exr", source.camera), source_sun);
+  cv::split(ExternalTruthImage(truth_dir, "target_sun.exr", source.camera), target_sun);
+  const RadianceImage relit = calibration::LoadRadianceExr((relight_dir / "relit.exr").string());
+  const cv::Mat status = cv::imread((relight_dir / "status.png").string(), cv::IMREAD_UNCHANGED);
+  if (status.empty()) throw IoError((relight_dir / "status.png").string(), "cannot be read; run with --force");
+  cv::Mat use, surface;
+  cv::compare(status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
+  const int relit_pixels = cv::countNonZero(use);
+  cv::Mat both_surface = (source_sun[1] > 0.5f) & (target_sun[1] > 0.5f);
+  use &= both_surface;
+  nlohmann::json t;
+  t["truth"] = "external: " + truth_dir.string();
+  t["relit_pixels_off_the_truths_surfaces"] = relit_pixels - cv::countNonZero(use);
+  cv::Mat error_image;
+  const metrics::SunRegionErrors after = metrics::CompareSunRegions(relit.pixels, truth, source_sun[0], target_sun[0],
+                                                                    use, metrics::Scale::kFitted, &error_image);
+  calibration::SaveImage(error_image, error_png.string());
+  const metrics::SunRegionErrors before = metrics::CompareSunRegions(source.image->pixels, truth, source_sun[0],
+                                                                     target_sun[0], use, metrics::Scale::kFitted);
+  t["relit"] = SunRegionErrorsJson(after);
+  t["no_relighting"] = SunRegionErrorsJson(before);
+  // The floor the relit image inherits: the linearised source photograph against the truth's
+  // own source image (optional source.exr), in the same regions.
+  if (fs::exists(truth_dir / "source.exr")) {
+    const cv::Mat source_truth = ExternalTruthImage(truth_dir, "source.exr", source.camera);
+    t["source_photograph"] = SunRegionErrorsJson(metrics::CompareSunRegions(
+        source.image->pixels, source_truth, source_sun[0], target_sun[0], use, metrics::Scale::kFitted));
+  }
+  t["comparison"] =
+      "relit source vs an external truth of the source camera under the target's light, on relit pixels of its "
+      "surfaces; one least-squares scale per image (relative radiance), relative RMS per region of its sun fractions";
+  return t;
+}
+
 // Without --source and --target: the earliest and the latest complete still bracket of the
 // first camera that has two, so the sun has moved the most between them.
 std::pair<std::optional<std::string>, std::optional<std::string>> SourceAndTarget(PipelineRun& run) {
@@ -939,14 +1006,28 @@ void AddIrmMetrics(PipelineRun& run, const SceneGeometry& geometry, const MeshSt
                            {"target", sky_json(v.target_geometry.sky_shape)}};
 }
 
-// Stage irm-truth: against the simulated world's truth, the source camera under the target's
-// sun. A stage of its own (it renders the world twice and casts shadow rays per pixel), keyed by
-// the relit result and the stored world.
-void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& relight, const StageKey& mesh_key) {
+// Stage irm-truth: against the truth, the source camera under the target's sun: the simulated
+// world's (rendered twice, shadow rays per pixel) or, with --set truth_dir, one made outside
+// relume. A stage of its own, keyed by the relit result and the truth.
+void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& relight, const StageKey& mesh_key,
+                   const std::string& truth_dir) {
   StageKey truth_key;
-  truth_key.Add("stage", "irm-truth-v1").AddKey("relight", relight.key).AddKey("mesh", mesh_key);
+  truth_key.Add("stage", "irm-truth-v2").AddKey("relight", relight.key).AddKey("mesh", mesh_key);
   truth_key.AddKey("source_radiance", v.source_radiance.key).AddKey("target_radiance", v.target_radiance.key);
-  truth_key.Add("world", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+  if (!truth_dir.empty()) {
+    for (const char* name : {"target.exr", "source_sun.exr", "target_sun.exr", "source.exr"}) {
+      const fs::path path = fs::path(truth_dir) / name;
+      if (std::string(name) == "source.exr" && !fs::exists(path)) continue;  // optional
+      if (!fs::exists(path)) {
+        throw IoError(path.string(),
+                      "is missing: --set truth_dir needs target.exr, source_sun.exr and "
+                      "target_sun.exr (docs/irm.md)");
+      }
+      truth_key.AddFileContent(name, path);
+    }
+  } else {
+    truth_key.Add("world", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+  }
   truth_key.Add("source_utc", FormatIso8601(v.source_radiance.utc))
       .Add("target_utc", FormatIso8601(v.target_radiance.utc));
   AddCamera(truth_key, "camera", v.source.camera);
@@ -955,9 +1036,12 @@ void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& reli
     truth_key.Add("target_sun", static_cast<double>(v.target.sun_dir[k]));
   }
   const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
-    WriteJsonFile(dir / "truth.json",
-                  CompareIrmWithTruth(*run.rig()->world, v.caster.get(), v.source, v.target, v.source_radiance.utc,
-                                      v.target_radiance.utc, relight.dir, dir / "truth_error.png"));
+    WriteJsonFile(
+        dir / "truth.json",
+        truth_dir.empty()
+            ? CompareIrmWithTruth(*run.rig()->world, v.caster.get(), v.source, v.target, v.source_radiance.utc,
+                                  v.target_radiance.utc, relight.dir, dir / "truth_error.png")
+            : CompareIrmWithExternalTruth(truth_dir, v.source, relight.dir, dir / "truth_error.png"));
   });
   fs::copy_file(truth.dir / "truth_error.png", run.out_dir() / "truth_error.png", fs::copy_options::overwrite_existing);
   run.AddOutput(run.out_dir() / "truth_error.png",
@@ -969,12 +1053,13 @@ void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& reli
     const nlohmann::json& value = m["truth"][which]["relative_rms_" + std::string(region)];
     return value.is_number() ? value.get<double>() : std::numeric_limits<double>::quiet_NaN();
   };
-  char text[160];
+  char text[200];
   std::snprintf(text, sizeof(text),
-                "relit vs truth: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
+                "relit vs %s: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
                 "relighting: %.4f, %.4f, %.4f)",
-                figure("relit", "lit"), figure("relit", "shadow"), figure("relit", "penumbra"),
-                figure("no_relighting", "lit"), figure("no_relighting", "shadow"), figure("no_relighting", "penumbra"));
+                truth_dir.empty() ? "truth" : "the external truth", figure("relit", "lit"), figure("relit", "shadow"),
+                figure("relit", "penumbra"), figure("no_relighting", "lit"), figure("no_relighting", "shadow"),
+                figure("no_relighting", "penumbra"));
   run.Decide("truth", "note", text);
 }
 
@@ -1019,7 +1104,11 @@ void RunIrmPipeline(PipelineRun& run) {
   const BuildStage build = RunBuildStage(run, knobs, views);
   const RelightStage relight = RunRelightStage(run, knobs, views, build);
   AddIrmMetrics(run, geometry, mesh, views, build.irms, relight.json);
-  if (compare_truth && run.rig() != nullptr && run.rig()->world) RunTruthStage(run, views, relight, geometry.key);
+  if (!knobs.truth_dir.empty()) {
+    RunTruthStage(run, views, relight, geometry.key, knobs.truth_dir);
+  } else if (compare_truth && run.rig() != nullptr && run.rig()->world) {
+    RunTruthStage(run, views, relight, geometry.key, "");
+  }
 }
 
 std::string IrmHeadline(const nlohmann::json& m) {

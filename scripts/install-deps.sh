@@ -17,6 +17,9 @@ PACKAGES=(
   pybind11-dev python3-dev python3-numpy python3-pytest
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # images from outside relume: a scene rendered by Blender Cycles, EXIF written by exiv2, imported
+  # and processed (scripts/blender_dataset.sh, tests/apps/blender_dataset_test.cc)
+  blender exiv2
   # the HTML report is checked by loading it in headless Chromium
   chromium
   # `relume batch --slurm` is tested on a one-node Slurm cluster the test starts (tests/batch/)
