@@ -18,6 +18,16 @@
 // Error: per material, |mean albedo over its estimated patches - true albedo|, the mean over
 // channels (the error of the mean, issue 20). One SceneResult per material, so the suite's
 // median and p90 are over materials of all rooms.
+//
+// Chart variant (radiosity-rooms-chart, issue 19: albedo in absolute units from an EV-only
+// camera): the same rooms with a reference chart on a wall the camera faces (six 15 cm grey
+// patches of known albedo 0.03-0.90, the ColorChecker's neutral row, 5 mm off the wall), and
+// photographs in unknown units: bracket 0 divided by a scale drawn log-uniformly in [0.05, 20],
+// the others also by their own factor in [0.5, 2] (fit_image_scales finds those). Method: the
+// absolute scale from the chart (reference_scale.h, its defaults) and the reflectance estimate
+// at that scale. Floor: the same estimate at the true scale. Error: as above, over the room's
+// materials (the chart's are the input, not a result); the scale's own error is in the notes.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -29,6 +39,7 @@
 #include "processing/radiosity/direct_light.h"
 #include "processing/radiosity/hierarchy.h"
 #include "processing/radiosity/radiosity_solver.h"
+#include "processing/radiosity/reference_scale.h"
 #include "processing/radiosity/reflectance.h"
 #include "processing/radiosity/scene.h"
 
@@ -39,6 +50,7 @@ namespace rs = radiosity;
 
 struct RandomRoom {
   rs::Mesh mesh;
+  std::vector<int> chart_materials;  // the reference patches' materials (chart variant)
   std::vector<Eigen::Vector3d> lamps;
   rs::Rgb lamp_intensity;
   Eigen::Vector3d camera;
@@ -52,7 +64,37 @@ rs::Rgb RandomAlbedo(SceneRandom& random) {
   return a;
 }
 
-RandomRoom DrawRoom(std::uint64_t seed) {
+// The chart variant's reference: six grey patches (2 rows of 3) on one of the two walls the
+// camera faces (it stands in the corner at the far_x / far_y sides), at a random place.
+void AddChart(const Eigen::Vector3d& size, bool far_x, bool far_y, SceneRandom& random, RandomRoom* room) {
+  static constexpr double kNeutral[6] = {0.90, 0.59, 0.36, 0.19, 0.09, 0.03};  // ColorChecker's last row (linear)
+  constexpr double kPatch = 0.15, kGap = 0.03, kOff = 0.005;
+  const bool on_x_wall = random.Chance(0.5);  // the wall of constant x opposite the camera, else of constant y
+  const double length = on_x_wall ? size.y() : size.x();
+  const double along = random.Uniform(0.6, length - 0.6 - 3 * kPatch);
+  const double height = random.Uniform(0.9, std::min(1.7, size.z() - 0.5));
+  // The opposite wall and its inward normal: the wall at 0 faces +, the wall at the far side faces -.
+  const bool far_wall = on_x_wall ? !far_x : !far_y;
+  const double inward = far_wall ? -1.0 : 1.0;
+  const double plane = (far_wall ? (on_x_wall ? size.x() : size.y()) : 0.0) + inward * kOff;
+  const Eigen::Vector3d normal = on_x_wall ? Eigen::Vector3d(inward, 0, 0) : Eigen::Vector3d(0, inward, 0);
+  auto point = [&](double u, double z) {
+    return on_x_wall ? Eigen::Vector3d(plane, u, z) : Eigen::Vector3d(u, plane, z);
+  };
+  for (int i = 0; i < 6; ++i) {
+    const int row = i / 3, col = i % 3;
+    const double u0 = along + col * (kPatch + kGap), z0 = height - row * (kPatch + kGap);
+    const Eigen::Vector3d a = point(u0, z0), c = point(u0 + kPatch, z0 + kPatch);
+    Eigen::Vector3d b = point(u0 + kPatch, z0), d = point(u0, z0 + kPatch);
+    if ((b - a).cross(c - a).dot(normal) < 0.0) std::swap(b, d);
+    const int material =
+        room->mesh.AddMaterial({"chart " + std::to_string(i + 1), rs::Rgb::Constant(kNeutral[i]), rs::Rgb::Zero()});
+    room->mesh.AddQuad(a, b, c, d, material);
+    room->chart_materials.push_back(material);
+  }
+}
+
+RandomRoom DrawRoom(std::uint64_t seed, bool chart = false) {
   SceneRandom random(seed);
   RandomRoom room;
   rs::Mesh& m = room.mesh;
@@ -87,6 +129,7 @@ RandomRoom DrawRoom(std::uint64_t seed) {
   room.lamp_intensity = level * rs::Rgb(random.Uniform(0.9, 1.1), random.Uniform(0.85, 1.0), random.Uniform(0.7, 0.95));
   const int corner = random.Int(0, 3);
   room.camera = {corner & 1 ? size.x() - 0.2 : 0.2, corner & 2 ? size.y() - 0.2 : 0.2, size.z() - 0.3};
+  if (chart) AddChart(size, (corner & 1) != 0, (corner & 2) != 0, random, &room);
   std::ostringstream s;
   s.precision(2);
   s << std::fixed << size.x() << " x " << size.y() << " x " << size.z() << " m room, " << boxes << " box(es)"
@@ -229,6 +272,88 @@ void RunRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
   }
 }
 
+// The chart variant: relative photographs, the scale from the chart, the albedo at that scale.
+void RunChartRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
+  const RandomRoom room = DrawRoom(seed, /*chart=*/true);
+  rs::HierarchyOptions hierarchy_options;
+  hierarchy_options.max_patch_edge_m = quick ? 0.8 : 0.35;
+  const rs::PatchHierarchy hierarchy(room.mesh, hierarchy_options);
+  const RayCaster caster(rs::ToTriangleMesh(room.mesh));
+  SceneRandom noise(seed ^ 0x6e6f697365ULL);
+  const std::vector<Photograph> photos = Render(room, hierarchy, caster, quick, noise);
+  SceneRandom units(seed ^ 0x756e697473ULL);
+  const double k_true = std::exp(units.Uniform(std::log(0.05), std::log(20.0)));
+  std::vector<rs::RadianceObservation> relative;
+  for (std::size_t s = 0; s < photos.size(); ++s) {
+    relative.push_back(photos[s].observation);
+    const double factor = (s == 0 ? 1.0 : units.Uniform(0.5, 2.0)) / k_true;
+    for (rs::Rgb& v : relative.back().radiance) v *= factor;
+  }
+  std::vector<rs::ReferencePatch> references;
+  for (int p = 0; p < hierarchy.LeafCount(); ++p) {
+    const rs::Node& node = hierarchy.leaf(p);
+    const bool chart = std::find(room.chart_materials.begin(), room.chart_materials.end(), node.material) !=
+                       room.chart_materials.end();
+    if (!chart || !relative[0].radiance[p].allFinite()) continue;
+    references.push_back(
+        {p, room.mesh.materials[node.material].albedo, relative[0].radiance[p], {node.centroid.cast<float>()}});
+  }
+  rs::ReflectanceOptions options;
+  options.fit_image_scales = true;
+  const auto scaled = [&](double k) {
+    std::vector<rs::RadianceObservation> o = relative;
+    for (rs::RadianceObservation& obs : o) {
+      for (rs::Rgb& v : obs.radiance) v *= k;
+    }
+    return o;
+  };
+  const auto start = std::chrono::steady_clock::now();
+  std::string failure;
+  rs::ReferenceScaleResult scale;
+  rs::ReflectanceResult method;
+  try {
+    scale = rs::EstimateReferenceScale(hierarchy, caster, relative, references, options, {});
+    method = rs::EstimateReflectance(hierarchy, caster, scaled(scale.scale), options);
+  } catch (const std::exception& e) {
+    failure = e.what();
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const rs::ReflectanceResult floor = rs::EstimateReflectance(hierarchy, caster, scaled(k_true), options);
+  const std::vector<double> floor_error = ErrorOfTheMean(hierarchy, floor.albedo, floor.estimated);
+  const std::vector<double> method_error =
+      failure.empty() ? ErrorOfTheMean(hierarchy, method.albedo, method.estimated)
+                      : std::vector<double>(room.mesh.materials.size(), std::numeric_limits<double>::quiet_NaN());
+  const auto& materials = hierarchy.mesh().materials;
+  for (std::size_t m = 0; m < materials.size(); ++m) {
+    if (std::find(room.chart_materials.begin(), room.chart_materials.end(), static_cast<int>(m)) !=
+        room.chart_materials.end()) {
+      continue;
+    }
+    if (std::isnan(floor_error[m])) continue;  // no photograph saw it
+    SceneResult r;
+    r.seed = seed;
+    r.method = method_error[m];
+    r.floor = floor_error[m];
+    r.seconds = seconds;
+    std::ostringstream d;
+    d.precision(2);
+    d << std::fixed << room.description << "; material " << materials[m].name << " (albedo " << materials[m].albedo.x()
+      << " " << materials[m].albedo.y() << " " << materials[m].albedo.z() << ")";
+    r.description = d.str();
+    std::ostringstream notes;
+    if (!failure.empty()) {
+      notes << "failed: " << failure;
+    } else {
+      notes.precision(4);
+      notes << "scale from the chart " << scale.scale / k_true - 1.0 << " relative to the truth (direct light alone "
+            << scale.direct_only_scale / k_true - 1.0 << "), " << scale.patches << " reference patches, indirect "
+            << scale.indirect_share << " of their light, " << scale.solves << " solves";
+    }
+    r.notes = notes.str();
+    out->push_back(std::move(r));
+  }
+}
+
 }  // namespace
 
 std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options) {
@@ -240,6 +365,18 @@ std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options) {
   result.goal_median = 0.01;
   result.goal_p90 = 0.02;
   for (int i = 0; i < options.SceneCount(); ++i) RunRoom(options.SeedOf(i), options.quick, &result.scenes);
+  return {result};
+}
+
+std::vector<SuiteResult> RunRadiosityChartSuite(const SuiteOptions& options) {
+  SuiteResult result;
+  result.suite = "radiosity-rooms-chart";
+  result.metric = "albedo error of the mean per material";
+  result.method = "absolute scale from a grey chart (reference_scale.h), then Loscos reflectance; EV-only photographs";
+  result.floor = "the same reflectance estimate at the true scale";
+  result.goal_median = 0.01;
+  result.goal_p90 = 0.02;
+  for (int i = 0; i < options.SceneCount(); ++i) RunChartRoom(options.SeedOf(i), options.quick, &result.scenes);
   return {result};
 }
 

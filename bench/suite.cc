@@ -101,6 +101,9 @@ const std::vector<SuiteEntry>& Suites() {
       {"radiosity-rooms", "radiosity",
        "reflectance estimation with radiosity indirect light, random furnished rooms, per-material albedo",
        RunRadiositySuite},
+      {"radiosity-rooms-chart", "radiosity",
+       "as radiosity-rooms with photographs in unknown units and the absolute scale from a grey chart",
+       RunRadiosityChartSuite},
   };
   return suites;
 }

@@ -14,6 +14,8 @@ std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options);
 
 // bench/radiosity_suite.cc: reflectance estimation with radiosity indirect light in random rooms.
 std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options);
+// The same rooms with a grey chart, photographs in unknown units: the absolute scale from the chart.
+std::vector<SuiteResult> RunRadiosityChartSuite(const SuiteOptions& options);
 
 // HDR radiance from 5-frame brackets of random monotone responses: relume's response recovery
 // + merge, and OpenCV's beside it, against the merge given the true response (bench/hdr_suite.cc).
