@@ -17,6 +17,7 @@
 #include <map>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
 
 #include "calibration/image_file.h"
@@ -54,6 +55,10 @@ struct Knobs {
   std::string material_groups;   // "a+b,c+d": objects known to share a material
   std::string input = "camera";  // camera | truth (the world's rendered radiance: no camera, noise-free)
   bool compare_truth = true;
+  // A truth made outside relume (docs/radiosity.md): DIR/albedo.json (material or object name ->
+  // [r, g, b]) and optionally DIR/relit.exr with DIR/relit.json (the camera's view under the
+  // relighting lamp: {"light_m": [x, y, z], "light_intensity_w_sr": I}).
+  std::string truth_dir;
   Eigen::Vector3d light_m{1.0, -1.0, 2.2};
   double light_intensity_w_sr = 30.0;
 
@@ -75,6 +80,8 @@ struct Knobs {
     v.Knob("direct_at_pixels", direct_at_pixels,
            "direct light averaged over the observed pixels' surface points (false: over the patch)", {"reflectance"});
     v.Knob("compare_truth", compare_truth, "albedo errors against the simulated world per iteration", {"reflectance"});
+    v.Knob("truth_dir", truth_dir, "compare with a truth made outside relume: albedo.json [, relit.exr + relit.json]",
+           {"reflectance", "relight"});
     v.Knob("light_x", light_m.x(), "relighting lamp position, east (m)", {"relight"});
     v.Knob("light_y", light_m.y(), "relighting lamp position, north (m)", {"relight"});
     v.Knob("light_z", light_m.z(), "relighting lamp position, up (m)", {"relight"});
@@ -233,6 +240,36 @@ MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityS
       g.names.push_back(name);
     } else if (("+" + g.names[found] + "+").find("+" + name + "+") == std::string::npos) {
       g.names[found] += "+" + name;
+    }
+    group_of_triangle[t] = found;
+  }
+  for (int p = 0; p < h.LeafCount(); ++p) g.group_of_patch.push_back(group_of_triangle[h.leaf(p).root]);
+  return g;
+}
+
+// Evaluation only, from an external truth (truth_dir/albedo.json): the true albedo per mesh
+// triangle by its radiosity material's name (a group, or a chart's patch "chart/white"), else its
+// object's; triangles of neither are not evaluated. Grouped by value like GroupPatches.
+MaterialGroups GroupPatchesFromTruth(const radiosity::PatchHierarchy& h, const RadiosityScene& rs,
+                                     const SceneModel& model, const std::map<std::string, Rgb>& truth) {
+  MaterialGroups g;
+  std::vector<int> group_of_triangle(rs.triangle_object.size(), -1);
+  for (std::size_t t = 0; t < rs.triangle_object.size(); ++t) {
+    const std::string& material = rs.mesh.materials[rs.mesh.triangle_material[t]].name;
+    const std::string& object = model.objects[rs.triangle_object[t]].name;
+    auto it = truth.find(material);
+    if (it == truth.end()) it = truth.find(object);
+    if (it == truth.end()) continue;
+    int found = -1;
+    for (size_t i = 0; i < g.truth.size(); ++i) {
+      if ((g.truth[i] - it->second).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
+    }
+    if (found < 0) {
+      found = static_cast<int>(g.truth.size());
+      g.truth.push_back(it->second);
+      g.names.push_back(material);
+    } else if (("+" + g.names[found] + "+").find("+" + material + "+") == std::string::npos) {
+      g.names[found] += "+" + material;
     }
     group_of_triangle[t] = found;
   }
@@ -513,6 +550,32 @@ radiosity::RadiosityOptions SolverOptionsFrom(const Knobs& k) {
 
 // ---- the stages ------------------------------------------------------------------------------
 
+// albedo.json of an external truth: {"name": [r, g, b], ...}, values in [0, 1].
+std::map<std::string, Rgb> ReadTruthAlbedo(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path.string(), "cannot be read: --set truth_dir needs albedo.json (docs/radiosity.md)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidArgumentError(path.string() + ": not JSON (" + e.what() + ")");
+  }
+  std::map<std::string, Rgb> out;
+  if (!j.is_object()) throw InvalidArgumentError(path.string() + ": expected {\"name\": [r, g, b], ...}");
+  for (const auto& [name, value] : j.items()) {
+    if (!value.is_array() || value.size() != 3 || !value[0].is_number() || !value[1].is_number() ||
+        !value[2].is_number()) {
+      throw InvalidArgumentError(path.string() + ": '" + name + "' is not [r, g, b]");
+    }
+    const Rgb a(value[0].get<double>(), value[1].get<double>(), value[2].get<double>());
+    if (!(a.minCoeff() >= 0.0 && a.maxCoeff() <= 1.0)) {
+      throw InvalidArgumentError(path.string() + ": '" + name + "' is outside [0, 1]");
+    }
+    out[name] = a;
+  }
+  return out;
+}
+
 // What every stage reads: the knobs, the session's scene model (geometry, lamps, the camera), the
 // one camera's still brackets, and, for simulated sessions, the world to compare against.
 struct RadiosityInputs {
@@ -520,6 +583,8 @@ struct RadiosityInputs {
   SceneModel model;
   PinholeCamera camera;
   const sim::World* world = nullptr;  // evaluation and the truth modes only; null for real sessions
+  // External truth (knobs.truth_dir): the true albedo per material or object name.
+  std::map<std::string, Rgb> truth_albedo;
   std::string device;
   std::vector<std::vector<capture::FrameRecord>> brackets;
 };
@@ -568,10 +633,17 @@ RadiosityInputs ReadRadiosityInputs(PipelineRun& run) {
           "--set scale=truth takes the simulator's rendered radiance, and this session has no simulated world (a "
           "real capture): use scale=chart with a ColorChecker in view (docs/radiosity.md) or scale=none");
     }
-    if (in.knobs.compare_truth) {
+    if (in.knobs.compare_truth && in.knobs.truth_dir.empty()) {
       in.knobs.compare_truth = false;
       run.Decide("radiosity", "note", "no simulated world in the session: nothing to compare the albedo against");
     }
+  }
+  if (!in.knobs.truth_dir.empty()) {
+    in.truth_albedo = ReadTruthAlbedo(fs::path(in.knobs.truth_dir) / "albedo.json");
+    in.knobs.compare_truth = true;
+    run.Decide("radiosity", "note",
+               "comparing with the external truth in " + in.knobs.truth_dir + " (" +
+                   std::to_string(in.truth_albedo.size()) + " materials' albedo)");
   }
   return in;
 }
@@ -1148,10 +1220,13 @@ struct ReflectanceStage {
 // skipped it), its decision and outputs.
 ReflectanceStage RunReflectanceStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
                                      const Observations& observed, const AbsoluteScale& scale, bool skip) {
-  const MaterialGroups groups =
-      in.knobs.compare_truth ? GroupPatches(*geo.hierarchy, geo.scene, in.model, in.world->scene()) : MaterialGroups{};
+  const MaterialGroups groups = !in.knobs.compare_truth ? MaterialGroups{}
+                                : !in.truth_albedo.empty()
+                                    ? GroupPatchesFromTruth(*geo.hierarchy, geo.scene, in.model, in.truth_albedo)
+                                    : GroupPatches(*geo.hierarchy, geo.scene, in.model, in.world->scene());
   ReflectanceStage out;
   out.key.Add("stage", "radiosity-reflectance-v4").AddKey("geometry", geo.key).AddKey("scale", scale.key);
+  if (!in.knobs.truth_dir.empty()) out.key.AddFileContent("truth_albedo", fs::path(in.knobs.truth_dir) / "albedo.json");
   for (size_t s = 0; s < observed.keys.size(); ++s) {
     out.key.AddKey("observation", observed.keys[s]).Add("utc", FormatIso8601(observed.radiance[s].utc));
   }
@@ -1225,17 +1300,53 @@ RadianceImage RelitPixels(const Geometry& geo, const radiosity::Lighting& lighti
 // interreflection settings) at bracket 0's time, into `m`; writes relit_truth.png. Per patch (the
 // means of the relit and the truth's pixels on it): pixels carry the renderer's Monte Carlo
 // noise, patches average it. Per pixel as well.
+// The relighting truth: the simulated world rendered with the relighting lamp, or an external
+// truth's relit.exr when its relit.json names the same lamp (nullopt, with `why`, otherwise).
+std::optional<RadianceImage> RelitTruth(const RadiosityInputs& in, UtcTime utc, std::string* why) {
+  if (in.knobs.truth_dir.empty()) {
+    sim::Scene scene = in.world->scene();
+    sim::Lamp lamp;
+    lamp.name = "relight";
+    lamp.position = in.knobs.light_m;
+    lamp.intensity_w_sr = Eigen::Vector3d::Constant(in.knobs.light_intensity_w_sr);
+    scene.lamps = {lamp};
+    const sim::World truth_world(scene, in.world->options());
+    return truth_world.Render(in.camera, utc).radiance;
+  }
+  const fs::path dir(in.knobs.truth_dir);
+  if (!fs::exists(dir / "relit.exr") || !fs::exists(dir / "relit.json")) {
+    *why = "the external truth has no relit.exr + relit.json";
+    return std::nullopt;
+  }
+  const nlohmann::json lamp = ReadJson(dir / "relit.json");
+  const Eigen::Vector3d at(lamp.at("light_m").at(0).get<double>(), lamp.at("light_m").at(1).get<double>(),
+                           lamp.at("light_m").at(2).get<double>());
+  const double intensity = lamp.at("light_intensity_w_sr").get<double>();
+  if ((at - in.knobs.light_m).norm() > 1e-6 || std::abs(intensity - in.knobs.light_intensity_w_sr) > 1e-6) {
+    *why =
+        "the external truth's relit.exr has its lamp elsewhere (relit.json): set light_x/y/z and light_intensity "
+        "to its values to compare";
+    return std::nullopt;
+  }
+  RadianceImage image = calibration::LoadRadianceExr((dir / "relit.exr").string());
+  if (image.width() != in.camera.intrinsics.width || image.height() != in.camera.intrinsics.height) {
+    throw InvalidArgumentError((dir / "relit.exr").string() + " does not have the camera's size");
+  }
+  return image;
+}
+
 void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const RadianceImage& relit, UtcTime utc,
                            const fs::path& dir, nlohmann::json* m) {
   const int n = geo.hierarchy->LeafCount();
-  sim::Scene scene = in.world->scene();
-  sim::Lamp lamp;
-  lamp.name = "relight";
-  lamp.position = in.knobs.light_m;
-  lamp.intensity_w_sr = Eigen::Vector3d::Constant(in.knobs.light_intensity_w_sr);
-  scene.lamps = {lamp};
-  const sim::World truth_world(scene, in.world->options());
-  const sim::GroundTruth truth = truth_world.Render(in.camera, utc);
+  std::string why;
+  const std::optional<RadianceImage> truth_image = RelitTruth(in, utc, &why);
+  if (!truth_image) {
+    (*m)["truth_not_compared"] = why;
+    return;
+  }
+  struct {
+    const RadianceImage& radiance;
+  } truth{*truth_image};
   std::vector<Rgb> sum(n, Rgb::Zero()), relit_sum(n, Rgb::Zero());
   std::vector<int> count(n, 0);
   double pixel_num = 0.0, pixel_den = 0.0;
@@ -1280,6 +1391,12 @@ void RunRelightStage(PipelineRun& run, const RadiosityInputs& in, const Geometry
   StageKey relight_key;
   relight_key.Add("stage", "radiosity-relight-v4").AddKey("reflectance", refl.key);
   AddKnobsToKey(relight_key, knobs, "relight");
+  if (!knobs.truth_dir.empty()) {
+    for (const char* name : {"relit.exr", "relit.json"}) {
+      const fs::path path = fs::path(knobs.truth_dir) / name;
+      if (fs::exists(path)) relight_key.AddFileContent(name, path);
+    }
+  }
   const StageCache::Result stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
     const std::vector<Rgb> albedo = ReadAlbedoCsv(refl.dir / "albedo.csv", h.LeafCount());
     radiosity::Lighting lighting;

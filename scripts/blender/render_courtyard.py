@@ -28,6 +28,9 @@ import sys
 import bpy
 import mathutils
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (scripts/blender/common.py)
+
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if len(argv) < 2:
     sys.exit("usage: blender -b -P render_courtyard.py -- OUT NAME:AZ:EL ... [--bounces N] [--samples N]")
@@ -60,54 +63,18 @@ BRACKET_EV = (-2, -1, 0, 1, 2)  # the bracket's frames, EV about BASE_EV
 JPEG_QUALITY = 97
 
 scene = bpy.context.scene
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o, do_unlink=True)
-
-
-def material(name, albedo):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nodes = m.node_tree.nodes
-    nodes.clear()
-    bsdf = nodes.new("ShaderNodeBsdfDiffuse")
-    bsdf.inputs["Color"].default_value = (*albedo, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.0  # Lambertian
-    output = nodes.new("ShaderNodeOutputMaterial")
-    m.node_tree.links.new(bsdf.outputs["BSDF"], output.inputs["Surface"])
-    return m
-
-
-def box(name, center, size, albedo):
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=center)
-    o = bpy.context.active_object
-    o.name = name
-    o.scale = size
-    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
-    o.data.materials.append(material(name, albedo))
-    return o
-
+common.clear_scene()
 
 bpy.ops.mesh.primitive_plane_add(size=80.0, location=(0, 0, 0))
 ground = bpy.context.active_object
 ground.name = "ground"
-ground.data.materials.append(material("ground", (0.30, 0.28, 0.25)))
-box("hall", (0.0, 6.0, 4.0), (14.0, 6.0, 8.0), (0.70, 0.62, 0.50))
-box("tower", (-9.0, -2.0, 7.0), (3.0, 3.0, 14.0), (0.45, 0.48, 0.52))
-box("annex", (8.0, -3.0, 2.0), (5.0, 5.0, 4.0), (0.60, 0.35, 0.30))
-box("wall", (-1.0, -6.0, 1.0), (8.0, 0.4, 2.0), (0.80, 0.80, 0.78))
+ground.data.materials.append(common.material("ground", (0.30, 0.28, 0.25)))
+common.box("hall", (0.0, 6.0, 4.0), (14.0, 6.0, 8.0), (0.70, 0.62, 0.50))
+common.box("tower", (-9.0, -2.0, 7.0), (3.0, 3.0, 14.0), (0.45, 0.48, 0.52))
+common.box("annex", (8.0, -3.0, 2.0), (5.0, 5.0, 4.0), (0.60, 0.35, 0.30))
+common.box("wall", (-1.0, -6.0, 1.0), (8.0, 0.4, 2.0), (0.80, 0.80, 0.78))
 
-# The camera: looking at LOOK_AT with z up, horizontal field of view HFOV_DEG, centred.
-camera_data = bpy.data.cameras.new("camera")
-camera_data.sensor_fit = "HORIZONTAL"
-camera_data.angle = math.radians(HFOV_DEG)
-camera_data.clip_start = 0.1
-camera_data.clip_end = 1000.0
-camera = bpy.data.objects.new("camera", camera_data)
-scene.collection.objects.link(camera)
-camera.location = CAMERA
-direction = mathutils.Vector(LOOK_AT) - mathutils.Vector(CAMERA)
-camera.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
-scene.camera = camera
+common.camera(CAMERA, LOOK_AT, math.radians(HFOV_DEG), WIDTH, HEIGHT)
 
 # The sky: uniform above the horizon, black below it (the earth), so that a facade above the
 # finite ground plane does not see sky beneath the horizon.
@@ -137,40 +104,8 @@ sun_data.angle = math.radians(0.53)
 sun = bpy.data.objects.new("sun", sun_data)
 scene.collection.objects.link(sun)
 
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.samples = samples
-scene.cycles.use_denoising = False
-scene.cycles.use_adaptive_sampling = False
-scene.cycles.max_bounces = bounces
-scene.cycles.diffuse_bounces = bounces
-scene.cycles.glossy_bounces = 0
-scene.cycles.transmission_bounces = 0
-scene.cycles.volume_bounces = 0
-scene.cycles.transparent_max_bounces = 0
-scene.cycles.filter_width = 0.01
-scene.cycles.seed = 1
-scene.render.resolution_x = WIDTH
-scene.render.resolution_y = HEIGHT
-scene.render.resolution_percentage = 100
-scene.render.threads_mode = "AUTO"
-scene.display_settings.display_device = "sRGB"
-scene.view_settings.view_transform = "Standard"
-scene.view_settings.look = "None"
-scene.view_settings.gamma = 1.0
-
-
-def render_to(path, file_format, color_depth, color_mode="RGB", exposure=0.0, quality=95):
-    settings = scene.render.image_settings
-    settings.file_format = file_format
-    settings.color_mode = color_mode
-    settings.color_depth = color_depth
-    if file_format == "JPEG":
-        settings.quality = quality
-    if file_format == "OPEN_EXR":
-        settings.exr_codec = "ZIP"
-    scene.view_settings.exposure = exposure
-    bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
+common.cycles(samples, bounces)
+render_to = common.save_render
 
 
 for name, az, el in times:
@@ -220,20 +155,7 @@ for name, az, el in times:
     os.remove(path_shadowed)
     os.remove(path_open)
 
-# Geometry as OBJ in ENU metres, one file per object, triangles wound as Blender's faces.
-for o in bpy.data.objects:
-    if o.type != "MESH":
-        continue
-    mesh = o.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
-    mesh.calc_loop_triangles()
-    with open(os.path.join(out, "courtyard_%s.obj" % o.name), "w") as f:
-        f.write("# %s: Blender scene object, ENU metres (scripts/blender/render_courtyard.py)\n" % o.name)
-        for v in mesh.vertices:
-            w = o.matrix_world @ v.co
-            f.write("v %.6f %.6f %.6f\n" % (w.x, w.y, w.z))
-        for t in mesh.loop_triangles:
-            f.write("f %d %d %d\n" % tuple(i + 1 for i in t.vertices))
-    o.to_mesh_clear()
+common.write_objs(out, "courtyard")
 
 with open(os.path.join(out, "camera.json"), "w") as f:
     json.dump({"position_m": CAMERA, "look_at_m": LOOK_AT, "horizontal_fov_deg": HFOV_DEG, "width": WIDTH,
