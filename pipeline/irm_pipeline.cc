@@ -792,7 +792,7 @@ cv::Mat ExternalTruthImage(const fs::path& truth_dir, const char* name, const Pi
   const fs::path path = truth_dir / name;
   if (!fs::exists(path)) {
     throw IoError(path.string(),
-                  "is missing: --set truth_dir needs target.exr, source_sun.exr and target_sun.exr "
+                  "does not exist; --set truth_dir needs target.exr, source_sun.exr and target_sun.exr "
                   "(docs/irm.md)");
   }
   const RadianceImage image = calibration::LoadRadianceExr(path.string());
@@ -816,11 +816,11 @@ nlohmann::json CompareIrmWithExternalTruth(const fs::path& truth_dir, const irm:
   const RadianceImage relit = calibration::LoadRadianceExr((relight_dir / "relit.exr").string());
   const cv::Mat status = cv::imread((relight_dir / "status.png").string(), cv::IMREAD_UNCHANGED);
   if (status.empty()) throw IoError((relight_dir / "status.png").string(), "cannot be read; run with --force");
-  cv::Mat use, surface;
+  cv::Mat use;
   cv::compare(status, cv::Scalar(irm::kRelit), use, cv::CMP_EQ);
   const int relit_pixels = cv::countNonZero(use);
-  cv::Mat both_surface = (source_sun[1] > 0.5f) & (target_sun[1] > 0.5f);
-  use &= both_surface;
+  const cv::Mat both_surfaces = (source_sun[1] > 0.5f) & (target_sun[1] > 0.5f);
+  use &= both_surfaces;
   nlohmann::json t;
   t["truth"] = "external: " + truth_dir.string();
   t["relit_pixels_off_the_truths_surfaces"] = relit_pixels - cv::countNonZero(use);
@@ -1020,7 +1020,7 @@ void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& reli
       if (std::string(name) == "source.exr" && !fs::exists(path)) continue;  // optional
       if (!fs::exists(path)) {
         throw IoError(path.string(),
-                      "is missing: --set truth_dir needs target.exr, source_sun.exr and "
+                      "does not exist; --set truth_dir needs target.exr, source_sun.exr and "
                       "target_sun.exr (docs/irm.md)");
       }
       truth_key.AddFileContent(name, path);

@@ -430,10 +430,10 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
 
 // ---- the pipeline --------------------------------------------------------------------------
 
-// The radiosity-geometry stage's result.
 // Pixels clear of its edges a chart patch needs to enter scale=chart.
 constexpr int kMinReferencePixels = 3;
 
+// The radiosity-geometry stage's result.
 struct Geometry {
   RadiosityScene scene;
   std::unique_ptr<radiosity::PatchHierarchy> hierarchy;
@@ -936,9 +936,8 @@ AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const G
     text = "input=truth: the world's radiance is absolute (W m^-2 sr^-1); no camera";
   } else if (mode == "truth") {
     text =
-        "bracket 0's absolute scale from the simulated world's radiance (an evaluation oracle; the EV-only camera "
-        "gives "
-        "relative radiance only)";
+        "bracket 0's absolute scale from the simulated world's radiance (an evaluation oracle; the EV-only "
+        "camera gives relative radiance only)";
   } else if (mode == "chart") {
     char buffer[320];
     std::snprintf(buffer, sizeof(buffer),
@@ -1344,16 +1343,14 @@ void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const
     (*m)["truth_not_compared"] = why;
     return;
   }
-  struct {
-    const RadianceImage& radiance;
-  } truth{*truth_image};
+  const RadianceImage& truth = *truth_image;
   std::vector<Rgb> sum(n, Rgb::Zero()), relit_sum(n, Rgb::Zero());
   std::vector<int> count(n, 0);
   double pixel_num = 0.0, pixel_den = 0.0;
   for (int y = 0; y < geo.ids.rows; ++y) {
     for (int x = 0; x < geo.ids.cols; ++x) {
       const int id = geo.ids.at<int>(y, x);
-      const cv::Vec3f t = truth.radiance.pixels.at<cv::Vec3f>(y, x);
+      const cv::Vec3f t = truth.pixels.at<cv::Vec3f>(y, x);
       const cv::Vec3f r = relit.pixels.at<cv::Vec3f>(y, x);
       if (id < 0 || !std::isfinite(t[0]) || !std::isfinite(r[0])) continue;
       sum[id] += Rgb(t[0], t[1], t[2]);
@@ -1379,7 +1376,7 @@ void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const
   (*m)["truth_relative_rms_per_pixel"] = pixel_den > 0.0 ? std::sqrt(pixel_num / pixel_den) : 0.0;
   (*m)["truth_mean_ratio"] = truth_total > 0.0 ? model / truth_total : 0.0;
   (*m)["truth_patches"] = patches;
-  calibration::SaveImage(RadiancePreview(truth.radiance), (dir / "relit_truth.png").string());
+  calibration::SaveImage(RadiancePreview(truth), (dir / "relit_truth.png").string());
 }
 
 // Stage radiosity-relight: every recorded lamp off, one point lamp where the command line puts

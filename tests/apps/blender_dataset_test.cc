@@ -54,6 +54,14 @@ TEST(BlenderDatasetTest, AnImportedCyclesCourtyardIsRelitAgainstBlendersOwnRende
       << truth.dump(2);
   // The report says it: the headline and the truth decision name the external truth.
   EXPECT_NE(run.output.find("relit vs the external truth"), std::string::npos) << run.output;
+
+  // A truth folder without its files: the error names the file and what the folder needs.
+  fs::create_directories(out / "empty");
+  const relume::testing::CliResult missing =
+      relume::testing::RunRelume("process " + (out / "session").string() + " --pipeline irm --out " +
+                                 (out / "irm2").string() + " --set truth_dir=" + (out / "empty").string());
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.output.find("target.exr: does not exist; --set truth_dir needs"), std::string::npos) << missing.output;
   fs::remove_all(out);
 }
 
