@@ -19,6 +19,7 @@
 #include "processing/radiosity/direct_light.h"
 #include "processing/radiosity/hierarchy.h"
 #include "processing/radiosity/radiosity_solver.h"
+#include "processing/radiosity/reference_scale.h"
 #include "processing/radiosity/reflectance.h"
 #include "processing/radiosity/scene.h"
 #include "python/bindings.h"
@@ -263,6 +264,51 @@ py::dict Patches(const py::object& scene, double max_patch_edge_m, int max_depth
   return PatchesToPython(h);
 }
 
+// One entry of estimate_reflectance's `references`: a patch of known albedo, its radiance in
+// observation 0's units and, optionally, the surface points its pixels saw (default: its centroid).
+struct ReferenceInput {
+  int patch = -1;
+  Rgb albedo = Rgb::Zero();
+  Rgb radiance = Rgb::Zero();
+  std::vector<Eigen::Vector3f> points;
+};
+
+std::vector<ReferenceInput> ReferencesFromPython(const py::object& references) {
+  std::vector<ReferenceInput> out;
+  const py::list list = py::cast<py::list>(references);
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string what = "references[" + std::to_string(i) + "]";
+    const py::dict d = AsDict(list[i], what);
+    for (const char* key : {"patch", "albedo", "radiance"}) {
+      if (!d.contains(key)) throw InvalidArgumentError(what + ": missing key '" + key + "'");
+    }
+    ReferenceInput r;
+    r.patch = py::cast<int>(d["patch"]);
+    r.albedo = Vector3FromPython(d["albedo"], what + "['albedo']");
+    r.radiance = Vector3FromPython(d["radiance"], what + "['radiance']");
+    if (!Get(d, "points").is_none()) {
+      for (const Eigen::Vector3d& p : Vectors3dFromArray(d["points"], what + "['points']")) {
+        r.points.push_back(p.cast<float>());
+      }
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+std::vector<radiosity::ReferencePatch> ReferencePatches(const radiosity::PatchHierarchy& h,
+                                                        const std::vector<ReferenceInput>& inputs) {
+  std::vector<radiosity::ReferencePatch> out;
+  for (const ReferenceInput& in : inputs) {
+    radiosity::ReferencePatch r{in.patch, in.albedo, in.radiance, in.points};
+    if (r.points.empty() && in.patch >= 0 && in.patch < h.LeafCount()) {
+      r.points.push_back(h.leaf(in.patch).centroid.cast<float>());
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 py::dict EstimateReflectance(const py::object& scene, const py::list& observations, double max_patch_edge_m,
                              int max_depth, int max_iterations, double albedo_tolerance, bool fit_image_scales,
                              double unlit_weight, double boundary_radius_m, int boundary_samples,
@@ -270,7 +316,7 @@ py::dict EstimateReflectance(const py::object& scene, const py::list& observatio
                              bool unseen_from_scene_mean, bool indirect_from_observed, int samples_per_patch,
                              int sky_directions, bool hierarchical, double bf_epsilon, int rays_per_form_factor,
                              int refinement_passes, double residual_tolerance, int solver_max_iterations,
-                             long long max_links) {
+                             long long max_links, const py::object& references) {
   const radiosity::HierarchyOptions hierarchy_options = HierarchyOptionsFrom(max_patch_edge_m, max_depth);
   ThrowIfInvalid(hierarchy_options, "estimate_reflectance");
   radiosity::ReflectanceOptions options;
@@ -303,12 +349,23 @@ py::dict EstimateReflectance(const py::object& scene, const py::list& observatio
     }
     observed.push_back(std::move(o));
   }
+  std::vector<ReferenceInput> reference_inputs;
+  if (!references.is_none()) reference_inputs = ReferencesFromPython(references);
   radiosity::ReflectanceResult r;
+  std::optional<radiosity::ReferenceScaleResult> scale;
   std::optional<radiosity::PatchHierarchy> h;
   {
     py::gil_scoped_release release;
     h.emplace(mesh, hierarchy_options);
     const RayCaster caster(radiosity::ToTriangleMesh(mesh));
+    if (!references.is_none()) {
+      // The absolute scale from the references first (reference_scale.h), then the albedo at it.
+      scale = radiosity::EstimateReferenceScale(*h, caster, observed, ReferencePatches(*h, reference_inputs), options,
+                                                radiosity::ReferenceScaleOptions());
+      for (radiosity::RadianceObservation& o : observed) {
+        for (Rgb& v : o.radiance) v *= scale->scale;
+      }
+    }
     r = radiosity::EstimateReflectance(*h, caster, observed, options);
   }
   py::array_t<bool> estimated(static_cast<py::ssize_t>(r.estimated.size()));
@@ -327,7 +384,14 @@ py::dict EstimateReflectance(const py::object& scene, const py::list& observatio
       "indirect"_a = py::dict("first_bounce_ratio"_a = e.first_bounce_ratio, "series_ratio"_a = e.series_ratio,
                               "indirect_share"_a = e.indirect_share, "mean_enclosure"_a = e.mean_enclosure,
                               "skip"_a = e.skip, "reason"_a = e.reason),
-      "last_solves"_a = solves, "time_s"_a = r.time_s);
+      "last_solves"_a = solves, "time_s"_a = r.time_s,
+      "reference_scale"_a =
+          scale ? py::object(py::dict("scale"_a = scale->scale, "direct_only_scale"_a = scale->direct_only_scale,
+                                      "relative_spread"_a = scale->relative_spread, "samples"_a = scale->samples,
+                                      "patches"_a = scale->patches, "indirect_share"_a = scale->indirect_share,
+                                      "history"_a = DoublesToArray(scale->history), "solves"_a = scale->solves,
+                                      "converged"_a = scale->converged, "reason"_a = scale->reason))
+                : py::object(py::none()));
 }
 
 constexpr const char* kSceneDoc =
@@ -412,6 +476,7 @@ Raises:
         "rays_per_form_factor"_a = r.radiosity.rays_per_form_factor,
         "refinement_passes"_a = r.radiosity.refinement_passes, "residual_tolerance"_a = r.radiosity.residual_tolerance,
         "solver_max_iterations"_a = r.radiosity.max_iterations, "max_links"_a = r.radiosity.max_links,
+        "references"_a = py::none(),
         (std::string(R"doc(Diffuse reflectance (albedo) per patch from radiance seen under known lights (Loscos et al.).
 
 Per image s and patch i: albedo = pi a_s L_is / (E_direct_is + I_is), the indirect light I from
@@ -435,6 +500,11 @@ Args:
     samples_per_patch, sky_directions: direct light, as solve_radiosity's.
     hierarchical ... max_links: the radiosity solver's options (solver_max_iterations is its
         max_iterations).
+    references: None, or patches of known albedo (a chart) that make relative radiance
+        absolute: a list of dicts {'patch' (index), 'albedo' (3,), 'radiance' (3,) in
+        observation 0's units, 'points' (K, 3) where its pixels saw it (default: its centroid)}.
+        The scale k of pi k L = albedo (E_direct + E_indirect(k)) is found first
+        (processing/radiosity/reference_scale.h) and every observation multiplied by it.
 
 Returns:
     dict: )doc" +
@@ -442,7 +512,9 @@ Returns:
          R"doc(, 'albedo' (P, 3) in [0, 1], 'initial_albedo'
     (iteration 0), 'confidence' (P,), 'estimated' bool (P,) (False: prior), 'image_scale',
     'iterations', 'converged', 'reason', 'max_change', 'mean_change', 'clamped',
-    'radiosity_skipped', 'indirect' (the indirect-share estimate), 'last_solves', 'time_s'.
+    'radiosity_skipped', 'indirect' (the indirect-share estimate), 'last_solves', 'time_s',
+    'reference_scale' (None, or: 'scale', 'direct_only_scale', 'relative_spread', 'samples',
+    'patches', 'indirect_share', 'history', 'solves', 'converged', 'reason').
 )doc")
             .c_str());
 }

@@ -95,3 +95,30 @@ def test_reflectance_recovers_the_albedo_a_forward_solve_was_given():
     assert np.median(np.abs(again["radiosity"] / np.pi / observed - 1)) < 0.01
     with pytest.raises(relume.InvalidArgumentError, match="estimate_reflectance: "):
         relume.estimate_reflectance(unknown, observations, max_patch_edge_m=0.4, albedo_tolerance=-1.0)
+
+
+def test_a_chart_of_known_albedo_makes_relative_radiance_absolute():
+    """An EV-only camera's photographs in unknown units; the floor's known albedo (a stand-in for a
+    chart) gives the scale back, and with it the other materials' absolute albedo."""
+    positions, triangles = box((0, 0, 0), (3, 4, 2.5), inward=True)
+    materials = np.array([0, 0, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3], np.int32)
+    room = {"positions": positions, "triangles": triangles, "material": materials,
+            "albedo": [[0.3, 0.25, 0.2], [0.8, 0.8, 0.75], [0.6, 0.5, 0.4], [0.2, 0.5, 0.3]]}
+    lighting = {"point_lights": [{"position_m": (1.0, 1.5, 2.0), "intensity_w_per_sr": (20.0, 20.0, 20.0)}]}
+    solved = relume.solve_radiosity(room, lighting, max_patch_edge_m=0.4, residual_tolerance=1e-4)
+    k_true = 7.5
+    observations = [{"lighting": lighting, "radiance": solved["radiosity"] / np.pi / k_true}]
+    floor = np.nonzero(solved["patches"]["material"] == 0)[0]
+    references = [{"patch": int(p), "albedo": (0.3, 0.25, 0.2), "radiance": observations[0]["radiance"][p]}
+                  for p in floor]
+    unknown = {**room, "albedo": np.full((4, 3), 0.5)}
+    estimate = relume.estimate_reflectance(unknown, observations, max_patch_edge_m=0.4, references=references)
+    scale = estimate["reference_scale"]
+    assert scale["converged"] and scale["patches"] == len(floor)
+    assert scale["scale"] == pytest.approx(k_true, rel=0.02)
+    assert scale["direct_only_scale"] < 0.95 * scale["scale"]  # the floor also gets the walls' light
+    error = np.abs(estimate["albedo"] - solved["albedo"])
+    assert np.median(error) < 0.01 and error.max() < 0.06
+    assert relume.estimate_reflectance(unknown, observations, max_patch_edge_m=0.4)["reference_scale"] is None
+    with pytest.raises(relume.InvalidArgumentError, match=r"references\[0\]: missing key 'albedo'"):
+        relume.estimate_reflectance(unknown, observations, max_patch_edge_m=0.4, references=[{"patch": 0}])
