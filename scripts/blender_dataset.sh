@@ -3,12 +3,13 @@
 # turned into sessions the way a field team's files would be, and processed against Blender's
 # own renders as the truth.
 #
-#   scripts/blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N]
+#   scripts/blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N]
 #
 # courtyard (default; scripts/blender/render_courtyard.py): the sun where `relume sun` puts it at
 #   09:30 and 15:30 local time, a uniform sky; `--pipeline irm` relights the morning to the
 #   afternoon and is scored against Blender's afternoon render (docs/irm.md). Default: 0 bounces
-#   (the IRM model's assumption), 64 samples.
+#   (the IRM model's assumption), 64 samples. `--seed N` (N > 0): a random courtyard, day and
+#   times drawn from N (scripts/blender_suite.sh runs many).
 # room (scripts/blender/render_room.py): a room with interreflection (default 8 bounces), a point
 #   lamp of stated intensity in two places, a grey-scale chart of known albedo; `--pipeline
 #   radiosity` estimates every material's albedo (absolute, from the chart) and relights with a
@@ -26,15 +27,17 @@
 # Exit codes: 0 done, 77 Blender or exiv2 missing (the tests are then skipped), other: a failure.
 set -euo pipefail
 
-usage="usage: blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N]"
+usage="usage: blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N]"
 relume=${1:?$usage}
 out=${2:?$usage}
 shift 2
 scene=courtyard
 bounces=""
 samples=64
+seed=0
 while [[ $# -gt 0 ]]; do
   case $1 in
+    --seed) seed=${2:?$usage} ;;
     --scene) scene=${2:?$usage} ;;
     --bounces) bounces=${2:?$usage} ;;
     --samples) samples=${2:?$usage} ;;
@@ -139,17 +142,28 @@ PY
 
 if [[ $scene == courtyard ]]; then
   day=2026-06-21
+  am=09:30:00
+  pm=15:30:00
+  if [[ $seed != 0 ]]; then
+    # A day from April to September and a morning and an afternoon time, drawn from the seed.
+    read -r day am pm < <(python3 -c '
+import datetime, random, sys
+r = random.Random(int(sys.argv[1]) * 7919)
+day = datetime.date(2026, 4, 1) + datetime.timedelta(days=r.randint(0, 182))
+minutes = lambda lo, hi: "%02d:%02d:00" % divmod(r.randint(lo, hi), 60)
+print(day.isoformat(), minutes(7 * 60 + 30, 10 * 60 + 30), minutes(13 * 60 + 30, 17 * 60))' "$seed")
+  fi
   specs=()
-  for spec in am:09:30:00 pm:15:30:00; do
+  for spec in am:$am pm:$pm; do
     name=${spec%%:*}
     json=$("$relume" sun --site "$site" --time "${day}T${spec#*:}+02:00" --json)
     az=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["azimuth_deg"])' <<<"$json")
     el=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["elevation_deg"])' <<<"$json")
     specs+=("$name:$az:$el")
   done
-  render render_courtyard.py "${specs[@]}"
-  photograph am $day 09:30:00 +02:00
-  photograph pm $day 15:30:00 +02:00
+  render render_courtyard.py "${specs[@]}" --seed "$seed"
+  photograph am "$day" "$am" +02:00
+  photograph pm "$day" "$pm" +02:00
   scene_file courtyard
   cp "$out/render/pm.exr" "$out/truth/target.exr"
   cp "$out/render/am.exr" "$out/truth/source.exr"

@@ -2,6 +2,9 @@
 
 Run by scripts/blender_dataset.sh (which says what the outputs are for):
     blender -b --factory-startup -P scripts/blender/render_courtyard.py -- OUT NAME:AZ:EL ... [--bounces N]
+        [--samples N] [--seed N]
+`--seed N` (N > 0) draws a random courtyard from N (3-5 buildings, albedos, the sky's level);
+0, the default, is the fixed one below.
 
 For each NAME (a time of day, the sun at azimuth AZ and apparent elevation EL in degrees, the
 azimuth from north toward east as `relume sun` gives it) it writes into OUT:
@@ -23,6 +26,7 @@ shadow edges); `--bounces 0` (default) renders direct light only, the IRM model'
 import json
 import math
 import os
+import random
 import sys
 
 import bpy
@@ -33,9 +37,14 @@ import common  # noqa: E402  (scripts/blender/common.py)
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if len(argv) < 2:
-    sys.exit("usage: blender -b -P render_courtyard.py -- OUT NAME:AZ:EL ... [--bounces N] [--samples N]")
+    sys.exit("usage: blender -b -P render_courtyard.py -- OUT NAME:AZ:EL ... [--bounces N] [--samples N] [--seed N]")
 bounces = 0
 samples = 64
+seed = 0  # 0: the fixed courtyard; N > 0: a random one drawn from N (the same N, the same scene)
+if "--seed" in argv:
+    i = argv.index("--seed")
+    seed = int(argv[i + 1])
+    del argv[i:i + 2]
 if "--bounces" in argv:
     i = argv.index("--bounces")
     bounces = int(argv[i + 1])
@@ -68,11 +77,36 @@ common.clear_scene()
 bpy.ops.mesh.primitive_plane_add(size=80.0, location=(0, 0, 0))
 ground = bpy.context.active_object
 ground.name = "ground"
-ground.data.materials.append(common.material("ground", (0.30, 0.28, 0.25)))
-common.box("hall", (0.0, 6.0, 4.0), (14.0, 6.0, 8.0), (0.70, 0.62, 0.50))
-common.box("tower", (-9.0, -2.0, 7.0), (3.0, 3.0, 14.0), (0.45, 0.48, 0.52))
-common.box("annex", (8.0, -3.0, 2.0), (5.0, 5.0, 4.0), (0.60, 0.35, 0.30))
-common.box("wall", (-1.0, -6.0, 1.0), (8.0, 0.4, 2.0), (0.80, 0.80, 0.78))
+if seed == 0:
+    ground.data.materials.append(common.material("ground", (0.30, 0.28, 0.25)))
+    common.box("hall", (0.0, 6.0, 4.0), (14.0, 6.0, 8.0), (0.70, 0.62, 0.50))
+    common.box("tower", (-9.0, -2.0, 7.0), (3.0, 3.0, 14.0), (0.45, 0.48, 0.52))
+    common.box("annex", (8.0, -3.0, 2.0), (5.0, 5.0, 4.0), (0.60, 0.35, 0.30))
+    common.box("wall", (-1.0, -6.0, 1.0), (8.0, 0.4, 2.0), (0.80, 0.80, 0.78))
+else:
+    # A random courtyard: 3-5 buildings (2-10 m wide, 2-15 m high) that do not overlap, placed
+    # where the camera sees them, every surface a grey of 0.15-0.85 tinted 0.85-1.15 per channel
+    # (the ground 0.15-0.45), and a sky of 15-40 W m^-2 sr^-1 with a random blue tint.
+    rng = random.Random(seed)
+
+    def tinted(lo, hi):
+        grey = rng.uniform(lo, hi)
+        return tuple(min(0.95, grey * rng.uniform(0.85, 1.15)) for _ in range(3))
+
+    ground.data.materials.append(common.material("ground", tinted(0.15, 0.45)))
+    placed = []
+    count = rng.randint(3, 5)
+    for _ in range(1000):
+        if len(placed) == count:
+            break
+        w, d, h = rng.uniform(2, 10), rng.uniform(2, 10), rng.uniform(2, 15)
+        x, y = rng.uniform(-14, 12), rng.uniform(-8, 12)
+        if any(abs(x - px) < (w + pw) / 2 + 1 and abs(y - py) < (d + pd) / 2 + 1 for px, py, pw, pd in placed):
+            continue
+        placed.append((x, y, w, d))
+        common.box("building-%d" % len(placed), (x, y, h / 2), (w, d, h), tinted(0.15, 0.85))
+    level = rng.uniform(15, 40)
+    SKY = (level * rng.uniform(0.75, 0.9), level * rng.uniform(0.9, 1.0), level * 1.2)
 
 common.camera(CAMERA, LOOK_AT, math.radians(HFOV_DEG), WIDTH, HEIGHT)
 
@@ -159,6 +193,6 @@ common.write_objs(out, "courtyard")
 
 with open(os.path.join(out, "camera.json"), "w") as f:
     json.dump({"position_m": CAMERA, "look_at_m": LOOK_AT, "horizontal_fov_deg": HFOV_DEG, "width": WIDTH,
-               "height": HEIGHT, "bounces": bounces, "samples": samples, "sun_w_m2": SUN_W_M2, "sky": SKY, "base_ev": BASE_EV,
+               "height": HEIGHT, "bounces": bounces, "samples": samples, "sun_w_m2": SUN_W_M2, "sky": SKY, "base_ev": BASE_EV, "seed": seed,
                "blender": bpy.app.version_string}, f, indent=1)
 print("render_courtyard: wrote", out)
