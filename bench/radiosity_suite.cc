@@ -31,6 +31,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <sstream>
 
@@ -230,14 +231,49 @@ std::vector<double> ErrorOfTheMean(const rs::PatchHierarchy& hierarchy, const st
   return error;
 }
 
-void RunRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
-  const RandomRoom room = DrawRoom(seed);
+// A drawn room with its patches, ray caster and photographs (the suites' common setup).
+struct RenderedRoom {
+  RandomRoom room;
+  std::unique_ptr<rs::PatchHierarchy> hierarchy;
+  std::unique_ptr<RayCaster> caster;
+  std::vector<Photograph> photos;
+};
+
+RenderedRoom DrawAndRender(std::uint64_t seed, bool quick, bool chart) {
+  RenderedRoom r;
+  r.room = DrawRoom(seed, chart);
   rs::HierarchyOptions hierarchy_options;
   hierarchy_options.max_patch_edge_m = quick ? 0.8 : 0.35;
-  const rs::PatchHierarchy hierarchy(room.mesh, hierarchy_options);
-  const RayCaster caster(rs::ToTriangleMesh(room.mesh));
+  r.hierarchy = std::make_unique<rs::PatchHierarchy>(r.room.mesh, hierarchy_options);
+  r.caster = std::make_unique<RayCaster>(rs::ToTriangleMesh(r.room.mesh));
   SceneRandom noise(seed ^ 0x6e6f697365ULL);
-  const std::vector<Photograph> photos = Render(room, hierarchy, caster, quick, noise);
+  r.photos = Render(r.room, *r.hierarchy, *r.caster, quick, noise);
+  return r;
+}
+
+// One suite row: material `m`'s errors of the mean, described by its room and true albedo.
+SceneResult MaterialRow(std::uint64_t seed, const RandomRoom& room, const rs::Material& material, double method,
+                        double floor, double seconds, std::string notes) {
+  SceneResult r;
+  r.seed = seed;
+  r.method = method;
+  r.floor = floor;
+  r.seconds = seconds;
+  std::ostringstream d;
+  d.precision(2);
+  d << std::fixed << room.description << "; material " << material.name << " (albedo " << material.albedo.x() << " "
+    << material.albedo.y() << " " << material.albedo.z() << ")";
+  r.description = d.str();
+  r.notes = std::move(notes);
+  return r;
+}
+
+void RunRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
+  const RenderedRoom rendered = DrawAndRender(seed, quick, /*chart=*/false);
+  const RandomRoom& room = rendered.room;
+  const rs::PatchHierarchy& hierarchy = *rendered.hierarchy;
+  const RayCaster& caster = *rendered.caster;
+  const std::vector<Photograph>& photos = rendered.photos;
   std::vector<rs::RadianceObservation> observations;
   for (const Photograph& p : photos) observations.push_back(p.observation);
 
@@ -254,33 +290,20 @@ void RunRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
   const auto& materials = hierarchy.mesh().materials;
   for (std::size_t m = 0; m < materials.size(); ++m) {
     if (std::isnan(method_error[m]) && std::isnan(floor_error[m])) continue;  // no photograph saw it
-    SceneResult r;
-    r.seed = seed;
-    r.method = method_error[m];
-    r.floor = floor_error[m];
-    r.seconds = seconds;
-    std::ostringstream d;
-    d.precision(2);
-    d << std::fixed << room.description << "; material " << materials[m].name << " (albedo " << materials[m].albedo.x()
-      << " " << materials[m].albedo.y() << " " << materials[m].albedo.z() << ")";
-    r.description = d.str();
     std::ostringstream notes;
     notes << method.iterations << " radiosity iteration(s), " << (method.converged ? "converged" : "NOT converged")
           << ", " << n << " patches, indirect share " << method.indirect.indirect_share;
-    r.notes = notes.str();
-    out->push_back(std::move(r));
+    out->push_back(MaterialRow(seed, room, materials[m], method_error[m], floor_error[m], seconds, notes.str()));
   }
 }
 
 // The chart variant: relative photographs, the scale from the chart, the albedo at that scale.
 void RunChartRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out) {
-  const RandomRoom room = DrawRoom(seed, /*chart=*/true);
-  rs::HierarchyOptions hierarchy_options;
-  hierarchy_options.max_patch_edge_m = quick ? 0.8 : 0.35;
-  const rs::PatchHierarchy hierarchy(room.mesh, hierarchy_options);
-  const RayCaster caster(rs::ToTriangleMesh(room.mesh));
-  SceneRandom noise(seed ^ 0x6e6f697365ULL);
-  const std::vector<Photograph> photos = Render(room, hierarchy, caster, quick, noise);
+  const RenderedRoom rendered = DrawAndRender(seed, quick, /*chart=*/true);
+  const RandomRoom& room = rendered.room;
+  const rs::PatchHierarchy& hierarchy = *rendered.hierarchy;
+  const RayCaster& caster = *rendered.caster;
+  const std::vector<Photograph>& photos = rendered.photos;
   SceneRandom units(seed ^ 0x756e697473ULL);
   const double k_true = std::exp(units.Uniform(std::log(0.05), std::log(20.0)));
   std::vector<rs::RadianceObservation> relative;
@@ -330,16 +353,6 @@ void RunChartRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out)
       continue;
     }
     if (std::isnan(floor_error[m])) continue;  // no photograph saw it
-    SceneResult r;
-    r.seed = seed;
-    r.method = method_error[m];
-    r.floor = floor_error[m];
-    r.seconds = seconds;
-    std::ostringstream d;
-    d.precision(2);
-    d << std::fixed << room.description << "; material " << materials[m].name << " (albedo " << materials[m].albedo.x()
-      << " " << materials[m].albedo.y() << " " << materials[m].albedo.z() << ")";
-    r.description = d.str();
     std::ostringstream notes;
     if (!failure.empty()) {
       notes << "failed: " << failure;
@@ -349,8 +362,7 @@ void RunChartRoom(std::uint64_t seed, bool quick, std::vector<SceneResult>* out)
             << scale.direct_only_scale / k_true - 1.0 << "), " << scale.patches << " reference patches, indirect "
             << scale.indirect_share << " of their light, " << scale.solves << " solves";
     }
-    r.notes = notes.str();
-    out->push_back(std::move(r));
+    out->push_back(MaterialRow(seed, room, materials[m], method_error[m], floor_error[m], seconds, notes.str()));
   }
 }
 

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
@@ -207,36 +208,24 @@ struct MaterialGroups {
   std::vector<int> group_of_patch;  // -1: unknown
 };
 
-// Evaluation only: the true albedo per mesh triangle, from the simulated world's object of the
-// same name (its face's albedo where the object has one per face, e.g. a ColorChecker's
-// patches), grouped by value: materials of equal albedo form one group.
-MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const SceneModel& model,
-                            const sim::Scene& scene) {
+// Mesh triangles grouped by their true albedo (`truth_of(t)`, nullopt: not evaluated): materials
+// of equal albedo form one group named after its radiosity materials; patches take their root
+// triangle's group.
+MaterialGroups GroupByTruth(const radiosity::PatchHierarchy& h, const RadiosityScene& rs,
+                            const std::function<std::optional<Rgb>(std::size_t)>& truth_of) {
   MaterialGroups g;
-  std::vector<int> sim_object;
-  for (const SceneModelObject& model_object : model.objects) {
-    const int index = scene.ObjectIndex(model_object.name);
-    if (index < 0) {
-      throw InvalidArgumentError("compare_truth: scene model object '" + model_object.name +
-                                 "' is not in the session's simulated world; --set compare_truth=false");
-    }
-    sim_object.push_back(index);
-  }
   std::vector<int> group_of_triangle(rs.triangle_object.size(), -1);
   for (std::size_t t = 0; t < rs.triangle_object.size(); ++t) {
-    const sim::SceneObject& object = scene.objects[static_cast<std::size_t>(sim_object[rs.triangle_object[t]])];
-    const auto face = static_cast<std::size_t>(rs.triangle_face[t]);
-    const Rgb truth = face < object.mesh.face_albedo.size() && object.mesh.face_albedo[face].allFinite()
-                          ? Rgb(object.mesh.face_albedo[face])
-                          : Rgb(object.albedo);
+    const std::optional<Rgb> truth = truth_of(t);
+    if (!truth) continue;
     const std::string& name = rs.mesh.materials[rs.mesh.triangle_material[t]].name;
     int found = -1;
     for (size_t i = 0; i < g.truth.size(); ++i) {
-      if ((g.truth[i] - truth).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
+      if ((g.truth[i] - *truth).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
     }
     if (found < 0) {
       found = static_cast<int>(g.truth.size());
-      g.truth.push_back(truth);
+      g.truth.push_back(*truth);
       g.names.push_back(name);
     } else if (("+" + g.names[found] + "+").find("+" + name + "+") == std::string::npos) {
       g.names[found] += "+" + name;
@@ -247,34 +236,40 @@ MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityS
   return g;
 }
 
+// Evaluation only: the true albedo per mesh triangle from the simulated world's object of the
+// same name (its face's albedo where the object has one per face, e.g. a ColorChecker's patches).
+MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const SceneModel& model,
+                            const sim::Scene& scene) {
+  std::vector<int> sim_object;
+  for (const SceneModelObject& model_object : model.objects) {
+    const int index = scene.ObjectIndex(model_object.name);
+    if (index < 0) {
+      throw InvalidArgumentError("compare_truth: scene model object '" + model_object.name +
+                                 "' is not in the session's simulated world; --set compare_truth=false");
+    }
+    sim_object.push_back(index);
+  }
+  return GroupByTruth(h, rs, [&](std::size_t t) -> std::optional<Rgb> {
+    const sim::SceneObject& object = scene.objects[static_cast<std::size_t>(sim_object[rs.triangle_object[t]])];
+    const auto face = static_cast<std::size_t>(rs.triangle_face[t]);
+    if (face < object.mesh.face_albedo.size() && object.mesh.face_albedo[face].allFinite()) {
+      return Rgb(object.mesh.face_albedo[face]);
+    }
+    return Rgb(object.albedo);
+  });
+}
+
 // Evaluation only, from an external truth (truth_dir/albedo.json): the true albedo per mesh
 // triangle by its radiosity material's name (a group, or a chart's patch "chart/white"), else its
-// object's; triangles of neither are not evaluated. Grouped by value like GroupPatches.
+// object's; triangles of neither are not evaluated.
 MaterialGroups GroupPatchesFromTruth(const radiosity::PatchHierarchy& h, const RadiosityScene& rs,
                                      const SceneModel& model, const std::map<std::string, Rgb>& truth) {
-  MaterialGroups g;
-  std::vector<int> group_of_triangle(rs.triangle_object.size(), -1);
-  for (std::size_t t = 0; t < rs.triangle_object.size(); ++t) {
-    const std::string& material = rs.mesh.materials[rs.mesh.triangle_material[t]].name;
-    const std::string& object = model.objects[rs.triangle_object[t]].name;
-    auto it = truth.find(material);
-    if (it == truth.end()) it = truth.find(object);
-    if (it == truth.end()) continue;
-    int found = -1;
-    for (size_t i = 0; i < g.truth.size(); ++i) {
-      if ((g.truth[i] - it->second).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
-    }
-    if (found < 0) {
-      found = static_cast<int>(g.truth.size());
-      g.truth.push_back(it->second);
-      g.names.push_back(material);
-    } else if (("+" + g.names[found] + "+").find("+" + material + "+") == std::string::npos) {
-      g.names[found] += "+" + material;
-    }
-    group_of_triangle[t] = found;
-  }
-  for (int p = 0; p < h.LeafCount(); ++p) g.group_of_patch.push_back(group_of_triangle[h.leaf(p).root]);
-  return g;
+  return GroupByTruth(h, rs, [&](std::size_t t) -> std::optional<Rgb> {
+    auto it = truth.find(rs.mesh.materials[rs.mesh.triangle_material[t]].name);
+    if (it == truth.end()) it = truth.find(model.objects[rs.triangle_object[t]].name);
+    if (it == truth.end()) return std::nullopt;
+    return it->second;
+  });
 }
 
 // Albedo estimates against their materials' true albedo, accumulated per material: mean
