@@ -135,6 +135,12 @@ float SunVisibleFraction(const RayCaster& caster, const Eigen::Vector3f& point, 
 float SkyViewFraction(const RayCaster& caster, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
                       int samples);
 
+// The cosine-weighted directions SkyViewFraction and SkyViewMoments sample about a unit normal:
+// `samples` rounded up to rings x sectors (about sqrt(samples) each) over the unit disk's area,
+// lifted to the hemisphere; never a direction exactly in the surface's own horizontal plane when
+// the normal is horizontal. The same pattern for every caller (irm/indirect.h gathers along it).
+void CosineWeightedDirections(const Eigen::Vector3f& normal, int samples, std::vector<Eigen::Vector3f>* out);
+
 // The sky view v (SkyViewFraction) and, from the same rays, the sky's zenith moment
 // m = (1/pi) times the integral of w_z max(0, n . w) over the same unblocked directions: the
 // irradiance a sky of radiance w_z / pi gives (2/3 on open flat ground, 0 when only the horizon
