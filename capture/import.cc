@@ -160,7 +160,7 @@ FileMetadata ReadMetadata(const fs::path& path, const ImportOptions& options) {
 }
 
 // Decoded pixels of a stored still, as the gphoto2 driver decodes a camera's file.
-void Decode(const FileMetadata& m, const std::string& format, drivers::StillFrame* frame) {
+void Decode(const FileMetadata& m, const std::string& format, bool linear, drivers::StillFrame* frame) {
   if (IsRawFormat(format)) {
     try {
       frame->image = DecodeRawFile(m.bytes, m.path.string()).image;
@@ -182,7 +182,7 @@ void Decode(const FileMetadata& m, const std::string& format, drivers::StillFram
     image.layout = ColorLayout::kRgb;
   }
   const bool sixteen = decoded.depth() == CV_16U;
-  image.encoding = SampleEncoding::kCameraResponse;
+  image.encoding = linear ? SampleEncoding::kSensorLinear : SampleEncoding::kCameraResponse;
   image.bits_per_sample = sixteen ? 16 : 8;
   image.black_level = 0;
   image.white_level = sixteen ? 65535 : 255;
@@ -318,7 +318,7 @@ ImportSummary ImportStills(const ImportOptions& options, const fs::path& out) {
       frame.model = device.model;
       frame.original_file = m.bytes;
       frame.original_format = FormatOf(m.path);
-      Decode(m, frame.original_format, &frame);
+      Decode(m, frame.original_format, options.linear, &frame);
       if (!frame.undecoded_reason.empty())
         summary.notes.push_back(m.path.filename().string() + ": " + frame.undecoded_reason);
       frame.exposure.exposure_time_s = m.exposure_time_s;

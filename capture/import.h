@@ -43,6 +43,10 @@ struct ImportOptions {
   double exposure_time_s = NAN;
   double aperture_f = NAN;
   double iso = NAN;
+  // The JPEG/TIFF/PNG files hold values proportional to radiance (16-bit linear TIFFs from a raw
+  // converter, e.g. `dcraw -4 -T`): stored as sensor-linear, so processing needs no camera
+  // response. Raw files are sensor-linear anyway.
+  bool linear = false;
 
   bool IsValid(std::string* why) const;
 };

@@ -4,6 +4,7 @@
 # own renders as the truth.
 #
 #   scripts/blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N]
+#       [--format jpeg|tiff]
 #
 # courtyard (default; scripts/blender/render_courtyard.py): the sun where `relume sun` puts it at
 #   09:30 and 15:30 local time, a uniform sky; `--pipeline irm` relights the morning to the
@@ -27,7 +28,7 @@
 # Exit codes: 0 done, 77 Blender or exiv2 missing (the tests are then skipped), other: a failure.
 set -euo pipefail
 
-usage="usage: blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N]"
+usage="usage: blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N] [--format jpeg|tiff]"
 relume=${1:?$usage}
 out=${2:?$usage}
 shift 2
@@ -35,9 +36,11 @@ scene=courtyard
 bounces=""
 samples=64
 seed=0
+format=jpeg
 while [[ $# -gt 0 ]]; do
   case $1 in
     --seed) seed=${2:?$usage} ;;
+    --format) format=${2:?$usage} ;;
     --scene) scene=${2:?$usage} ;;
     --bounces) bounces=${2:?$usage} ;;
     --samples) samples=${2:?$usage} ;;
@@ -50,6 +53,15 @@ case $scene in
   room) bounces=${bounces:-8} ;;
   *) echo "blender_dataset: --scene is courtyard or room" >&2; exit 2 ;;
 esac
+case $format in
+  jpeg) ext=jpg ;;
+  tiff) ext=tif ;;
+  *) echo "blender_dataset: --format is jpeg or tiff" >&2; exit 2 ;;
+esac
+if [[ $format == tiff && $scene != courtyard ]]; then
+  echo "blender_dataset: --format tiff is for the courtyard" >&2
+  exit 2
+fi
 here=$(cd "$(dirname "$0")" && pwd)
 for tool in blender exiv2; do
   if ! command -v "$tool" >/dev/null; then
@@ -80,13 +92,13 @@ render() {
   }
 }
 
-# photograph NAME DAY TIME OFFSET: NAME's five JPEGs into photos/ with the EXIF a camera writes,
+# photograph NAME DAY TIME OFFSET: NAME's five JPEGs (or TIFFs) into photos/ with the EXIF a camera writes,
 # the frames 1 s apart from TIME (HH:MM:SS, local), exposure 1/250 s at EV 0.
 photograph() {
   local name=$1 day=$2 time=$3 offset=$4 seconds=0 ev exposure file stamp
   for ev in -2 -1 +0 +1 +2; do
-    file="$out/photos/${name}_ev${ev}.jpg"
-    cp "$out/render/${name}_ev${ev}.jpg" "$file"
+    file="$out/photos/${name}_ev${ev}.$ext"
+    cp "$out/render/${name}_ev${ev}.$ext" "$file"
     case $ev in -2) exposure="1/1000" ;; -1) exposure="1/500" ;; +0) exposure="1/250" ;; +1) exposure="1/125" ;; +2) exposure="2/125" ;; esac
     stamp="${day//-/:} ${time%:*}:$(printf '%02d' $((10#${time##*:} + seconds)))"
     exiv2 -k \
@@ -161,12 +173,16 @@ print(day.isoformat(), minutes(7 * 60 + 30, 10 * 60 + 30), minutes(13 * 60 + 30,
     el=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["elevation_deg"])' <<<"$json")
     specs+=("$name:$az:$el")
   done
-  render render_courtyard.py "${specs[@]}" --seed "$seed"
+  render render_courtyard.py "${specs[@]}" --seed "$seed" --format "$format"
   photograph am "$day" "$am" +02:00
   photograph pm "$day" "$pm" +02:00
   scene_file courtyard
-  cp "$out/render/pm.exr" "$out/truth/target.exr"
-  cp "$out/render/am.exr" "$out/truth/source.exr"
+  cp "$out/render/pm_independent.exr" "$out/truth/target.exr"
+  # The truths are independent renders (another sampling seed): the relit image is scored
+  # without sharing the photographs' Monte Carlo noise, and the floor (the source photograph
+  # against its truth) then holds that noise, which a relit image inherits, besides the
+  # encoding's error.
+  cp "$out/render/am_independent.exr" "$out/truth/source.exr"
   cp "$out/render/am_sun.exr" "$out/truth/source_sun.exr"
   cp "$out/render/pm_sun.exr" "$out/truth/target_sun.exr"
 else
@@ -177,7 +193,9 @@ else
   cp "$out/render/albedo.json" "$out/render/relit.exr" "$out/render/relit.json" "$out/truth/"
 fi
 
-"$relume" session import "$out/photos" --out "$out/session" --site "$site" --camera-id blender-cycles
+linear=()
+[[ $format == tiff ]] && linear=(--linear)
+"$relume" session import "$out/photos" --out "$out/session" --site "$site" --camera-id blender-cycles "${linear[@]}"
 "$relume" session add-scene-model "$out/session" --from "$out/scene.yaml"
 if [[ $scene == courtyard ]]; then
   "$relume" process "$out/session" --pipeline irm --out "$out/irm" --set "truth_dir=$out/truth"

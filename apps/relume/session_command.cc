@@ -60,6 +60,10 @@ void AddSessionCommand(CLI::App& app) {
   import->add_option("--exposure-time", import_options->exposure_time_s, "Exposure time (s) for files lacking it");
   import->add_option("--aperture", import_options->aperture_f, "f-number for files lacking it");
   import->add_option("--iso", import_options->iso, "ISO for files lacking it");
+  import->add_flag(
+      "--linear", import_options->linear,
+      "The JPEG/TIFF/PNG files hold linear values (16-bit TIFFs from a raw converter such as dcraw -4 -T): "
+      "no camera response is needed");
   import->callback([import_options, inputs, out, site_file, tz]() {
     capture::ImportOptions options = *import_options;
   for (const std::string& input : *inputs) options.inputs.emplace_back(input);

@@ -98,10 +98,12 @@ def cycles(samples, bounces):
     scene.view_settings.gamma = 1.0
 
 
-def save_render(path, file_format, color_depth, color_mode="RGB", exposure=0.0, quality=97):
-    """Saves the last render: EXR as scene-linear float, JPEG/PNG through the sRGB view at
-    `exposure` EV."""
+def save_render(path, file_format, color_depth, color_mode="RGB", exposure=0.0, quality=97, linear=False):
+    """Saves the last render: EXR as scene-linear float, JPEG/PNG/TIFF through the sRGB view at
+    `exposure` EV, or with `linear` through no view transform (values proportional to radiance,
+    clipped at 1: a raw converter's linear TIFF)."""
     scene = bpy.context.scene
+    scene.view_settings.view_transform = "Raw" if linear else "Standard"
     settings = scene.render.image_settings
     settings.file_format = file_format
     settings.color_mode = color_mode
@@ -112,6 +114,7 @@ def save_render(path, file_format, color_depth, color_mode="RGB", exposure=0.0, 
         settings.exr_codec = "ZIP"
     scene.view_settings.exposure = exposure
     bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
+    scene.view_settings.view_transform = "Standard"
 
 
 def write_objs(out, prefix):

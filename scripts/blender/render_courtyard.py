@@ -2,7 +2,7 @@
 
 Run by scripts/blender_dataset.sh (which says what the outputs are for):
     blender -b --factory-startup -P scripts/blender/render_courtyard.py -- OUT NAME:AZ:EL ... [--bounces N]
-        [--samples N] [--seed N]
+        [--samples N] [--seed N] [--format jpeg|tiff]
 `--seed N` (N > 0) draws a random courtyard from N (3-5 buildings, albedos, the sky's level);
 0, the default, is the fixed one below.
 
@@ -11,7 +11,11 @@ azimuth from north toward east as `relume sun` gives it) it writes into OUT:
   NAME.exr            the photograph in scene-linear Rec.709 radiance (float RGB; the truth)
   NAME_ev-2.jpg ...   the same through Blender's sRGB display transform at EV -2 .. +2 about
                       BASE_EV (8-bit
-                      JPEG: the camera's bracket; the script's caller adds the EXIF)
+                      JPEG: the camera's bracket; the script's caller adds the EXIF), or with
+                      `--format tiff` 16-bit linear TIFFs NAME_ev-2.tif ... (no view transform: a
+                      raw converter's output, nearly free of quantisation and response error:
+                      what the method does without the photographs' own error)
+  NAME_independent.exr  NAME.exr rendered again with another sampling seed (independent noise)
   NAME_sun.exr        R: the fraction of the sun's disk each pixel's surface sees (the sun-only
                       render over the same with shadows off), G: 1 where a surface is, 0 sky
 and once: courtyard_<object>.obj (the geometry in the site's ENU frame, metres, one file per
@@ -53,6 +57,13 @@ if "--samples" in argv:
     i = argv.index("--samples")
     samples = int(argv[i + 1])
     del argv[i:i + 2]
+photo_format = "jpeg"  # the bracket's files: 8-bit JPEG (a camera's) or 16-bit TIFF (nearly no quantisation)
+if "--format" in argv:
+    i = argv.index("--format")
+    photo_format = argv[i + 1]
+    del argv[i:i + 2]
+    if photo_format not in ("jpeg", "tiff"):
+        sys.exit("--format is jpeg or tiff")
 out = argv[0]
 times = []
 for spec in argv[1:]:
@@ -154,7 +165,17 @@ for name, az, el in times:
     bpy.ops.render.render()
     render_to(os.path.join(out, name + ".exr"), "OPEN_EXR", "32")
     for ev in BRACKET_EV:
-        render_to(os.path.join(out, "%s_ev%+d.jpg" % (name, ev)), "JPEG", "8", exposure=BASE_EV + ev, quality=JPEG_QUALITY)
+        if photo_format == "jpeg":
+            render_to(os.path.join(out, "%s_ev%+d.jpg" % (name, ev)), "JPEG", "8", exposure=BASE_EV + ev,
+                      quality=JPEG_QUALITY)
+        else:
+            render_to(os.path.join(out, "%s_ev%+d.tif" % (name, ev)), "TIFF", "16", exposure=BASE_EV + ev, linear=True)
+    # The same photograph with another sampling seed: a truth independent of the photograph's
+    # own Monte Carlo noise (the floor a relit image is held to, blender_dataset.sh).
+    scene.cycles.seed = 7
+    bpy.ops.render.render()
+    render_to(os.path.join(out, name + "_independent.exr"), "OPEN_EXR", "32")
+    scene.cycles.seed = 0
     # The sun's visible fraction: sun only, with and without shadows; alpha marks surfaces.
     sky_colour.outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
     scene.render.film_transparent = True
