@@ -36,12 +36,13 @@ Shot MakeShot(std::string name, std::string local_time, int exposure_denominator
           std::move(offset), std::move(subsec),     with_exposure};
 }
 
-// A small JPEG with the EXIF a camera writes; returns its bytes as written.
-std::vector<std::uint8_t> WriteJpeg(const fs::path& path, const Shot& shot) {
-  cv::Mat image(24, 32, CV_8UC3);
-  cv::randu(image, 0, 255);
+// A small JPEG (or, with `extension` ".tif", a 16-bit TIFF) with the EXIF a camera writes;
+// returns its bytes as written.
+std::vector<std::uint8_t> WriteJpeg(const fs::path& path, const Shot& shot, const std::string& extension = ".jpg") {
+  cv::Mat image(24, 32, extension == ".jpg" ? CV_8UC3 : CV_16UC3);
+  cv::randu(image, 0, extension == ".jpg" ? 255 : 65535);
   std::vector<std::uint8_t> jpeg;
-  cv::imencode(".jpg", image, jpeg);
+  cv::imencode(extension, image, jpeg);
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wdeprecated-declarations"
   auto file = Exiv2::ImageFactory::open(jpeg.data(), static_cast<long>(jpeg.size()));
@@ -120,6 +121,25 @@ TEST_F(ImportTest, GroupsBracketsKeepsFilesAndPutsTheSunOnEveryFrame) {
   // Byte for byte: the stored file of the first frame is IMG_0001.JPG's.
   EXPECT_EQ(reader.ReadFrameFile(frames[0]), written["IMG_0001.JPG"]);
   EXPECT_EQ(reader.ReadFrameFile(frames[3]), written["IMG_0004.JPG"]);
+}
+
+// Linear 16-bit TIFFs (a raw converter's output) are stored as sensor-linear with --linear, so
+// processing reads them without a camera response; without it they are camera-encoded.
+TEST_F(ImportTest, LinearFilesAreStoredSensorLinear) {
+  WriteJpeg(dir_ / "card" / "a.tif", MakeShot("a.tif", "2026:06:21 09:00:00", 250, "+03:00"), ".tif");
+  WriteJpeg(dir_ / "card" / "b.tif", MakeShot("b.tif", "2026:06:21 09:00:01", 60, "+03:00"), ".tif");
+  for (const bool linear : {false, true}) {
+    options_.linear = linear;
+    const fs::path out = dir_ / (linear ? "linear" : "encoded");
+    ImportStills(options_, out);
+    const std::vector<FrameRecord> frames = SessionReader(out).Frames();
+    ASSERT_EQ(frames.size(), 2u);
+    for (const FrameRecord& f : frames) {
+      EXPECT_EQ(f.encoding, linear ? SampleEncoding::kSensorLinear : SampleEncoding::kCameraResponse);
+      EXPECT_EQ(f.bits_per_sample, 16);
+      EXPECT_EQ(f.file_format, "tiff");
+    }
+  }
 }
 
 TEST_F(ImportTest, TheFileTimeZoneWinsAndMissingValuesNameTheirFlag) {
