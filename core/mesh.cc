@@ -19,6 +19,7 @@ bool TriangleMesh::IsValid(std::string* why) const {
   }
   if (!normals.empty() && normals.size() != positions.size()) return fail("normals must be per vertex");
   if (!albedo.empty() && albedo.size() != positions.size()) return fail("albedo must be per vertex");
+  if (!part.empty() && part.size() != positions.size()) return fail("parts must be per vertex");
   return true;
 }
 
@@ -40,12 +41,15 @@ void TriangleMesh::Append(const TriangleMesh& other) {
   const int offset = static_cast<int>(positions.size());
   const bool keep_normals = !normals.empty() || positions.empty();
   const bool keep_albedo = !albedo.empty() || positions.empty();
+  const bool keep_part = !part.empty() || positions.empty();
   positions.insert(positions.end(), other.positions.begin(), other.positions.end());
   for (const Eigen::Vector3i& t : other.triangles) triangles.push_back(t + Eigen::Vector3i::Constant(offset));
   if (keep_normals && !other.normals.empty()) normals.insert(normals.end(), other.normals.begin(), other.normals.end());
   if (keep_albedo && !other.albedo.empty()) albedo.insert(albedo.end(), other.albedo.begin(), other.albedo.end());
+  if (keep_part && !other.part.empty()) part.insert(part.end(), other.part.begin(), other.part.end());
   if (normals.size() != positions.size()) normals.clear();
   if (albedo.size() != positions.size()) albedo.clear();
+  if (part.size() != positions.size()) part.clear();
 }
 
 TriangleMesh MakeQuad(const Eigen::Vector3f& origin, const Eigen::Vector3f& edge_u, const Eigen::Vector3f& edge_v,

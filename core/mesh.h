@@ -16,6 +16,10 @@ struct TriangleMesh {
   std::vector<Eigen::Vector3i> triangles;
   std::vector<Eigen::Vector3f> normals;  // per vertex; empty until computed
   std::vector<Eigen::Vector3f> albedo;   // per vertex; optional
+  // Per vertex, optional: which part of the scene (an object of a scene model, a connected
+  // piece of a mesh file) the vertex belongs to, for guesses about surfaces no photograph shows
+  // (processing/irm: a hidden face takes its own object's reflectance, not the ground's).
+  std::vector<int> part;
 
   std::size_t vertex_count() const { return positions.size(); }
   std::size_t triangle_count() const { return triangles.size(); }

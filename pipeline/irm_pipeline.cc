@@ -120,6 +120,13 @@ struct IrmKnobs {
     v.Knob("bins", relight.irm.bins, "octahedral normal bins per side of each ratio map", {"build"});
     v.Knob("model_correction", relight.irm.model_correction, "correct the ratios by the sun + sky model's residual",
            {"build"});
+    v.Knob("indirect", relight.indirect,
+           "gather each surface's light from the other surfaces out of the photographs (interreflection)", {"build"});
+    v.Knob("indirect_samples", relight.indirect_samples, "cosine-weighted rays per vertex for the indirect light",
+           {"build"});
+    v.Knob("indirect_passes", relight.indirect_passes,
+           "refinements of the unseen surfaces' radiance for the indirect light (each a gather and a refit)",
+           {"build"});
     v.Knob("exact_shadow_edges", relight.exact_shadow_edges,
            "ray-cast the sun fraction of pixels on triangles a shadow edge crosses", {"relight"});
     v.Knob("threads", relight.threads,
@@ -154,7 +161,7 @@ SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
   const std::string& frame_name = knobs.mesh_frame;
   const int zone = knobs.mesh_utm_zone;
   SceneGeometry g;
-  g.key.Add("stage", "irm-mesh-v2").Add("sphere_segments", options.sphere_segments);
+  g.key.Add("stage", "irm-mesh-v3").Add("sphere_segments", options.sphere_segments);
   AddKnobsToKey(g.key, knobs, "mesh");
   if (run.request().mesh) {
     const fs::path& path = *run.request().mesh;
@@ -203,7 +210,7 @@ SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
   return g;
 }
 
-// The scene mesh as a stage (mesh.bin: counts, positions, triangles, normals, albedo; mesh.json:
+// The scene mesh as a stage (mesh.bin: counts, positions, triangles, normals, albedo, parts; mesh.json:
 // the counts): a rerun reads it only when a stage that casts rays has to run.
 struct MeshStage {
   std::int64_t vertices = 0;
@@ -242,6 +249,7 @@ TriangleMesh ReadMeshFile(const fs::path& path) {
   ReadVectors(in, bytes, &mesh.triangles);
   ReadVectors(in, bytes, &mesh.normals);
   ReadVectors(in, bytes, &mesh.albedo);
+  ReadVectors(in, bytes, &mesh.part);
   std::string why;
   if (!in || !mesh.IsValid(&why)) throw IoError(path.string(), "is short or unreadable; run with --force");
   return mesh;
@@ -257,6 +265,7 @@ MeshStage RunMeshStage(PipelineRun& run, const SceneGeometry& g) {
     WriteVectors(out, made->triangles);
     WriteVectors(out, made->normals);
     WriteVectors(out, made->albedo);
+    WriteVectors(out, made->part);
     if (!out) throw IoError((dir / "mesh.bin").string(), "cannot be written");
     WriteJsonFile(dir / "mesh.json", {{"vertices", made->vertex_count()}, {"triangles", made->triangle_count()}});
   });
@@ -532,8 +541,14 @@ nlohmann::json SummaryJson(const irm::RelightSummary& s) {
           {"pixels_masked", s.pixels_masked},
           {"pixels_with_own_sun_rays", s.pixels_with_own_sun_rays},
           {"pixels_with_own_sky_rays", s.pixels_with_own_sky_rays},
+          {"pixels_with_own_indirect_rays", s.pixels_with_own_indirect_rays},
           {"overlap_vertex_rms_before", s.overlap_rms_before},
           {"overlap_vertex_rms_after", s.overlap_rms_after},
+          {"indirect_rays", s.indirect_rays},
+          {"indirect_hit_share", s.indirect_hit_share},
+          {"indirect_filled_source", s.indirect_filled_source},
+          {"indirect_filled_target", s.indirect_filled_target},
+          {"indirect_s", s.indirect_s},
           {"build_s", s.build_s},
           {"relight_s", s.relight_s}};
 }
@@ -546,6 +561,11 @@ irm::RelightSummary SummaryFromJson(const nlohmann::json& j) {
   s.irm_summary = j.at("irm_summary").get<std::string>();
   s.overlap_rms_before = j.at("overlap_vertex_rms_before").get<double>();
   s.overlap_rms_after = j.at("overlap_vertex_rms_after").get<double>();
+  s.indirect_rays = j.value("indirect_rays", std::int64_t{0});
+  s.indirect_hit_share = j.value("indirect_hit_share", 0.0);
+  s.indirect_filled_source = j.value("indirect_filled_source", 0);
+  s.indirect_filled_target = j.value("indirect_filled_target", 0);
+  s.indirect_s = j.value("indirect_s", 0.0);
   s.build_s = j.at("build_s").get<double>();
   return s;
 }
@@ -612,11 +632,52 @@ nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
                 {"sky_gradient_target", VecJson(model.sky_gradient_target)},
                 {"sun_dir_source", VecJson(model.sun_dir_source)},
                 {"sun_dir_target", VecJson(model.sun_dir_target)},
+                {"indirect_scale", VecJson(model.indirect_scale)},
+                {"indirect_reason", model.indirect_reason},
                 {"rms_relative_residual", model.rms_relative_residual},
                 {"condition_number", model.condition_number},
                 {"reason", model.reason}};
+  const irm::IndirectShare& share = set.indirect_share;
+  j["indirect_share"] = {{"source_lit", share.source_lit},
+                         {"source_shadow", share.source_shadow},
+                         {"target_lit", share.target_lit},
+                         {"target_shadow", share.target_shadow},
+                         {"source_lit_samples", share.source_lit_samples},
+                         {"source_shadow_samples", share.source_shadow_samples},
+                         {"target_lit_samples", share.target_lit_samples},
+                         {"target_shadow_samples", share.target_shadow_samples}};
+  // The per-vertex indirect light is too large for JSON: WriteVertexIndirect's file.
+  j["indirect_vertices"] = set.vertex_indirect_source.size();
   return j;
 }
+
+namespace {
+
+// IrmSet::vertex_indirect_* and vertex_radiance_* as float32 triples, source then target each
+// (indirect.f32 of irm-build).
+void WriteVertexIndirect(const irm::IrmSet& set, const fs::path& path) {
+  std::ofstream out(path, std::ios::binary);
+  for (const auto* values : {&set.vertex_indirect_source, &set.vertex_indirect_target, &set.vertex_radiance_source,
+                             &set.vertex_radiance_target}) {
+    for (const Eigen::Vector3f& v : *values) out.write(reinterpret_cast<const char*>(v.data()), 3 * sizeof(float));
+  }
+  if (!out) throw IoError(path.string(), "cannot be written (disk full?)");
+}
+
+void ReadVertexIndirect(const fs::path& path, std::size_t vertices, irm::IrmSet* set) {
+  for (auto* values : {&set->vertex_indirect_source, &set->vertex_indirect_target, &set->vertex_radiance_source,
+                       &set->vertex_radiance_target}) {
+    values->assign(vertices, Eigen::Vector3f::Zero());
+  }
+  std::ifstream in(path, std::ios::binary);
+  for (auto* values : {&set->vertex_indirect_source, &set->vertex_indirect_target, &set->vertex_radiance_source,
+                       &set->vertex_radiance_target}) {
+    for (Eigen::Vector3f& v : *values) in.read(reinterpret_cast<char*>(v.data()), 3 * sizeof(float));
+  }
+  if (!in) throw IoError(path.string(), "is missing or short; run with --force");
+}
+
+}  // namespace
 
 irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
   irm::IrmSet set;
@@ -669,6 +730,21 @@ irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
   }
   set.model.sun_dir_source = VecFromJson(model.at("sun_dir_source"));
   set.model.sun_dir_target = VecFromJson(model.at("sun_dir_target"));
+  if (model.contains("indirect_scale")) {
+    set.model.indirect_scale = VecFromJson(model.at("indirect_scale"));
+    set.model.indirect_reason = model.at("indirect_reason").get<std::string>();
+  }
+  if (j.contains("indirect_share")) {
+    const nlohmann::json& share = j.at("indirect_share");
+    set.indirect_share.source_lit = share.at("source_lit").get<double>();
+    set.indirect_share.source_shadow = share.at("source_shadow").get<double>();
+    set.indirect_share.target_lit = share.at("target_lit").get<double>();
+    set.indirect_share.target_shadow = share.at("target_shadow").get<double>();
+    set.indirect_share.source_lit_samples = share.at("source_lit_samples").get<int>();
+    set.indirect_share.source_shadow_samples = share.at("source_shadow_samples").get<int>();
+    set.indirect_share.target_lit_samples = share.at("target_lit_samples").get<int>();
+    set.indirect_share.target_shadow_samples = share.at("target_shadow_samples").get<int>();
+  }
   set.model.rms_relative_residual = model.at("rms_relative_residual").get<double>();
   set.model.condition_number = model.at("condition_number").get<double>();
   set.model.reason = model.at("reason").get<std::string>();
@@ -893,7 +969,7 @@ struct BuildStage {
 BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair& v) {
   const irm::RelightOptions& options = knobs.relight;
   BuildStage b;
-  b.key.Add("stage", "irm-build-v4").AddKey("source_view", v.source_view_key).AddKey("target_view", v.target_view_key);
+  b.key.Add("stage", "irm-build-v5").AddKey("source_view", v.source_view_key).AddKey("target_view", v.target_view_key);
   AddKnobsToKey(b.key, knobs, "build");
   b.key.AddKey("source_radiance", v.source_radiance.key).AddKey("target_radiance", v.target_radiance.key);
   b.key.Add("lit", static_cast<double>(options.irm.lit_threshold));
@@ -905,6 +981,7 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
     b.irms = irm::BuildIrmsFromViews(v.caster.get(), v.source, v.target, v.source_geometry, v.target_geometry, options,
                                      &b.summary);
     WriteJsonFile(dir / "irms.json", IrmSetToJson(b.irms));
+    WriteVertexIndirect(b.irms, dir / "indirect.f32");
     WriteJsonFile(dir / "build.json", SummaryJson(b.summary));
     for (int k = 0; k < 4; ++k) {
       if (b.irms.single_map && k > 0) break;
@@ -913,7 +990,10 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
     }
   });
   if (build.reused) {
-    b.irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"));
+    const nlohmann::json irms_json = ReadJsonFile(build.dir / "irms.json");
+    b.irms = IrmSetFromJson(irms_json);
+    const auto vertices = irms_json.value("indirect_vertices", std::size_t{0});
+    if (vertices > 0) ReadVertexIndirect(build.dir / "indirect.f32", vertices, &b.irms);
     b.summary = SummaryFromJson(ReadJsonFile(build.dir / "build.json"));
   }
   // The decision is the library's (irm::BuildIrms: a sample seen in both images in cast shadow
@@ -945,7 +1025,7 @@ struct RelightStage {
 // the status and sun images, and the seam against the target.
 RelightStage RunRelightStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair& v, const BuildStage& b) {
   RelightStage r;
-  r.key.Add("stage", "irm-relight-v2").AddKey("build", b.key);
+  r.key.Add("stage", "irm-relight-v3").AddKey("build", b.key);
   AddKnobsToKey(r.key, knobs, "relight");
   const StageCache::Result relight = run.RunStage("irm-relight", r.key, [&](const fs::path& dir) {
     const irm::RelightResult result = irm::RelightPixels(v.caster.get(), v.source, v.target, v.source_geometry,
@@ -992,10 +1072,18 @@ void AddIrmMetrics(PipelineRun& run, const SceneGeometry& geometry, const MeshSt
   m["irm"]["visible_in_cast_shadow"] = {{"source", v.source_geometry.visible_in_cast_shadow},
                                         {"target", v.target_geometry.visible_in_cast_shadow}};
   m["irm"]["single_map"] = irms.single_map;
+  // Interreflection: the model's scale for the gathered light and the share of each region's
+  // light it makes (irm.h, indirect.h).
+  const irm::IndirectShare& share = irms.indirect_share;
+  m["irm"]["indirect"] = {{"used", !irms.vertex_indirect_source.empty()}, {"scale", VecJson(irms.model.indirect_scale)},
+                          {"reason", irms.model.indirect_reason},         {"share_source_lit", share.source_lit},
+                          {"share_source_shadow", share.source_shadow},   {"share_target_lit", share.target_lit},
+                          {"share_target_shadow", share.target_shadow}};
   auto sky_json = [](const irm::SkyShape& shape) {
     return nlohmann::json{
         {"measured", shape.measured},
         {"gradient", VecJson(shape.gradient)},
+        {"horizon", VecJson(shape.horizon)},
         {"pixels", shape.pixels},
         {"elevation_deg",
          {shape.min_elevation_rad * 180.0 / std::numbers::pi, shape.max_elevation_rad * 180.0 / std::numbers::pi}},
@@ -1004,6 +1092,13 @@ void AddIrmMetrics(PipelineRun& run, const SceneGeometry& geometry, const MeshSt
   };
   m["irm"]["sky_shape"] = {{"source", sky_json(v.source_geometry.sky_shape)},
                            {"target", sky_json(v.target_geometry.sky_shape)}};
+  // The fitted q against what the source's sky radiance predicts, 1 / (pi a_s) (irm.h): near 1
+  // when the gathered light and the sky's units agree.
+  const irm::SkyShape& sky = v.source_geometry.sky_shape;
+  if (sky.measured && sky.horizon.minCoeff() > 0.0f) {
+    m["irm"]["indirect"]["scale_over_sky_prediction"] =
+        VecJson((irms.model.indirect_scale.cwiseProduct(sky.horizon) * std::numbers::pi_v<float>).eval());
+  }
 }
 
 // Stage irm-truth: against the truth, the source camera under the target's sun: the simulated

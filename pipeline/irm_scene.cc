@@ -1,7 +1,9 @@
 #include "pipeline/irm_scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include "core/error.h"
 #include "core/frames.h"
@@ -23,9 +25,10 @@ bool IrmMeshOptions::IsValid(std::string* why) const {
 
 namespace {
 
-// A triangle split into n x n smaller ones (barycentric grid), with its own vertices.
+// A triangle split into n x n smaller ones (barycentric grid), with its own vertices, all in
+// `part` (TriangleMesh::part).
 void AppendSplitTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                         const Eigen::Vector3f& albedo, double spacing_m, TriangleMesh* out) {
+                         const Eigen::Vector3f& albedo, int part, double spacing_m, TriangleMesh* out) {
   const Eigen::Vector3d cross = (b - a).cross(c - a);
   if (!(cross.norm() > 1e-12)) return;  // degenerate: no area, no normal
   const Eigen::Vector3f normal = cross.normalized().cast<float>();
@@ -39,6 +42,7 @@ void AppendSplitTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, con
       out->positions.push_back((a + (b - a) * u + (c - a) * v).cast<float>());
       out->normals.push_back(normal);
       out->albedo.push_back(albedo);
+      out->part.push_back(part);
     }
   }
   for (int j = 0; j < n; ++j) {
@@ -54,12 +58,40 @@ Eigen::Vector3f FaceAlbedo(const MeshData& mesh, std::size_t face, const Eigen::
   return fallback.cast<float>();
 }
 
+// The connected pieces of a mesh file (triangles that share a vertex index), numbered from 0
+// per triangle: the parts (TriangleMesh::part) of the split mesh.
+std::vector<int> ConnectedPieces(const MeshData& mesh) {
+  std::vector<int> parent(mesh.vertices.size());
+  for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<int>(i);
+  auto find = [&parent](int v) {
+    while (parent[static_cast<std::size_t>(v)] != v) {
+      parent[static_cast<std::size_t>(v)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(v)])];
+      v = parent[static_cast<std::size_t>(v)];
+    }
+    return v;
+  };
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    parent[static_cast<std::size_t>(find(t[1]))] = find(t[0]);
+    parent[static_cast<std::size_t>(find(t[2]))] = find(t[0]);
+  }
+  std::vector<int> number(mesh.vertices.size(), -1), pieces;
+  int next = 0;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    int& n = number[static_cast<std::size_t>(find(t[0]))];
+    if (n < 0) n = next++;
+    pieces.push_back(n);
+  }
+  return pieces;
+}
+
 TriangleMesh SplitMesh(const MeshData& mesh, const Eigen::Vector3d& albedo, double spacing_m) {
   TriangleMesh out;
+  const std::vector<int> pieces = ConnectedPieces(mesh);
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const Eigen::Vector3i& t = mesh.triangles[f];
     AppendSplitTriangle(mesh.vertices[static_cast<std::size_t>(t[0])], mesh.vertices[static_cast<std::size_t>(t[1])],
-                        mesh.vertices[static_cast<std::size_t>(t[2])], FaceAlbedo(mesh, f, albedo), spacing_m, &out);
+                        mesh.vertices[static_cast<std::size_t>(t[2])], FaceAlbedo(mesh, f, albedo), pieces[f],
+                        spacing_m, &out);
   }
   return out;
 }
@@ -104,10 +136,15 @@ TriangleMesh ProcessingMeshFromModel(const SceneModel& model, const IrmMeshOptio
     return known ? *known : Eigen::Vector3d::Constant(0.5);
   };
   TriangleMesh out;
-  for (const SceneModelObject& object : model.objects) {
+  // Each object is a part (TriangleMesh::part).
+  for (std::size_t o = 0; o < model.objects.size(); ++o) {
+    const SceneModelObject& object = model.objects[o];
+    const int part = static_cast<int>(o);
     if (object.kind == SceneModelObject::Kind::kSphere) {
-      out.Append(
-          Sphere(object.sphere_center, object.sphere_radius_m, albedo_of(object.material), options.sphere_segments));
+      TriangleMesh sphere =
+          Sphere(object.sphere_center, object.sphere_radius_m, albedo_of(object.material), options.sphere_segments);
+      sphere.part.assign(sphere.vertex_count(), part);
+      out.Append(sphere);
       continue;
     }
     for (std::size_t f = 0; f < object.triangles.size(); ++f) {
@@ -115,7 +152,7 @@ TriangleMesh ProcessingMeshFromModel(const SceneModel& model, const IrmMeshOptio
       AppendSplitTriangle(object.vertices[static_cast<std::size_t>(t[0])],
                           object.vertices[static_cast<std::size_t>(t[1])],
                           object.vertices[static_cast<std::size_t>(t[2])],
-                          albedo_of(object.face_material[f]).cast<float>(), options.spacing_m, &out);
+                          albedo_of(object.face_material[f]).cast<float>(), part, options.spacing_m, &out);
     }
   }
   return out;

@@ -126,6 +126,11 @@ TriangleMesh MeshFromPython(const py::handle& mesh, const std::string& what) {
   if (d.contains("normals") && !d["normals"].is_none()) {
     m.normals = Vectors3fFromArray(d["normals"], what + "['normals']");
   }
+  if (d.contains("parts") && !d["parts"].is_none()) {
+    const auto parts = ContiguousArray<std::int32_t>(py::array::ensure(d["parts"]), what + "['parts']");
+    if (parts.ndim() != 1) throw InvalidArgumentError(what + "['parts']: expected an (N,) int32 array");
+    m.part.assign(parts.data(), parts.data() + parts.shape(0));
+  }
   std::string why;
   if (!m.IsValid(&why)) throw InvalidArgumentError(what + ": " + why);
   return m;
@@ -140,6 +145,13 @@ py::dict MeshToPython(const TriangleMesh& mesh) {
   d["positions"] = Vectors3fToArray(mesh.positions);
   d["triangles"] = triangles;
   d["normals"] = mesh.normals.empty() ? py::object(py::none()) : py::object(Vectors3fToArray(mesh.normals));
+  if (mesh.part.empty()) {
+    d["parts"] = py::none();
+  } else {
+    py::array_t<std::int32_t> parts(static_cast<py::ssize_t>(mesh.part.size()));
+    std::memcpy(parts.mutable_data(), mesh.part.data(), mesh.part.size() * sizeof(std::int32_t));
+    d["parts"] = parts;
+  }
   return d;
 }
 

@@ -87,7 +87,10 @@ py::dict SummaryToPython(const irm::RelightSummary& s) {
       "irm_summary"_a = s.irm_summary, "pixels_relit"_a = s.pixels_relit,
       "pixels_without_geometry"_a = s.pixels_without_geometry, "pixels_without_ratio"_a = s.pixels_without_ratio,
       "pixels_masked"_a = s.pixels_masked, "pixels_with_own_sun_rays"_a = s.pixels_with_own_sun_rays,
-      "pixels_with_own_sky_rays"_a = s.pixels_with_own_sky_rays, "overlap_vertex_rms_before"_a = s.overlap_rms_before,
+      "pixels_with_own_sky_rays"_a = s.pixels_with_own_sky_rays,
+      "pixels_with_own_indirect_rays"_a = s.pixels_with_own_indirect_rays, "indirect_rays"_a = s.indirect_rays,
+      "indirect_hit_share"_a = s.indirect_hit_share, "indirect_filled_source"_a = s.indirect_filled_source,
+      "indirect_filled_target"_a = s.indirect_filled_target, "overlap_vertex_rms_before"_a = s.overlap_rms_before,
       "overlap_vertex_rms_after"_a = s.overlap_rms_after, "preprocess_s"_a = s.preprocess_s, "build_s"_a = s.build_s,
       "relight_s"_a = s.relight_s);
 }
@@ -99,7 +102,7 @@ py::dict IrmRelight(const py::dict& mesh, const py::object& source_radiance, con
                     float min_source_radiance, const std::string& fill, bool model_correction,
                     bool single_map_without_shadow, float smoothing_sigma_rad, int sun_samples, int sky_samples,
                     bool sky_gradient, float sun_angular_radius_rad, bool penumbra, bool exact_shadow_edges,
-                    int threads) {
+                    bool indirect, int indirect_samples, int indirect_passes, int threads) {
   irm::RelightOptions options;
   options.irm.bins = bins;
   options.irm.lit_threshold = lit_threshold;
@@ -117,6 +120,9 @@ py::dict IrmRelight(const py::dict& mesh, const py::object& source_radiance, con
   options.sun_angular_radius_rad = sun_angular_radius_rad;
   options.use_penumbra_fractions = penumbra;
   options.exact_shadow_edges = exact_shadow_edges;
+  options.indirect = indirect;
+  options.indirect_samples = indirect_samples;
+  options.indirect_passes = indirect_passes;
   options.threads = threads;
   ThrowIfInvalid(options, "irm_relight");
 
@@ -180,7 +186,9 @@ Returns:
         py::arg_v("smoothing_sigma_rad", d.irm.smoothing_sigma_rad, Short(d.irm.smoothing_sigma_rad)),
         "sun_samples"_a = d.sun_samples, "sky_samples"_a = d.sky_samples, "sky_gradient"_a = d.sky_gradient,
         py::arg_v("sun_angular_radius_rad", d.sun_angular_radius_rad, Short(d.sun_angular_radius_rad)),
-        "penumbra"_a = d.use_penumbra_fractions, "exact_shadow_edges"_a = d.exact_shadow_edges, "threads"_a = d.threads,
+        "penumbra"_a = d.use_penumbra_fractions, "exact_shadow_edges"_a = d.exact_shadow_edges,
+        "indirect"_a = d.indirect, "indirect_samples"_a = d.indirect_samples, "indirect_passes"_a = d.indirect_passes,
+        "threads"_a = d.threads,
         R"doc(Relights a photograph to another's light with irradiance ratio maps (Troccoli & Allen).
 
 The library's RelightImage (processing/irm/relight.h): per-vertex visibility and sun
@@ -191,8 +199,10 @@ fractions (its camera ray cast into the mesh). The same computation as
 
 Args:
     mesh: dict {'positions' (N, 3) float32 metres, 'triangles' (M, 3) int32, 'normals'
-        (N, 3) float32 unit per vertex or None (then area-weighted from the triangles)}, in the
-        frame of the cameras and sun directions (ENU at the site: Session.scene_mesh).
+        (N, 3) float32 unit per vertex or None (then area-weighted from the triangles),
+        optionally 'parts' (N,) int32, the object each vertex belongs to (for the reflectance
+        of surfaces no photograph shows) or None}, in the frame of the cameras and sun
+        directions (ENU at the site: Session.scene_mesh).
     source_radiance, target_radiance: linear radiance, float32 HxWx3 (RGB), each of its
         camera's size (merge_hdr; relative units are fine, ratios are per channel).
     source_camera, target_camera: dicts {'width', 'height', 'fx', 'fy', 'cx', 'cy' (pixels),
@@ -216,7 +226,13 @@ Args:
     sky_gradient: measure the sky's brightness against elevation in each photograph.
     sun_angular_radius_rad: the sun's angular radius (radians).
     penumbra: fractional sun visibility (False: the paper's 0/1 bits).
-    exact_shadow_edges: pixels on triangles a shadow edge crosses cast their own sun rays.
+    exact_shadow_edges: pixels on triangles a shadow edge crosses cast their own sun rays (and
+        their own sky-view and indirect-light rays where those change fast across a triangle).
+    indirect: gather each surface's light from the other surfaces out of the photographs
+        (interreflection, docs/irm.md) and fit it into the sun + sky model; kept only when it
+        explains the samples better than the model without it.
+    indirect_samples: cosine-weighted rays per vertex for it.
+    indirect_passes: refinements of the radiance of surfaces no photograph shows.
     threads: worker threads, 0 = the CPUs this process may use (no effect on the results).
 
 Returns:

@@ -83,7 +83,8 @@ def irm_relight(mesh: dict[str, Any], source_radiance: _F32, target_radiance: _F
                 min_source_radiance: float = 1e-06, fill: str = 'sun_sky_model', model_correction: bool = True,
                 single_map_without_shadow: bool = True, smoothing_sigma_rad: float = 0.2, sun_samples: int = 16,
                 sky_samples: int = 144, sky_gradient: bool = True, sun_angular_radius_rad: float = 0.0046513,
-                penumbra: bool = True, exact_shadow_edges: bool = True, threads: int = 0) -> dict[str, Any]: ...
+                penumbra: bool = True, exact_shadow_edges: bool = True, indirect: bool = True,
+                indirect_samples: int = 64, indirect_passes: int = 2, threads: int = 0) -> dict[str, Any]: ...
 
 # Depth and normals
 def bilateral_filter_depth(depth_m: _F32, *, radius_px: int = 1, spatial_sigma_px: float = 1.0,

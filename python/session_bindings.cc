@@ -301,7 +301,8 @@ relume.InvalidArgumentError when the session has no scene model or the model no 
 Every triangle split so that no edge exceeds spacing_m (metres; the irm pipeline's
 mesh_spacing_m knob) with its own vertices and flat normal; spheres tessellated with
 sphere_segments around the equator. Returns dict {'positions' (N, 3) float32 metres in ENU at
-the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit}, what irm_relight takes.
+the site, 'triangles' (M, 3) int32, 'normals' (N, 3) float32 unit, 'parts' (N,) int32: the
+scene model's object of each vertex}, what irm_relight takes.
 Raises relume.InvalidArgumentError when the session has no scene model.)doc")
       .def("linear_radiance", &Session::LinearRadiance, "frames"_a, py::kw_only(), "use_calibrations"_a = true,
            "merge_black_margin"_a = calibration::HdrMergeOptions{}.black_margin,

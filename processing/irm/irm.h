@@ -33,6 +33,16 @@
 //    sky term v becomes v + g_s m in the source and v + g_t m in the target, m the surface's
 //    zenith moment (SkyViewMoments: (1/pi) times the integral of w_z max(0, n . w) over the
 //    same unblocked directions). g = 0, or m unknown (NaN), is the uniform sky above.
+//  - Light reflected by the other surfaces (interreflection, indirect.h): each sample may carry
+//    I_s and I_t, the irradiance its neighbours send it in each photograph, gathered from the
+//    radiance the photographs show (so in the photographs' units, not the model's). The model
+//    then reads
+//      E_source = S_s f_s max(0, n . sun_s) + (v + g_s m) + q I_s
+//      E_target = S_t f_t max(0, n . sun_t) + K_t (v + g_t m) + q I_t
+//    with q per channel, the photographs' units in the model's (K_s = 1), fitted with the rest:
+//    the ratio's equation stays linear in (S_s, S_t, K_t, q). Without indirect light q = 0 and
+//    the model is the one above (issue 26: on a courtyard rendered with 4 bounces the ground in
+//    a wall's shadow gets a third of its light from the sunlit walls).
 //  - Empty bins can instead be filled by a Gaussian kernel over the sphere (Beauchesne & Roy).
 #pragma once
 
@@ -81,6 +91,10 @@ struct Sample {
   float target_sun = 1.0f;
   float sky_view = std::numeric_limits<float>::quiet_NaN();    // v (top of this file); NaN: unknown
   float sky_moment = std::numeric_limits<float>::quiet_NaN();  // m (top of this file); NaN: unknown
+  // I_s, I_t (top of this file): irradiance from the other surfaces in each photograph, in the
+  // photographs' radiance units times pi. Zero: none, or not gathered.
+  Eigen::Vector3f source_indirect = Eigen::Vector3f::Zero();
+  Eigen::Vector3f target_indirect = Eigen::Vector3f::Zero();
 };
 
 Eigen::Vector2f OctahedralFromDirection(const Eigen::Vector3f& n);  // unit vector -> [0, 1]^2
@@ -122,14 +136,34 @@ struct SunSkyModel {
   // fit, not fitted.
   Eigen::Vector3f sky_gradient_source = Eigen::Vector3f::Zero();
   Eigen::Vector3f sky_gradient_target = Eigen::Vector3f::Zero();
+  // q (top of this file): indirect irradiance in the photographs' units to the model's. Zero
+  // when the samples carried none or the fit could not separate it (then `indirect_reason`).
+  Eigen::Vector3f indirect_scale = Eigen::Vector3f::Zero();
+  std::string indirect_reason;
   double rms_relative_residual = 0.0;  // of the fitted ratios
+  double rms_ratio_error = 0.0;        // the model's ratio against the rows', relative (any kind of fit)
   double condition_number = 0.0;       // of the weighted least-squares system (worst channel)
   std::string reason;                  // why invalid, when it is
   // `sky_view` NaN: the open-plane value (1 + n_z) / 2; `sky_moment` NaN (or sky_view NaN):
-  // the sky taken as uniform.
+  // the sky taken as uniform. `indirect_*`: I_s and I_t (Sample); zero: none.
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
                         float sky_view = std::numeric_limits<float>::quiet_NaN(),
-                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const;
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN(),
+                        const Eigen::Vector3f& indirect_source = Eigen::Vector3f::Zero(),
+                        const Eigen::Vector3f& indirect_target = Eigen::Vector3f::Zero()) const;
+  // The model's irradiance of each photograph (its units: K_s = 1) for the same arguments,
+  // per channel; the indirect term alone in *indirect_source / *indirect_target when given.
+  void Irradiance(const Eigen::Vector3f& normal, float source_sun, float target_sun, float sky_view, float sky_moment,
+                  const Eigen::Vector3f& indirect_source, const Eigen::Vector3f& indirect_target,
+                  Eigen::Vector3f* source, Eigen::Vector3f* target) const;
+};
+
+// How much of the light the samples receive comes from the other surfaces, by the fitted model:
+// the mean of q I / E per region of each photograph (lit: the sun's disk fully visible and the
+// surface facing it; shadow: cast or attached shadow), over the samples used.
+struct IndirectShare {
+  double source_lit = 0.0, source_shadow = 0.0, target_lit = 0.0, target_shadow = 0.0;
+  int source_lit_samples = 0, source_shadow_samples = 0, target_lit_samples = 0, target_shadow_samples = 0;
 };
 
 struct IrmSet {
@@ -143,13 +177,23 @@ struct IrmSet {
   float lit_threshold = 0.99f;  // copied from the options that built the set
   float shadow_threshold = 0.01f;
   bool model_correction = true;
+  // Interreflection (indirect.h): I_s and I_t per mesh vertex (photograph units, Sample), what
+  // a relit pixel interpolates; empty when not gathered. The share of each region's light that
+  // is indirect, by the model.
+  std::vector<Eigen::Vector3f> vertex_indirect_source, vertex_indirect_target;
+  // The per-vertex radiance the indirect light was gathered from (each photograph's, the
+  // model's where it does not see a vertex): what a pixel's own gather reads (relight.h).
+  std::vector<Eigen::Vector3f> vertex_radiance_source, vertex_radiance_target;
+  IndirectShare indirect_share;
   // The ratio for a normal, the two sun fractions (penumbrae interpolate exactly between maps)
   // and the surface's sky view (with model_correction, a bin's ratio is carried from its
-  // samples' mean sky view to this one; NaN: unknown) and zenith moment (NaN: a uniform sky).
-  // NaN when nothing covers that normal.
+  // samples' mean sky view to this one; NaN: unknown), zenith moment (NaN: a uniform sky) and
+  // indirect irradiance (zero: none). NaN when nothing covers that normal.
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
                         float sky_view = std::numeric_limits<float>::quiet_NaN(),
-                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const;
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN(),
+                        const Eigen::Vector3f& indirect_source = Eigen::Vector3f::Zero(),
+                        const Eigen::Vector3f& indirect_target = Eigen::Vector3f::Zero()) const;
 };
 
 // IrmSet::Ratio for many lookups (every pixel of a photograph). What depends on a bin only is
@@ -182,11 +226,15 @@ class RatioTable {
   };
   NormalTerms Prepare(const Eigen::Vector3f& normal) const;
   Eigen::Vector3f Ratio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view,
-                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const;
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN(),
+                        const Eigen::Vector3f& indirect_source = Eigen::Vector3f::Zero(),
+                        const Eigen::Vector3f& indirect_target = Eigen::Vector3f::Zero()) const;
   Eigen::Vector3f Ratio(const Eigen::Vector3f& normal, float source_sun, float target_sun,
                         float sky_view = std::numeric_limits<float>::quiet_NaN(),
-                        float sky_moment = std::numeric_limits<float>::quiet_NaN()) const {
-    return Ratio(Prepare(normal), source_sun, target_sun, sky_view, sky_moment);
+                        float sky_moment = std::numeric_limits<float>::quiet_NaN(),
+                        const Eigen::Vector3f& indirect_source = Eigen::Vector3f::Zero(),
+                        const Eigen::Vector3f& indirect_target = Eigen::Vector3f::Zero()) const {
+    return Ratio(Prepare(normal), source_sun, target_sun, sky_view, sky_moment, indirect_source, indirect_target);
   }
 
  private:
@@ -200,7 +248,8 @@ class RatioTable {
   // SunSkyModel::Ratio from the normal's terms, the three channels in one vector division
   // (the fourth lane is meaningless).
   Eigen::Array4f ModelRatio(const NormalTerms& terms, float source_sun, float target_sun, float sky_view,
-                            float sky_moment) const;
+                            float sky_moment, const Eigen::Array4f& indirect_source,
+                            const Eigen::Array4f& indirect_target) const;
 
   const IrmSet* set_;
   int bins_ = 0;
@@ -209,14 +258,21 @@ class RatioTable {
   // The model's coefficients per channel, a fourth lane of zeros for the vector arithmetic.
   Eigen::Array4f sky_gradient_source_ = Eigen::Array4f::Zero(), sky_gradient_target_ = Eigen::Array4f::Zero();
   Eigen::Array4f sun_source_ = Eigen::Array4f::Zero(), sun_target_ = Eigen::Array4f::Zero(),
-                 sky_target_ = Eigen::Array4f::Zero();
+                 sky_target_ = Eigen::Array4f::Zero(), indirect_scale_ = Eigen::Array4f::Zero();
 };
 
 // `sky_gradient_*`: the sky's shape g in each photograph (sky_shape.h; zero: uniform), used
-// with the samples' zenith moments.
+// with the samples' zenith moments. Samples with indirect light (Sample::source_indirect,
+// target_indirect) fit the model with it, to the samples: `*_sky_radiance` are the photographs'
+// sky radiances at the horizon (SkyShape::horizon, each photograph's units; zero: not
+// measured). With both, K_t = a_t / a_s is known and q fitted (q = 1 / (pi a_s), what the units
+// predict, when that fit fails); without, K_t and q are fitted. Without a valid fit the model is
+// fitted without indirect light and SunSkyModel::indirect_reason says why.
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,
                  const Eigen::Vector3f& sun_dir_target, const IrmOptions& options,
                  const Eigen::Vector3f& sky_gradient_source = Eigen::Vector3f::Zero(),
-                 const Eigen::Vector3f& sky_gradient_target = Eigen::Vector3f::Zero());
+                 const Eigen::Vector3f& sky_gradient_target = Eigen::Vector3f::Zero(),
+                 const Eigen::Vector3f& source_sky_radiance = Eigen::Vector3f::Zero(),
+                 const Eigen::Vector3f& target_sky_radiance = Eigen::Vector3f::Zero());
 
 }  // namespace relume::irm

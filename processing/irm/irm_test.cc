@@ -139,6 +139,87 @@ TEST(IrmTest, MapsAndModelRecoverTheTruth) {
   }
 }
 
+// Interreflection (top of irm.h): samples lit by sun, sky and their neighbours, in the
+// photographs' own units (sky radiance a_s, a_t at the horizon, measured in the photographs).
+// With both skies known the model's unit is pi a_s: K_t = a_t / a_s and q = 1 / (pi a_s) follow,
+// and the suns fitted alone make every sample's ratio exact. Without the indirect term the same
+// samples are far off; and samples that carry gathered light the photographs do not show
+// (a renderer without interreflection) keep the model without it.
+TEST(IrmTest, IndirectLightIsFittedInTheUnitsOfTheSky) {
+  const float pi = 3.14159265f;
+  const Eigen::Vector3f sun_s = Eigen::Vector3f(0.3f, -0.8f, 0.52f).normalized();
+  const Eigen::Vector3f sun_t = Eigen::Vector3f(-0.6f, 0.2f, 0.77f).normalized();
+  const Eigen::Vector3f e_sun_s(900, 850, 800), e_sun_t(1000, 980, 950);  // W m^-2
+  const Eigen::Vector3f a_s(30, 35, 45), a_t(24, 30, 42);                 // sky radiance, W m^-2 sr^-1
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::uniform_int_distribution<int> state(0, 3);
+  std::vector<Sample> samples;
+  for (int i = 0; i < 20000; ++i) {
+    Sample s;
+    s.normal = RandomDirection(rng);
+    if (s.normal.z() < -0.5f) continue;
+    const int st = state(rng);
+    s.source_sun = (st == 0 || st == 2) ? 1.0f : 0.0f;
+    s.target_sun = (st == 0 || st == 3) ? 1.0f : 0.0f;
+    s.sky_view = 0.5f * (1.0f + s.normal.z()) * (0.5f + 0.5f * unit(rng));
+    // What the neighbours send, independently in each photograph (they are lit differently).
+    s.source_indirect = Eigen::Vector3f::Constant(150.0f * unit(rng)).cwiseProduct(Eigen::Vector3f(1.0f, 0.9f, 0.8f));
+    s.target_indirect = Eigen::Vector3f::Constant(150.0f * unit(rng)).cwiseProduct(Eigen::Vector3f(1.0f, 0.9f, 0.8f));
+    const float rho = 0.1f + 0.7f * unit(rng);
+    const float cos_s = std::max(0.0f, s.normal.dot(sun_s)), cos_t = std::max(0.0f, s.normal.dot(sun_t));
+    s.source_rgb = rho / pi * (e_sun_s * s.source_sun * cos_s + pi * a_s * s.sky_view + s.source_indirect);
+    s.target_rgb = rho / pi * (e_sun_t * s.target_sun * cos_t + pi * a_t * s.sky_view + s.target_indirect);
+    samples.push_back(s);
+  }
+  const IrmSet set =
+      BuildIrms(samples, sun_s, sun_t, IrmOptions{}, Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), a_s, a_t);
+  ASSERT_TRUE(set.model.valid) << set.model.reason;
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(set.model.indirect_scale[c], 1.0f / (pi * a_s[c]), 1e-6f);
+    EXPECT_NEAR(set.model.sky_target[c], a_t[c] / a_s[c], 1e-6f);
+    EXPECT_NEAR(set.model.sun_source[c], e_sun_s[c] / (pi * a_s[c]), 1e-3f * e_sun_s[c] / (pi * a_s[c]));
+    EXPECT_NEAR(set.model.sun_target[c], e_sun_t[c] / (pi * a_s[c]), 1e-3f * e_sun_t[c] / (pi * a_s[c]));
+  }
+  EXPECT_LT(set.model.rms_ratio_error, 1e-4);
+  EXPECT_GT(set.indirect_share.source_shadow, set.indirect_share.source_lit);
+  EXPECT_NE(set.summary.find("indirect light (share"), std::string::npos) << set.summary;
+  double worst = 0.0;
+  for (int i = 0; i < 500; ++i) {
+    const Sample& s = samples[static_cast<std::size_t>(i)];
+    const Eigen::Vector3f expected = s.target_rgb.cwiseQuotient(s.source_rgb);
+    const Eigen::Vector3f got =
+        set.Ratio(s.normal, s.source_sun, s.target_sun, s.sky_view, s.sky_moment, s.source_indirect, s.target_indirect);
+    worst = std::max(worst, static_cast<double>((got - expected).cwiseQuotient(expected).cwiseAbs().maxCoeff()));
+  }
+  EXPECT_LT(worst, 1e-3);
+
+  // The same photographs read without the neighbours' light: the model cannot hold them.
+  std::vector<Sample> blind = samples;
+  for (Sample& s : blind) s.source_indirect = s.target_indirect = Eigen::Vector3f::Zero();
+  const IrmSet without =
+      BuildIrms(blind, sun_s, sun_t, IrmOptions{}, Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), a_s, a_t);
+  ASSERT_TRUE(without.model.valid);
+  EXPECT_GT(without.model.rms_ratio_error, 0.05);
+
+  // Photographs without interreflection, but light gathered from them all the same (a renderer
+  // that stops at the first bounce): the indirect term does not explain them, and is left out.
+  std::vector<Sample> direct = samples;
+  for (Sample& s : direct) {
+    const float rho = 0.5f;
+    const float cos_s = std::max(0.0f, s.normal.dot(sun_s)), cos_t = std::max(0.0f, s.normal.dot(sun_t));
+    s.source_rgb = rho / pi * (e_sun_s * s.source_sun * cos_s + pi * a_s * s.sky_view);
+    s.target_rgb = rho / pi * (e_sun_t * s.target_sun * cos_t + pi * a_t * s.sky_view);
+  }
+  const IrmSet no_bounce =
+      BuildIrms(direct, sun_s, sun_t, IrmOptions{}, Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), a_s, a_t);
+  ASSERT_TRUE(no_bounce.model.valid);
+  EXPECT_EQ(no_bounce.model.indirect_scale, Eigen::Vector3f::Zero());
+  EXPECT_NE(no_bounce.model.indirect_reason.find("fit better without it"), std::string::npos)
+      << no_bounce.model.indirect_reason;
+  EXPECT_LT(no_bounce.model.rms_ratio_error, 1e-3);
+}
+
 TEST(IrmTest, AGradientSkyIsFollowedThroughEachSurfacesZenithMoment) {
   const Truth truth;
   const Eigen::Vector3f g_s(-0.47f, -0.32f, -0.05f), g_t(-0.30f, -0.20f, 0.10f);

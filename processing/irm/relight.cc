@@ -5,9 +5,11 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <unordered_map>
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "processing/irm/indirect.h"
 
 namespace relume::irm {
 
@@ -115,6 +117,14 @@ bool RelightOptions::IsValid(std::string* why) const {
   }
   if (sky_samples < 0 || sky_samples > 65536) {
     if (why) *why = "sky_samples must be within 0..65536 (0: no sky view)";
+    return false;
+  }
+  if (indirect_samples < 1 || indirect_samples > 65536) {
+    if (why) *why = "indirect_samples must be within 1..65536";
+    return false;
+  }
+  if (indirect_passes < 1 || indirect_passes > 16) {
+    if (why) *why = "indirect_passes must be within 1..16";
     return false;
   }
   if (threads < 0 || threads > 256) {
@@ -252,6 +262,195 @@ ViewGeometry ComputeViewGeometry(const RayCaster& caster, const View& view, cons
   return geometry;
 }
 
+namespace {
+
+// What a photograph shows at the vertices it sees, read as the IRM samples are
+// (ConsistentSample: only where the four pixels mixed see the vertex's own surface in its sun
+// state); NaN elsewhere: where it does not see the vertex, the pixel is masked, or the vertex
+// lies on a crease, occlusion or shadow edge, whose mixed pixels would lend it the light of the
+// surface beside it (a strip of shadow at a wall's foot, a few pixels at a grazing view, read
+// as lit ground: the wall's light from it overestimated by half on the simulated building).
+// `known`: the vertices already read (their values in `out`).
+void ObservedVertexRadiance(const RayCaster& caster, const View& view, const ViewGeometry& geometry,
+                            const RelightOptions& options, const std::vector<std::uint8_t>& known,
+                            std::vector<Eigen::Vector3f>* out) {
+  const TriangleMesh& mesh = caster.mesh();
+  const Eigen::Isometry3d camera_from_world = view.camera.world_from_camera.inverse();
+  const std::vector<Eigen::Vector3f> disk =
+      SunDiskDirections(view.sun_dir, options.sun_angular_radius_rad, options.sun_samples);
+  ParallelForEach(
+      0, static_cast<std::int64_t>(mesh.vertex_count()),
+      [&](std::int64_t k) {
+        const auto i = static_cast<std::size_t>(k);
+        if (known[i] || !geometry.visible[i]) return;
+        Eigen::Vector3f rgb;
+        if (ConsistentSample(caster, view, camera_from_world, disk, i, geometry.sun_fraction[i], options, &rgb) &&
+            rgb.minCoeff() >= 0.0f) {
+          (*out)[i] = rgb;
+        }
+      },
+      options.threads, 256);
+}
+
+// Per-vertex inputs of the model's irradiance for the vertices the gather reads: sun fractions
+// (the views' where they have one, else one ray to the sun's centre), the source's sky views
+// and moments (NaN: the open plane).
+struct VertexLight {
+  std::vector<float> source_sun, target_sun, sky_view, sky_moment;
+};
+
+VertexLight VertexLightFor(const RayCaster& caster, const View& source, const View& target,
+                           const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
+                           const std::vector<std::uint8_t>& use, int threads) {
+  const TriangleMesh& mesh = caster.mesh();
+  const std::size_t n = mesh.vertex_count();
+  VertexLight light;
+  light.source_sun.assign(n, std::nanf(""));
+  light.target_sun.assign(n, std::nanf(""));
+  light.sky_view.assign(n, std::nanf(""));
+  light.sky_moment.assign(n, std::nanf(""));
+  const std::vector<Eigen::Vector3f> source_centre{source.sun_dir.normalized()};
+  const std::vector<Eigen::Vector3f> target_centre{target.sun_dir.normalized()};
+  ParallelForEach(
+      0, static_cast<std::int64_t>(n),
+      [&](std::int64_t i) {
+        const auto k = static_cast<std::size_t>(i);
+        if (!use[k]) return;
+        const Eigen::Vector3f normal = mesh.normals[k].normalized();
+        auto fraction = [&](float given, const std::vector<Eigen::Vector3f>& centre) {
+          if (std::isfinite(given)) return given;
+          return SunFractionAt(caster, mesh.positions[k], normal, centre[0], centre);
+        };
+        light.source_sun[k] = fraction(source_geometry.sun_fraction[k], source_centre);
+        light.target_sun[k] = fraction(target_geometry.sun_fraction[k], target_centre);
+        if (!source_geometry.sky_view.empty()) light.sky_view[k] = source_geometry.sky_view[k];
+        if (!source_geometry.sky_moment.empty()) light.sky_moment[k] = source_geometry.sky_moment[k];
+      },
+      threads, 256);
+  return light;
+}
+
+// The radiance of every vertex the gather reads, in each photograph: what the photograph shows
+// where it sees the vertex, else the vertex's albedo (in the photographs' units per model unit:
+// from the other photograph where that one sees it, else the median of the seen vertices')
+// times the model's irradiance there, indirect light included.
+void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const VertexLight& light,
+                  const std::vector<std::uint8_t>& use, const std::vector<Eigen::Vector3f>& observed_source,
+                  const std::vector<Eigen::Vector3f>& observed_target,
+                  const std::vector<Eigen::Vector3f>& indirect_source,
+                  const std::vector<Eigen::Vector3f>& indirect_target, std::vector<Eigen::Vector3f>* radiance_source,
+                  std::vector<Eigen::Vector3f>* radiance_target, int* filled_source, int* filled_target) {
+  const std::size_t n = mesh.vertex_count();
+  std::vector<Eigen::Vector3f> e_source(n), e_target(n);
+  std::array<std::vector<float>, 3> albedos;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    model.Irradiance(mesh.normals[i].normalized(), light.source_sun[i], light.target_sun[i], light.sky_view[i],
+                     light.sky_moment[i], indirect_source[i], indirect_target[i], &e_source[i], &e_target[i]);
+    if (observed_source[i].allFinite() && e_source[i].minCoeff() > 0.05f) {
+      const Eigen::Vector3f albedo = observed_source[i].cwiseQuotient(e_source[i]);
+      for (int c = 0; c < 3; ++c) albedos[static_cast<std::size_t>(c)].push_back(albedo[c]);
+    }
+  }
+  Eigen::Vector3f median = Eigen::Vector3f::Zero();
+  for (int c = 0; c < 3; ++c) {
+    std::vector<float>& v = albedos[static_cast<std::size_t>(c)];
+    if (v.empty()) continue;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    median[c] = v[v.size() / 2];
+  }
+  // Each seen vertex's albedo. An unseen one takes the albedo of the nearest seen vertex of its
+  // own part (TriangleMesh::part: an object of the scene model) within kReach_m, one facing the
+  // same way first; else its part's median (a building's hidden back from its visible faces, the
+  // ground behind it from the ground around); without parts, the nearest seen vertex within
+  // kReach_m (facing the same way first); else the median of all.
+  constexpr float kCell_m = 1.0f, kReach_m = 3.0f;
+  const bool parts = mesh.part.size() == n;
+  auto part_of = [&](std::size_t i) { return parts ? mesh.part[i] : 0; };
+  std::vector<Eigen::Vector3f> albedo(n, Eigen::Vector3f::Constant(std::nanf("")));
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
+  std::unordered_map<int, std::array<std::vector<float>, 3>> part_albedos;
+  auto cell_of = [&](const Eigen::Vector3f& p) {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / kCell_m)), static_cast<int>(std::floor(p.y() / kCell_m)),
+                           static_cast<int>(std::floor(p.z() / kCell_m)));
+  };
+  auto key_of = [](const Eigen::Vector3i& c) {
+    return (static_cast<std::int64_t>(c.x() & 0x1fffff) << 42) | (static_cast<std::int64_t>(c.y() & 0x1fffff) << 21) |
+           static_cast<std::int64_t>(c.z() & 0x1fffff);
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    if (observed_source[i].allFinite() && e_source[i].minCoeff() > 0.05f) {
+      albedo[i] = observed_source[i].cwiseQuotient(e_source[i]);
+    } else if (observed_target[i].allFinite() && e_target[i].minCoeff() > 0.05f) {
+      albedo[i] = observed_target[i].cwiseQuotient(e_target[i]);
+    }
+    if (!albedo[i].allFinite()) continue;
+    grid[key_of(cell_of(mesh.positions[i]))].push_back(static_cast<std::uint32_t>(i));
+    auto& channels = part_albedos[part_of(i)];
+    for (int c = 0; c < 3; ++c) channels[static_cast<std::size_t>(c)].push_back(albedo[i][c]);
+  }
+  std::unordered_map<int, Eigen::Vector3f> part_median;
+  for (auto& [part, channels] : part_albedos) {
+    Eigen::Vector3f m;
+    for (int c = 0; c < 3; ++c) {
+      std::vector<float>& v = channels[static_cast<std::size_t>(c)];
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      m[c] = v[v.size() / 2];
+    }
+    part_median[part] = m;
+  }
+  auto nearest_albedo = [&](std::size_t i) -> Eigen::Vector3f {
+    const Eigen::Vector3f& p = mesh.positions[i];
+    const Eigen::Vector3f normal = mesh.normals[i].normalized();
+    const int part = part_of(i);
+    const Eigen::Vector3i centre = cell_of(p);
+    float best_same = kReach_m * kReach_m, best_any = kReach_m * kReach_m;
+    std::int64_t same = -1, any = -1;
+    const int shells = static_cast<int>(std::ceil(kReach_m / kCell_m));
+    for (int dz = -shells; dz <= shells; ++dz) {
+      for (int dy = -shells; dy <= shells; ++dy) {
+        for (int dx = -shells; dx <= shells; ++dx) {
+          const auto it = grid.find(key_of(centre + Eigen::Vector3i(dx, dy, dz)));
+          if (it == grid.end()) continue;
+          for (const std::uint32_t j : it->second) {
+            if (part_of(j) != part) continue;
+            const float d2 = (mesh.positions[j] - p).squaredNorm();
+            if (d2 < best_any) best_any = d2, any = j;
+            if (d2 < best_same && mesh.normals[j].dot(normal) > 0.9f) best_same = d2, same = j;
+          }
+        }
+      }
+    }
+    if (same >= 0) return albedo[static_cast<std::size_t>(same)];
+    if (parts) {
+      const auto it = part_median.find(part);
+      if (it != part_median.end()) return it->second;
+    }
+    if (any >= 0) return albedo[static_cast<std::size_t>(any)];
+    return median;
+  };
+  radiance_source->assign(n, Eigen::Vector3f::Zero());
+  radiance_target->assign(n, Eigen::Vector3f::Zero());
+  *filled_source = *filled_target = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    const bool seen_source = observed_source[i].allFinite(), seen_target = observed_target[i].allFinite();
+    if (seen_source && seen_target) {
+      (*radiance_source)[i] = observed_source[i];
+      (*radiance_target)[i] = observed_target[i];
+      continue;
+    }
+    const Eigen::Vector3f rho = albedo[i].allFinite() ? albedo[i] : nearest_albedo(i);
+    (*radiance_source)[i] = seen_source ? observed_source[i] : rho.cwiseProduct(e_source[i].cwiseMax(0.0f));
+    (*radiance_target)[i] = seen_target ? observed_target[i] : rho.cwiseProduct(e_target[i].cwiseMax(0.0f));
+    *filled_source += !seen_source;
+    *filled_target += !seen_target;
+  }
+}
+
+}  // namespace
+
 IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const View& target,
                           const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
                           const RelightOptions& options, RelightSummary* summary) {
@@ -289,19 +488,98 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
       },
       options.threads);
   std::vector<Sample> samples;
+  std::vector<std::size_t> sample_vertex;
   for (std::size_t k = 0; k < both.size(); ++k) {
-    if (keep[k]) samples.push_back(candidates[k]);
+    if (keep[k]) {
+      samples.push_back(candidates[k]);
+      sample_vertex.push_back(both[k]);
+    }
   }
   summary->consistent_samples = static_cast<int>(samples.size());
   // Each photograph's sky shape (zero, a uniform sky, where it was not measured).
   IrmSet irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm,
                           source_geometry.sky_shape.gradient, target_geometry.sky_shape.gradient);
+  if (options.indirect && irms.model.valid) {
+    // Interreflection: each vertex's light from the other surfaces, gathered from what the
+    // photographs show (indirect.h), then the model refitted with it; the radiance of surfaces
+    // a photograph does not show comes from the model, so each pass refines it.
+    const auto indirect_start = std::chrono::steady_clock::now();
+    const std::size_t n = mesh.vertex_count();
+    // The vertices a source pixel interpolates from (near the source view) and the samples'.
+    std::vector<std::uint8_t> needed(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      needed[i] = std::isfinite(source_geometry.sun_fraction[i]) || target_geometry.visible[i];
+    }
+    const IndirectGather gather = IndirectGather::Build(caster, options.indirect_samples, &needed, options.threads);
+    std::vector<std::uint8_t> use = gather.referenced();
+    for (std::size_t i = 0; i < n; ++i) use[i] = use[i] || needed[i];
+    const VertexLight light =
+        VertexLightFor(caster, source, target, source_geometry, target_geometry, use, options.threads);
+    // The samples' readings where both photographs see a vertex; the others read alike.
+    std::vector<Eigen::Vector3f> observed_source(n, Eigen::Vector3f::Constant(std::nanf(""))),
+        observed_target = observed_source;
+    std::vector<std::uint8_t> known(n, 0);
+    for (std::size_t k = 0; k < both.size(); ++k) {
+      known[both[k]] = 1;
+      if (!keep[k]) continue;
+      observed_source[both[k]] = candidates[k].source_rgb;
+      observed_target[both[k]] = candidates[k].target_rgb;
+    }
+    ObservedVertexRadiance(caster, source, source_geometry, options, known, &observed_source);
+    ObservedVertexRadiance(caster, target, target_geometry, options, known, &observed_target);
+    std::vector<Eigen::Vector3f> indirect_source(n, Eigen::Vector3f::Zero()), indirect_target = indirect_source;
+    std::vector<Eigen::Vector3f> radiance_source, radiance_target;
+    for (int pass = 0; pass < options.indirect_passes; ++pass) {
+      FillRadiance(mesh, irms.model, light, use, observed_source, observed_target, indirect_source, indirect_target,
+                   &radiance_source, &radiance_target, &summary->indirect_filled_source,
+                   &summary->indirect_filled_target);
+      std::vector<Eigen::Vector3f> next_source = gather.Apply(radiance_source);
+      std::vector<Eigen::Vector3f> next_target = gather.Apply(radiance_target);
+      for (std::size_t k = 0; k < samples.size(); ++k) {
+        samples[k].source_indirect = next_source[sample_vertex[k]];
+        samples[k].target_indirect = next_target[sample_vertex[k]];
+      }
+      IrmSet next = BuildIrms(
+          samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm,
+          source_geometry.sky_shape.gradient, target_geometry.sky_shape.gradient,
+          source_geometry.sky_shape.measured ? source_geometry.sky_shape.horizon : Eigen::Vector3f::Zero().eval(),
+          target_geometry.sky_shape.measured ? target_geometry.sky_shape.horizon : Eigen::Vector3f::Zero().eval());
+      const bool with_indirect = next.model.valid && (next.model.indirect_scale.array() > 0.0f).any();
+      if (!with_indirect) {
+        // The first pass: the set without indirect light, saying why (BuildIrms). A later one:
+        // the last set that fitted with it.
+        if (pass == 0 && next.model.valid) {
+          irms = std::move(next);
+        } else {
+          irms.summary += "; pass " + std::to_string(pass + 1) + " of the indirect light not used: " +
+                          (next.model.valid ? next.model.indirect_reason : next.model.reason);
+        }
+        break;
+      }
+      irms = std::move(next);
+      indirect_source = std::move(next_source);
+      indirect_target = std::move(next_target);
+      irms.vertex_indirect_source = indirect_source;
+      irms.vertex_indirect_target = indirect_target;
+      irms.vertex_radiance_source = radiance_source;
+      irms.vertex_radiance_target = radiance_target;
+    }
+    for (std::size_t k = 0; k < samples.size(); ++k) {  // as the set kept was fitted
+      const bool kept = !irms.vertex_indirect_source.empty();
+      samples[k].source_indirect = kept ? irms.vertex_indirect_source[sample_vertex[k]] : Eigen::Vector3f::Zero();
+      samples[k].target_indirect = kept ? irms.vertex_indirect_target[sample_vertex[k]] : Eigen::Vector3f::Zero();
+    }
+    summary->indirect_rays = gather.rays();
+    summary->indirect_hit_share = gather.hit_share();
+    summary->indirect_s = SecondsSince(indirect_start);
+  }
   summary->irm_summary = irms.summary;
   double before = 0.0, after = 0.0;
   int compared = 0;
   for (const Sample& s : samples) {
     if (!s.source_rgb.allFinite() || !s.target_rgb.allFinite() || s.target_rgb.minCoeff() <= 0.0f) continue;
-    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun, s.sky_view, s.sky_moment);
+    const Eigen::Vector3f ratio = irms.Ratio(s.normal, s.source_sun, s.target_sun, s.sky_view, s.sky_moment,
+                                             s.source_indirect, s.target_indirect);
     if (!ratio.allFinite()) continue;
     before += (s.source_rgb - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
     after += (s.source_rgb.cwiseProduct(ratio) - s.target_rgb).cwiseQuotient(s.target_rgb).squaredNorm() / 3.0;
@@ -327,6 +605,12 @@ struct PixelContext {
   const std::vector<float>& sun_target;
   const std::vector<float>& sky_view;    // the source's; empty without sky views
   const std::vector<float>& sky_moment;  // the source's zenith moments; empty without
+  // IrmSet::vertex_indirect_*: light from the other surfaces per vertex; empty without.
+  const std::vector<Eigen::Vector3f>& indirect_source;
+  const std::vector<Eigen::Vector3f>& indirect_target;
+  // IrmSet::vertex_radiance_*: what a pixel's own gather reads; empty without.
+  const std::vector<Eigen::Vector3f>& radiance_source;
+  const std::vector<Eigen::Vector3f>& radiance_target;
   const RelightOptions& options;
   Eigen::Vector3f source_sun_dir, target_sun_dir;  // normalised
   std::vector<Eigen::Vector3f> source_disk, target_disk;
@@ -334,8 +618,9 @@ struct PixelContext {
 };
 
 struct PixelCounts {
-  std::int64_t relit = 0, without_ratio = 0, masked = 0, own_sun_rays = 0, own_sky_rays = 0;
+  std::int64_t relit = 0, without_ratio = 0, masked = 0, own_sun_rays = 0, own_sky_rays = 0, own_indirect_rays = 0;
   PixelCounts& operator+=(const PixelCounts& o) {
+    own_indirect_rays += o.own_indirect_rays;
     relit += o.relit;
     without_ratio += o.without_ratio;
     masked += o.masked;
@@ -355,7 +640,8 @@ struct TriangleTerms {
   int triangle = -1;
   // The vertices' fractions and sky views (NaN without sky views), read once per triangle.
   std::array<float, 3> source_sun{}, target_sun{}, sky_view{}, sky_moment{};
-  bool own_source = false, own_target = false, own_sky = false;
+  std::array<Eigen::Vector3f, 3> indirect_source{}, indirect_target{};  // zero without
+  bool own_source = false, own_target = false, own_sky = false, own_indirect = false;
   bool flat = false;
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   const RatioTable::NormalTerms* ratio_terms = nullptr;  // flat: in the chunk's NormalTermsCache
@@ -419,6 +705,8 @@ void PrepareTriangle(const PixelContext& c, int triangle, NormalTermsCache& norm
     t.target_sun[k] = c.sun_target[vertex];
     t.sky_view[k] = c.sky_view.empty() ? std::numeric_limits<float>::quiet_NaN() : c.sky_view[vertex];
     t.sky_moment[k] = c.sky_moment.empty() ? std::numeric_limits<float>::quiet_NaN() : c.sky_moment[vertex];
+    t.indirect_source[k] = c.indirect_source.empty() ? Eigen::Vector3f::Zero() : c.indirect_source[vertex];
+    t.indirect_target[k] = c.indirect_target.empty() ? Eigen::Vector3f::Zero() : c.indirect_target[vertex];
   }
   // An interpolated value is NaN exactly when a vertex's is.
   if (AnyNaN(c.sun_source, tri) || AnyNaN(c.sun_target, tri)) {
@@ -429,6 +717,14 @@ void PrepareTriangle(const PixelContext& c, int triangle, NormalTermsCache& norm
   }
   t.own_sky = !c.sky_view.empty() && (AnyNaN(c.sky_view, tri) ||
                                       (c.options.exact_shadow_edges && SpreadAt(c.sky_view, tri) > kSkyViewEdgeSpread));
+  if (c.options.exact_shadow_edges && !c.radiance_source.empty()) {
+    auto spread = [&](const std::array<Eigen::Vector3f, 3>& v) {
+      const float a = v[0].sum(), b = v[1].sum(), d = v[2].sum();
+      const float largest = std::max({a, b, d});
+      return largest > 0.0f ? (largest - std::min({a, b, d})) / largest : 0.0f;
+    };
+    t.own_indirect = spread(t.indirect_source) > kIndirectEdgeSpread || spread(t.indirect_target) > kIndirectEdgeSpread;
+  }
   const Eigen::Vector3f& n0 = mesh.normals[static_cast<std::size_t>(tri[0])];
   t.flat = n0 == mesh.normals[static_cast<std::size_t>(tri[1])] && n0 == mesh.normals[static_cast<std::size_t>(tri[2])];
   if (t.flat) {
@@ -467,7 +763,16 @@ Eigen::Vector3f RatioAt(const PixelContext& c, const TriangleTerms& t, const Ray
     sky = InterpolateAt(t.sky_view, hit);
     if (!c.sky_moment.empty()) moment = InterpolateAt(t.sky_moment, hit);
   }
-  return t.flat ? c.ratios.Ratio(*t.ratio_terms, *fs, *ft, sky, moment) : c.ratios.Ratio(normal, *fs, *ft, sky, moment);
+  const float w0 = 1.0f - hit.u - hit.v;
+  Eigen::Vector3f i_s = t.indirect_source[0] * w0 + t.indirect_source[1] * hit.u + t.indirect_source[2] * hit.v;
+  Eigen::Vector3f i_t = t.indirect_target[0] * w0 + t.indirect_target[1] * hit.u + t.indirect_target[2] * hit.v;
+  if (t.own_indirect) {  // the light from the neighbours changes too fast across the triangle
+    IndirectAt(caster, caster.Interpolate(mesh.positions, hit), normal, c.options.indirect_samples, c.radiance_source,
+               c.radiance_target, &i_s, &i_t);
+    ++counts.own_indirect_rays;
+  }
+  return t.flat ? c.ratios.Ratio(*t.ratio_terms, *fs, *ft, sky, moment, i_s, i_t)
+                : c.ratios.Ratio(normal, *fs, *ft, sky, moment, i_s, i_t);
 }
 
 // One row of the source: every output pixel is written here (no image is filled beforehand).
@@ -523,6 +828,10 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
                target_geometry.sun_fraction.size() == mesh.vertex_count());
   RELUME_CHECK(source_geometry.sky_view.empty() || source_geometry.sky_view.size() == mesh.vertex_count());
   RELUME_CHECK(source_geometry.sky_moment.empty() || source_geometry.sky_moment.size() == mesh.vertex_count());
+  RELUME_CHECK(irms.vertex_indirect_source.empty() || (irms.vertex_indirect_source.size() == mesh.vertex_count() &&
+                                                       irms.vertex_indirect_target.size() == mesh.vertex_count()));
+  RELUME_CHECK(irms.vertex_radiance_source.empty() || (irms.vertex_radiance_source.size() == mesh.vertex_count() &&
+                                                       irms.vertex_radiance_target.size() == mesh.vertex_count()));
   const Eigen::Vector3f source_sun_dir = source.sun_dir.normalized(), target_sun_dir = target.sun_dir.normalized();
   const PixelContext context{caster,
                              source,
@@ -530,6 +839,10 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
                              target_geometry.sun_fraction,
                              source_geometry.sky_view,  // the source's pixels are relit
                              source_geometry.sky_moment,
+                             irms.vertex_indirect_source,
+                             irms.vertex_indirect_target,
+                             irms.vertex_radiance_source,
+                             irms.vertex_radiance_target,
                              options,
                              source_sun_dir,
                              target_sun_dir,
@@ -567,6 +880,7 @@ RelightResult RelightPixels(const RayCaster& caster, const View& source, const V
   summary.pixels_masked = total.masked;
   summary.pixels_with_own_sun_rays = total.own_sun_rays;
   summary.pixels_with_own_sky_rays = total.own_sky_rays;
+  summary.pixels_with_own_indirect_rays = total.own_indirect_rays;
   summary.pixels_without_geometry = static_cast<std::int64_t>(width) * height - summary.pixels_relit -
                                     summary.pixels_without_ratio - summary.pixels_masked;
   summary.relight_s = SecondsSince(start);

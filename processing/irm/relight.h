@@ -33,6 +33,12 @@ namespace relume::irm {
 // pixels' own sky-view rays (2026-12-02: on random outdoor scenes, bench/irm_suite.cc, such
 // triangles along walls' feet held 83-99 % of the shadow region's squared error).
 inline constexpr float kSkyViewEdgeSpread = 0.1f;
+// With exact_shadow_edges and indirect light, a triangle whose vertices' indirect irradiance
+// spans more than this share of its largest (in either photograph, the channels' sum) gathers
+// its pixels' own (the ground at a wall's foot: what the wall sends falls steeply with the
+// distance, and the vertices 0.5 m apart cannot carry it; 2026-12-03, the simulated building
+// rendered with 3 bounces held most of its shadow error in that strip).
+inline constexpr float kIndirectEdgeSpread = 0.25f;
 
 struct RelightOptions {
   IrmOptions irm;
@@ -53,6 +59,14 @@ struct RelightOptions {
   // vertex under a wall: ground that runs beneath a building sees no sky there, and its
   // triangle's visible part would get a fraction of its sky view).
   bool exact_shadow_edges = true;
+  // Interreflection (indirect.h, irm.h): gather each vertex's light from the other surfaces out
+  // of the photographs' radiance with `indirect_samples` cosine-weighted rays, fit it into the
+  // sun + sky model and carry it per pixel. `indirect_passes` refinements of the radiance of
+  // surfaces a photograph does not show (their albedo times the model's irradiance), each a
+  // gather and a refit.
+  bool indirect = true;
+  int indirect_samples = 64;
+  int indirect_passes = 2;
   int threads = 0;  // 0: core/parallel.h's DefaultThreads() (RELUME_THREADS, a Slurm task's share, the CPUs)
   bool IsValid(std::string* why) const;
 };
@@ -83,6 +97,13 @@ struct RelightSummary {
   // cost beyond the camera rays when there are many.
   std::int64_t pixels_with_own_sun_rays = 0;
   std::int64_t pixels_with_own_sky_rays = 0;
+  std::int64_t pixels_with_own_indirect_rays = 0;  // kIndirectEdgeSpread
+  // Interreflection (RelightOptions::indirect): rays cast, the share that met a surface, and
+  // vertices whose radiance in a photograph was filled by the model (not seen in it).
+  std::int64_t indirect_rays = 0;
+  double indirect_hit_share = 0.0;
+  int indirect_filled_source = 0, indirect_filled_target = 0;
+  double indirect_s = 0.0;
   double overlap_rms_before = 0.0;  // relative RMS target vs source at vertices seen in both
   double overlap_rms_after = 0.0;   // ... vs relit source
   double preprocess_s = 0.0;

@@ -41,9 +41,10 @@ TEST(BlenderDatasetTest, AnImportedCyclesCourtyardIsRelitAgainstBlendersOwnRende
   const nlohmann::json& floor = truth["source_photograph"];
   EXPECT_GT(relit["lit_pixels"].get<int>(), 10000) << relit.dump(2);
   EXPECT_GT(relit["shadow_pixels"].get<int>(), 2000) << relit.dump(2);
-  // Measured 2026-12-03 (Blender 3.4.1, 64 samples, direct light only): relit lit 3.3 %, shadow
-  // 5.3 %; not relit 44 % and 139 %. The floor is the linearised source photograph itself (8-bit
-  // JPEGs, the response recovered from the bracket): 1.6 % and 4.6 % off Blender's linear render.
+  // Measured 2026-12-03 (Blender 3.4.1, 64 samples, direct light only): relit lit 3.4 %, shadow
+  // 5.2 %; not relit 43 % and 139 %. The floor is the linearised source photograph itself (8-bit
+  // JPEGs, the response recovered from the bracket) against an independent render of Blender's
+  // (another sampling seed): 1.7 % and 5.6 %.
   EXPECT_LT(relit["relative_rms_lit"].get<double>(), 0.05) << truth.dump(2);
   EXPECT_LT(relit["relative_rms_shadow"].get<double>(), 0.08) << truth.dump(2);
   EXPECT_LT(relit["relative_rms_lit"].get<double>(), 0.2 * before["relative_rms_lit"].get<double>());
@@ -61,7 +62,8 @@ TEST(BlenderDatasetTest, AnImportedCyclesCourtyardIsRelitAgainstBlendersOwnRende
       relume::testing::RunRelume("process " + (out / "session").string() + " --pipeline irm --out " +
                                  (out / "irm2").string() + " --set truth_dir=" + (out / "empty").string());
   EXPECT_NE(missing.exit_code, 0);
-  EXPECT_NE(missing.output.find("target.exr: does not exist; --set truth_dir needs"), std::string::npos) << missing.output;
+  EXPECT_NE(missing.output.find("target.exr: does not exist; --set truth_dir needs"), std::string::npos)
+      << missing.output;
   fs::remove_all(out);
 }
 
@@ -105,6 +107,44 @@ TEST(BlenderDatasetTest, AnImportedCyclesRoomGetsItsAlbedoFromTheChart) {
   EXPECT_LT(relight["truth_relative_rms_per_patch"].get<double>(), 0.04) << relight.dump(2);
   EXPECT_NEAR(relight["truth_mean_ratio"].get<double>(), 1.0, 0.03) << relight.dump(2);
   EXPECT_NE(run.output.find("comparing with the external truth"), std::string::npos) << run.output;
+  fs::remove_all(out);
+}
+
+// Issue 26: the courtyard rendered with 4 diffuse bounces, photographed as linear 16-bit TIFFs
+// (a raw converter's output: `session import --linear`, no response to recover), so the floor
+// is Blender's own Monte Carlo noise. The light the walls and the ground send each other is
+// gathered from the photographs (processing/irm/indirect.h); without it (--set indirect=false)
+// the relit shadows are half as far off again.
+TEST(BlenderDatasetTest, ACyclesCourtyardWithInterreflectionIsRelitWithTheGatheredLight) {
+  const fs::path out = fs::temp_directory_path() / ("relume_blender_bounces_" + std::to_string(::getpid()));
+  const relume::testing::CliResult run =
+      relume::testing::RunCommand("bash " + std::string(RELUME_SOURCE_DIR) + "/scripts/blender_dataset.sh " +
+                                  RELUME_BINARY + " " + out.string() + " --bounces 4 --format tiff");
+  if (run.exit_code == 77) GTEST_SKIP() << run.output;
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json summary = ReadJson(out / "irm" / "summary.json");
+  const nlohmann::json& truth = summary["metrics"]["truth"];
+  const nlohmann::json& relit = truth["relit"];
+  const nlohmann::json& floor = truth["source_photograph"];
+  const nlohmann::json& indirect = summary["metrics"]["irm"]["indirect"];
+  EXPECT_TRUE(indirect["used"].get<bool>()) << indirect.dump(2);
+  EXPECT_GT(indirect["share_source_shadow"].get<double>(), 0.1) << indirect.dump(2);
+  // q against what the source's sky radiance predicts: taken from it (both skies measured).
+  for (const auto& ratio : indirect["scale_over_sky_prediction"]) EXPECT_NEAR(ratio.get<double>(), 1.0, 1e-3);
+
+  const relume::testing::CliResult direct = relume::testing::RunRelume(
+      "process " + (out / "session").string() + " --pipeline irm --out " + (out / "irm-direct").string() +
+      " --set truth_dir=" + (out / "truth").string() + " --set indirect=false");
+  ASSERT_EQ(direct.exit_code, 0) << direct.output;
+  const nlohmann::json without = ReadJson(out / "irm-direct" / "summary.json")["metrics"]["truth"]["relit"];
+  // Measured 2026-12-03 (64 samples): relit lit 2.7 %, shadow 5.2 % with the gathered light;
+  // 3.8 % and 7.7 % without; floor (two independent renders) 3.0 % and 6.9 %.
+  EXPECT_LT(relit["relative_rms_lit"].get<double>(), floor["relative_rms_lit"].get<double>()) << truth.dump(2);
+  EXPECT_LT(relit["relative_rms_shadow"].get<double>(), floor["relative_rms_shadow"].get<double>()) << truth.dump(2);
+  EXPECT_LT(1.3 * relit["relative_rms_shadow"].get<double>(), without["relative_rms_shadow"].get<double>())
+      << without.dump(2);
+  EXPECT_LT(1.2 * relit["relative_rms_lit"].get<double>(), without["relative_rms_lit"].get<double>())
+      << without.dump(2);
   fs::remove_all(out);
 }
 
