@@ -106,13 +106,22 @@ TEST(IrmSetJsonTest, RoundTripKeepsEveryRatio) {
     s.target_rgb = Eigen::Vector3f::Constant(0.3f * e_t);
     samples.push_back(s);
   }
-  const irm::IrmSet set = irm::BuildIrms(samples, sun_s.normalized(), sun_t.normalized(), irm::IrmOptions{});
+  irm::IrmSet set = irm::BuildIrms(samples, sun_s.normalized(), sun_t.normalized(), irm::IrmOptions{});
+  // The interreflection's model terms travel too (the per-vertex light goes to its own file).
+  set.model.indirect_scale = Eigen::Vector3f(0.01f, 0.02f, 0.03f);
+  set.model.indirect_reason = "a reason";
+  set.indirect_share.source_shadow = 0.4;
+  set.indirect_share.target_lit_samples = 17;
   const irm::IrmSet back = IrmSetFromJson(ReadJsonFile([&] {
     const fs::path path = TempDir("json") / "irms.json";
     std::ofstream(path) << IrmSetToJson(set).dump();
     return path;
   }()));
   EXPECT_EQ(back.single_map, set.single_map);
+  EXPECT_EQ(back.model.indirect_scale, set.model.indirect_scale);
+  EXPECT_EQ(back.model.indirect_reason, "a reason");
+  EXPECT_EQ(back.indirect_share.source_shadow, 0.4);
+  EXPECT_EQ(back.indirect_share.target_lit_samples, 17);
   for (int i = 0; i < 200; ++i) {
     const Eigen::Vector3f n = samples[static_cast<std::size_t>(i)].normal;
     for (const auto& [fs_, ft] : {std::pair{1.0f, 1.0f}, {0.0f, 1.0f}, {0.5f, 0.2f}}) {
