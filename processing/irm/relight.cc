@@ -331,9 +331,9 @@ VertexLight VertexLightFor(const RayCaster& caster, const View& source, const Vi
 }
 
 // The radiance of every vertex the gather reads, in each photograph: what the photograph shows
-// where it sees the vertex, else the vertex's albedo (in the photographs' units per model unit:
-// from the other photograph where that one sees it, else the median of the seen vertices')
-// times the model's irradiance there, indirect light included.
+// where it sees the vertex (ObservedVertexRadiance), else the vertex's albedo times the model's
+// irradiance there, indirect light included. Albedo is in the photographs' units per model unit:
+// the vertex's own from the other photograph where that one sees it, else a neighbour's (below).
 void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const VertexLight& light,
                   const std::vector<std::uint8_t>& use, const std::vector<Eigen::Vector3f>& observed_source,
                   const std::vector<Eigen::Vector3f>& observed_target,
@@ -505,7 +505,7 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     // a photograph does not show comes from the model, so each pass refines it. First for the
     // samples' vertices alone, which decide whether the photographs hold interreflection at all
     // (a scene without it costs a few thousand vertices' rays, not the view's hundreds of
-    // thousands: 0.1 s instead of 1.6 s on the demo); then, when they do, for every vertex a
+    // thousands: 0.28 s instead of 1.6 s on the demo); then, when they do, for every vertex a
     // pixel interpolates from, and the model refitted once more with those.
     const auto indirect_start = std::chrono::steady_clock::now();
     const std::size_t n = mesh.vertex_count();
