@@ -506,12 +506,24 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
         set.model.valid = false;
       }
     } else {
+      // q fitted: one more unknown always fits the samples at least as well, so the term must
+      // earn its place, a tenth less ratio error than the same samples' fit without it
+      // (IrmOptions-free: `relume bench --stage irm` with no sky views, a scene without
+      // interreflection, fitted a small q and gathered every vertex for nothing).
       set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
                            sky_gradient_target, IndirectFit::kFitted);
+      const std::string no_sky = std::string("no sky in ") +
+                                 (source_sky ? "the target photograph" : "the source photograph") +
+                                 " to set its scale, so it was fitted";
+      const SunSkyModel without =
+          FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
       if (!set.model.valid) {
-        indirect_reason = "indirect light left out (no sky in " +
-                          std::string(source_sky ? "the target photograph" : "the source photograph") +
-                          " to set its scale, and fitting it failed): " + set.model.reason;
+        indirect_reason = "indirect light left out (" + no_sky + ", and the fit failed): " + set.model.reason;
+      } else if (without.valid && !(set.model.rms_ratio_error < 0.9 * without.rms_ratio_error)) {
+        indirect_reason = "indirect light left out (" + no_sky + "): it does not explain the samples better (rms " +
+                          "ratio error " + std::to_string(set.model.rms_ratio_error) + " against " +
+                          std::to_string(without.rms_ratio_error) + " without)";
+        set.model.valid = false;
       }
     }
   }

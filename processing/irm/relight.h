@@ -61,7 +61,8 @@ struct RelightOptions {
   bool exact_shadow_edges = true;
   // Interreflection (indirect.h, irm.h): gather each vertex's light from the other surfaces out
   // of the photographs' radiance with `indirect_samples` cosine-weighted rays, fit it into the
-  // sun + sky model and carry it per pixel. `indirect_passes` refinements of the radiance of
+  // sun + sky model and carry it per pixel (only with sky views: sky_samples > 0).
+  // `indirect_passes` refinements of the radiance of
   // surfaces a photograph does not show (their albedo times the model's irradiance), each a
   // gather and a refit.
   bool indirect = true;

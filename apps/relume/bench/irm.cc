@@ -75,13 +75,15 @@ void BenchIrm(bool quick, std::vector<Row>& rows) {
     const double seconds = BestSeconds(
         quick ? 1 : 2, [&] { result = irm::RelightImage(*s.caster, s.SourceView(), s.TargetView(), options); });
     const metrics::SunRegionErrors e = CompareRelit(s, result);
-    rows.push_back({"irm", "IRM relight (sun + sky model)",
-                    std::to_string(k.bins) + " bins, " + std::to_string(k.sun_samples) + " sun-disk samples, " +
-                        std::to_string(k.sky_samples) + " sky samples, " +
-                        (k.model_correction ? "" : "no model correction, ") + std::to_string(width) + "x" +
-                        std::to_string(height),
-                    seconds, mp / seconds, "MP/s", e.all, "relit relative RMS, all relit pixels",
-                    Describe(e) + (result.irms.single_map ? ", one IRM" : ", four IRMs")});
+    rows.push_back(
+        {"irm", "IRM relight (sun + sky model)",
+         std::to_string(k.bins) + " bins, " + std::to_string(k.sun_samples) + " sun-disk samples, " +
+             std::to_string(k.sky_samples) + " sky samples, " + (k.model_correction ? "" : "no model correction, ") +
+             std::to_string(width) + "x" + std::to_string(height),
+         seconds, mp / seconds, "MP/s", e.all, "relit relative RMS, all relit pixels",
+         Describe(e) + (result.irms.single_map ? ", one IRM" : ", four IRMs") +
+             (result.irms.vertex_indirect_source.empty() ? ", indirect light not used" : ", indirect light used") +
+             " (" + std::to_string(result.summary.indirect_s).substr(0, 5) + " s)"});
   }
 }
 
