@@ -646,35 +646,32 @@ nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
                          {"source_shadow_samples", share.source_shadow_samples},
                          {"target_lit_samples", share.target_lit_samples},
                          {"target_shadow_samples", share.target_shadow_samples}};
-  // The per-vertex indirect light is too large for JSON: WriteVertexIndirect's file.
-  j["indirect_vertices"] = set.vertex_indirect_source.size();
   return j;
 }
 
 namespace {
 
-// IrmSet::vertex_indirect_* and vertex_radiance_* as float32 triples, source then target each
-// (indirect.f32 of irm-build).
+// IrmSet::vertex_indirect_* and vertex_radiance_* (indirect.f32 of irm-build), as mesh.bin
+// holds its arrays (WriteVectors: a count, then the values); all empty without indirect light.
 void WriteVertexIndirect(const irm::IrmSet& set, const fs::path& path) {
   std::ofstream out(path, std::ios::binary);
   for (const auto* values : {&set.vertex_indirect_source, &set.vertex_indirect_target, &set.vertex_radiance_source,
                              &set.vertex_radiance_target}) {
-    for (const Eigen::Vector3f& v : *values) out.write(reinterpret_cast<const char*>(v.data()), 3 * sizeof(float));
+    WriteVectors(out, *values);
   }
   if (!out) throw IoError(path.string(), "cannot be written (disk full?)");
 }
 
-void ReadVertexIndirect(const fs::path& path, std::size_t vertices, irm::IrmSet* set) {
-  for (auto* values : {&set->vertex_indirect_source, &set->vertex_indirect_target, &set->vertex_radiance_source,
-                       &set->vertex_radiance_target}) {
-    values->assign(vertices, Eigen::Vector3f::Zero());
-  }
+void ReadVertexIndirect(const fs::path& path, irm::IrmSet* set) {
+  std::error_code ec;
+  const std::uintmax_t bytes = fs::file_size(path, ec);
+  if (ec) throw IoError(path.string(), "cannot be read; run with --force");
   std::ifstream in(path, std::ios::binary);
   for (auto* values : {&set->vertex_indirect_source, &set->vertex_indirect_target, &set->vertex_radiance_source,
                        &set->vertex_radiance_target}) {
-    for (Eigen::Vector3f& v : *values) in.read(reinterpret_cast<char*>(v.data()), 3 * sizeof(float));
+    ReadVectors(in, bytes, values);
   }
-  if (!in) throw IoError(path.string(), "is missing or short; run with --force");
+  if (!in) throw IoError(path.string(), "is short or unreadable; run with --force");
 }
 
 }  // namespace
@@ -969,7 +966,7 @@ struct BuildStage {
 BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair& v) {
   const irm::RelightOptions& options = knobs.relight;
   BuildStage b;
-  b.key.Add("stage", "irm-build-v5").AddKey("source_view", v.source_view_key).AddKey("target_view", v.target_view_key);
+  b.key.Add("stage", "irm-build-v6").AddKey("source_view", v.source_view_key).AddKey("target_view", v.target_view_key);
   AddKnobsToKey(b.key, knobs, "build");
   b.key.AddKey("source_radiance", v.source_radiance.key).AddKey("target_radiance", v.target_radiance.key);
   b.key.Add("lit", static_cast<double>(options.irm.lit_threshold));
@@ -990,10 +987,8 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
     }
   });
   if (build.reused) {
-    const nlohmann::json irms_json = ReadJsonFile(build.dir / "irms.json");
-    b.irms = IrmSetFromJson(irms_json);
-    const auto vertices = irms_json.value("indirect_vertices", std::size_t{0});
-    if (vertices > 0) ReadVertexIndirect(build.dir / "indirect.f32", vertices, &b.irms);
+    b.irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"));
+    ReadVertexIndirect(build.dir / "indirect.f32", &b.irms);
     b.summary = SummaryFromJson(ReadJsonFile(build.dir / "build.json"));
   }
   // The decision is the library's (irm::BuildIrms: a sample seen in both images in cast shadow

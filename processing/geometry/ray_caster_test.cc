@@ -123,6 +123,13 @@ TEST(RayCasterTest, SkyViewMatchesAnalyticViewFactors) {
   const Eigen::Vector3f tilted = Eigen::Vector3f(1, 0, 1).normalized();
   EXPECT_NEAR(SkyViewFraction(open, {0, 0, 5}, tilted, 1024), 0.5f * (1.0f + tilted.z()), 0.02f);
   EXPECT_NEAR(SkyViewFraction(open, {0, 0, 5}, {1, 0, 0}, 1024), 0.5f, 0.02f);
+  // An open vertical wall sees exactly half of its pattern as sky at the IRM's sample counts:
+  // no direction lies on its horizon (until 2026-12-03: 0.458 at 144, 0.4375 at 64).
+  for (const int samples : {64, 144}) {
+    for (const Eigen::Vector3f& wall_normal : {Eigen::Vector3f(1, 0, 0), Eigen::Vector3f(0, -1, 0)}) {
+      EXPECT_FLOAT_EQ(SkyViewFraction(open, {0, 0, 5}, wall_normal, samples), 0.5f) << samples << " samples";
+    }
+  }
   // The ground 0.5 m from a wall 1000 m tall and 2000 m long: half the sky (view factor of a
   // strip beside an infinite wall, (1 + cos(atan(1000 / 0.5))) / 2), and a point 10 m away
   // from a 10 m wall:

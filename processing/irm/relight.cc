@@ -341,35 +341,19 @@ void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const Vert
                   const std::vector<Eigen::Vector3f>& indirect_target, std::vector<Eigen::Vector3f>* radiance_source,
                   std::vector<Eigen::Vector3f>* radiance_target, int* filled_source, int* filled_target) {
   const std::size_t n = mesh.vertex_count();
-  std::vector<Eigen::Vector3f> e_source(n), e_target(n);
-  std::array<std::vector<float>, 3> albedos;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!use[i]) continue;
-    model.Irradiance(mesh.normals[i].normalized(), light.source_sun[i], light.target_sun[i], light.sky_view[i],
-                     light.sky_moment[i], indirect_source[i], indirect_target[i], &e_source[i], &e_target[i]);
-    if (observed_source[i].allFinite() && e_source[i].minCoeff() > 0.05f) {
-      const Eigen::Vector3f albedo = observed_source[i].cwiseQuotient(e_source[i]);
-      for (int c = 0; c < 3; ++c) albedos[static_cast<std::size_t>(c)].push_back(albedo[c]);
-    }
-  }
-  Eigen::Vector3f median = Eigen::Vector3f::Zero();
-  for (int c = 0; c < 3; ++c) {
-    std::vector<float>& v = albedos[static_cast<std::size_t>(c)];
-    if (v.empty()) continue;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    median[c] = v[v.size() / 2];
-  }
   // Each seen vertex's albedo. An unseen one takes the albedo of the nearest seen vertex of its
   // own part (TriangleMesh::part: an object of the scene model) within kReach_m, one facing the
   // same way first; else its part's median (a building's hidden back from its visible faces, the
   // ground behind it from the ground around); without parts, the nearest seen vertex within
-  // kReach_m (facing the same way first); else the median of all.
+  // kReach_m (facing the same way first); else the median of the vertices the source sees.
   constexpr float kCell_m = 1.0f, kReach_m = 3.0f;
   const bool parts = mesh.part.size() == n;
   auto part_of = [&](std::size_t i) { return parts ? mesh.part[i] : 0; };
+  std::vector<Eigen::Vector3f> e_source(n), e_target(n);
   std::vector<Eigen::Vector3f> albedo(n, Eigen::Vector3f::Constant(std::nanf("")));
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> grid;
   std::unordered_map<int, std::array<std::vector<float>, 3>> part_albedos;
+  std::array<std::vector<float>, 3> source_albedos;
   auto cell_of = [&](const Eigen::Vector3f& p) {
     return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / kCell_m)), static_cast<int>(std::floor(p.y() / kCell_m)),
                            static_cast<int>(std::floor(p.z() / kCell_m)));
@@ -380,8 +364,11 @@ void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const Vert
   };
   for (std::size_t i = 0; i < n; ++i) {
     if (!use[i]) continue;
+    model.Irradiance(mesh.normals[i].normalized(), light.source_sun[i], light.target_sun[i], light.sky_view[i],
+                     light.sky_moment[i], indirect_source[i], indirect_target[i], &e_source[i], &e_target[i]);
     if (observed_source[i].allFinite() && e_source[i].minCoeff() > 0.05f) {
       albedo[i] = observed_source[i].cwiseQuotient(e_source[i]);
+      for (int c = 0; c < 3; ++c) source_albedos[static_cast<std::size_t>(c)].push_back(albedo[i][c]);
     } else if (observed_target[i].allFinite() && e_target[i].minCoeff() > 0.05f) {
       albedo[i] = observed_target[i].cwiseQuotient(e_target[i]);
     }
@@ -390,16 +377,19 @@ void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const Vert
     auto& channels = part_albedos[part_of(i)];
     for (int c = 0; c < 3; ++c) channels[static_cast<std::size_t>(c)].push_back(albedo[i][c]);
   }
-  std::unordered_map<int, Eigen::Vector3f> part_median;
-  for (auto& [part, channels] : part_albedos) {
-    Eigen::Vector3f m;
+  auto median_of = [](std::array<std::vector<float>, 3>& channels) {
+    Eigen::Vector3f m = Eigen::Vector3f::Zero();
     for (int c = 0; c < 3; ++c) {
       std::vector<float>& v = channels[static_cast<std::size_t>(c)];
+      if (v.empty()) continue;
       std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
       m[c] = v[v.size() / 2];
     }
-    part_median[part] = m;
-  }
+    return m;
+  };
+  const Eigen::Vector3f median = median_of(source_albedos);
+  std::unordered_map<int, Eigen::Vector3f> part_median;
+  for (auto& [part, channels] : part_albedos) part_median[part] = median_of(channels);
   auto nearest_albedo = [&](std::size_t i) -> Eigen::Vector3f {
     const Eigen::Vector3f& p = mesh.positions[i];
     const Eigen::Vector3f normal = mesh.normals[i].normalized();

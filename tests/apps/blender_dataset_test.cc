@@ -21,10 +21,16 @@ nlohmann::json ReadJson(const fs::path& path) {
   return nlohmann::json::parse(in);
 }
 
+// scripts/blender_dataset.sh into a fresh temporary folder named after `name`, with `args`.
+relume::testing::CliResult RunDataset(const std::string& name, const std::string& args, fs::path* out) {
+  *out = fs::temp_directory_path() / ("relume_blender_" + name + "_" + std::to_string(::getpid()));
+  return relume::testing::RunCommand("bash " + std::string(RELUME_SOURCE_DIR) + "/scripts/blender_dataset.sh " +
+                                     RELUME_BINARY + " " + out->string() + args);
+}
+
 TEST(BlenderDatasetTest, AnImportedCyclesCourtyardIsRelitAgainstBlendersOwnRender) {
-  const fs::path out = fs::temp_directory_path() / ("relume_blender_test_" + std::to_string(::getpid()));
-  const relume::testing::CliResult run = relume::testing::RunCommand(
-      "bash " + std::string(RELUME_SOURCE_DIR) + "/scripts/blender_dataset.sh " + RELUME_BINARY + " " + out.string());
+  fs::path out;
+  const relume::testing::CliResult run = RunDataset("test", "", &out);
   if (run.exit_code == 77) GTEST_SKIP() << run.output;
   ASSERT_EQ(run.exit_code, 0) << run.output;
 
@@ -72,10 +78,8 @@ TEST(BlenderDatasetTest, AnImportedCyclesCourtyardIsRelitAgainstBlendersOwnRende
 // scored against the materials Blender rendered with; its relit image against Blender's render
 // under the relighting lamp.
 TEST(BlenderDatasetTest, AnImportedCyclesRoomGetsItsAlbedoFromTheChart) {
-  const fs::path out = fs::temp_directory_path() / ("relume_blender_room_test_" + std::to_string(::getpid()));
-  const relume::testing::CliResult run =
-      relume::testing::RunCommand("bash " + std::string(RELUME_SOURCE_DIR) + "/scripts/blender_dataset.sh " +
-                                  RELUME_BINARY + " " + out.string() + " --scene room");
+  fs::path out;
+  const relume::testing::CliResult run = RunDataset("room", " --scene room", &out);
   if (run.exit_code == 77) GTEST_SKIP() << run.output;
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const nlohmann::json summary = ReadJson(out / "radiosity" / "summary.json");
@@ -116,10 +120,8 @@ TEST(BlenderDatasetTest, AnImportedCyclesRoomGetsItsAlbedoFromTheChart) {
 // gathered from the photographs (processing/irm/indirect.h); without it (--set indirect=false)
 // the relit shadows are half as far off again.
 TEST(BlenderDatasetTest, ACyclesCourtyardWithInterreflectionIsRelitWithTheGatheredLight) {
-  const fs::path out = fs::temp_directory_path() / ("relume_blender_bounces_" + std::to_string(::getpid()));
-  const relume::testing::CliResult run =
-      relume::testing::RunCommand("bash " + std::string(RELUME_SOURCE_DIR) + "/scripts/blender_dataset.sh " +
-                                  RELUME_BINARY + " " + out.string() + " --bounces 4 --format tiff");
+  fs::path out;
+  const relume::testing::CliResult run = RunDataset("bounces", " --bounces 4 --format tiff", &out);
   if (run.exit_code == 77) GTEST_SKIP() << run.output;
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const nlohmann::json summary = ReadJson(out / "irm" / "summary.json");
