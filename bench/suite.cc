@@ -98,6 +98,8 @@ const std::vector<SuiteEntry>& Suites() {
       {"sh-smooth-light", "sh", "as sh-ideal-depth under smooth lights (sky and broad lobes) that SH can represent",
        RunShSmoothLightSuite},
       {"irm-outdoor", "irm", "IRM relighting on random outdoor scenes: lit, shadow, penumbra", RunIrmSuite},
+      {"irm-outdoor-bounces", "irm", "as irm-outdoor rendered with 3 diffuse bounces (interreflection)",
+       RunIrmBouncesSuite},
       {"radiosity-rooms", "radiosity",
        "reflectance estimation with radiosity indirect light, random furnished rooms, per-material albedo",
        RunRadiositySuite},

@@ -23,5 +23,8 @@ std::vector<SuiteResult> RunHdrSuite(const SuiteOptions& options);
 
 // IRM relighting on random outdoor scenes (bench/irm_suite.cc): lit, shadow and penumbra.
 std::vector<SuiteResult> RunIrmSuite(const SuiteOptions& options);
+// The same scenes rendered with kSuiteBounces diffuse bounces (bench/interreflection_truth.h).
+inline constexpr int kSuiteBounces = 3;
+std::vector<SuiteResult> RunIrmBouncesSuite(const SuiteOptions& options);
 
 }  // namespace relume::bench

@@ -84,7 +84,7 @@ def irm_relight(mesh: dict[str, Any], source_radiance: _F32, target_radiance: _F
                 single_map_without_shadow: bool = True, smoothing_sigma_rad: float = 0.2, sun_samples: int = 16,
                 sky_samples: int = 144, sky_gradient: bool = True, sun_angular_radius_rad: float = 0.0046513,
                 penumbra: bool = True, exact_shadow_edges: bool = True, indirect: bool = True,
-                indirect_samples: int = 64, indirect_passes: int = 2, threads: int = 0) -> dict[str, Any]: ...
+                indirect_samples: int = 144, indirect_passes: int = 2, threads: int = 0) -> dict[str, Any]: ...
 
 # Depth and normals
 def bilateral_filter_depth(depth_m: _F32, *, radius_px: int = 1, spatial_sigma_px: float = 1.0,

@@ -67,7 +67,7 @@ struct RelightOptions {
   // surfaces a photograph does not show (their albedo times the model's irradiance), each a
   // gather and a refit.
   bool indirect = true;
-  int indirect_samples = 64;
+  int indirect_samples = 144;
   int indirect_passes = 2;
   int threads = 0;  // 0: core/parallel.h's DefaultThreads() (RELUME_THREADS, a Slurm task's share, the CPUs)
   bool IsValid(std::string* why) const;
