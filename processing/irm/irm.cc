@@ -478,6 +478,10 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     return (s.source_indirect.array() > 0.0f).any() || (s.target_indirect.array() > 0.0f).any();
   });
   std::string indirect_reason = "no indirect light gathered";
+  // Both photographs' sky radiances at the horizon (each in its own units), when measured.
+  const bool source_sky = source_sky_radiance.allFinite() && source_sky_radiance.minCoeff() > 0.0f;
+  const bool target_sky = target_sky_radiance.allFinite() && target_sky_radiance.minCoeff() > 0.0f;
+  const Eigen::Vector3f measured_k_t = target_sky_radiance.cwiseQuotient(source_sky_radiance);
   if (any_indirect) {
     // Indirect light varies from vertex to vertex within a bin (the ground beside a sunlit wall,
     // the open ground), which bin means wash out: fitted to the samples. With both photographs'
@@ -486,12 +490,10 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     // when it explains the samples better than the same without indirect light (data rendered
     // without interreflection, such as the simulator's by default). Fitting q as well gave
     // 0.3-1.1 times this value on random courtyards rendered by Blender with 4 bounces, and relit
-    // shadows 5.6 % off at the median against 4.8 % with q from the sky (docs/irm.md). Without
-    // both skies K_t and q are fitted.
-    const bool source_sky = source_sky_radiance.allFinite() && source_sky_radiance.minCoeff() > 0.0f;
-    const bool target_sky = target_sky_radiance.allFinite() && target_sky_radiance.minCoeff() > 0.0f;
+    // shadows 5.6 % off at the median against 4.8 % with q from the sky (docs/irm.md). With the
+    // source's sky alone q is still known and K_t fitted; without it K_t and q are fitted.
     if (source_sky && target_sky) {
-      const Eigen::Vector3f k_t = target_sky_radiance.cwiseQuotient(source_sky_radiance);
+      const Eigen::Vector3f& k_t = measured_k_t;
       const Eigen::Vector3f q = (std::numbers::pi_v<float> * source_sky_radiance).cwiseInverse();
       set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
                            sky_gradient_target, IndirectFit::kFixed, q, k_t);
@@ -505,6 +507,22 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
                           std::to_string(set.model.rms_ratio_error) + "): no interreflection in these photographs";
         set.model.valid = false;
       }
+    } else if (source_sky) {
+      // Only the source's sky: q = 1 / (pi a_s) is still known (the model's unit), K_t fitted.
+      const Eigen::Vector3f q = (std::numbers::pi_v<float> * source_sky_radiance).cwiseInverse();
+      set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
+                           sky_gradient_target, IndirectFit::kFixed, q);
+      const SunSkyModel without =
+          FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
+      if (!set.model.valid) {
+        indirect_reason = "indirect light left out (no sky in the target photograph, K_t fitted): " + set.model.reason;
+      } else if (without.valid && without.rms_ratio_error < set.model.rms_ratio_error) {
+        indirect_reason =
+            "indirect light left out (no sky in the target photograph, K_t fitted): the samples fit "
+            "better without it (rms ratio error " +
+            std::to_string(without.rms_ratio_error) + " against " + std::to_string(set.model.rms_ratio_error) + ")";
+        set.model.valid = false;
+      }
     } else {
       // q fitted: one more unknown always fits the samples at least as well, so the term must
       // earn its place, a tenth less ratio error than the same samples' fit without it
@@ -512,9 +530,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       // interreflection, fitted a small q and gathered every vertex for nothing).
       set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
                            sky_gradient_target, IndirectFit::kFitted);
-      const std::string no_sky = std::string("no sky in ") +
-                                 (source_sky ? "the target photograph" : "the source photograph") +
-                                 " to set its scale, so it was fitted";
+      const std::string no_sky = "no sky in the source photograph to set its scale, so it was fitted";
       const SunSkyModel without =
           FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
       if (!set.model.valid) {
@@ -538,6 +554,18 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       if (per_sample.valid &&
           (!set.model.valid || per_sample.rms_relative_residual < set.model.rms_relative_residual)) {
         set.model = per_sample;
+      }
+    }
+    if (!set.model.valid && source_sky && target_sky) {
+      // The free fit failed. Under interreflection it can go negative (light the model has no
+      // term for pushes K_t or a sun below zero: 4 of 20 scenes of the IRM suite with bounces).
+      // The sky ratio the photographs' own sky pixels measure leaves only the suns to fit; the
+      // indirect light is then gathered from this model (relight.h) and the fit made again.
+      SunSkyModel fixed = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
+                                   sky_gradient_target, IndirectFit::kNone, Eigen::Vector3f::Zero(), measured_k_t);
+      if (fixed.valid) {
+        indirect_reason += "; the sky ratio K_t from the photographs' skies (the free fit: " + set.model.reason + ")";
+        set.model = fixed;
       }
     }
     set.model.indirect_reason = indirect_reason;

@@ -265,9 +265,10 @@ class RatioTable {
 // with the samples' zenith moments. Samples with indirect light (Sample::source_indirect,
 // target_indirect) fit the model with it, to the samples: `*_sky_radiance` are the photographs'
 // sky radiances at the horizon (SkyShape::horizon, each photograph's units; zero: not
-// measured). With both, K_t = a_t / a_s is known and q fitted (q = 1 / (pi a_s), what the units
-// predict, when that fit fails); without, K_t and q are fitted. Without a valid fit the model is
-// fitted without indirect light and SunSkyModel::indirect_reason says why.
+// measured). With both, K_t = a_t / a_s and q = 1 / (pi a_s) are known and only the suns are
+// fitted; with the source's alone q is known and K_t fitted; without it K_t and q are fitted. Without a valid fit the
+// model is fitted without indirect light and SunSkyModel::indirect_reason says why; when that free fit fails too and
+// both sky radiances are given, the suns are fitted with the measured K_t.
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,
                  const Eigen::Vector3f& sun_dir_target, const IrmOptions& options,
                  const Eigen::Vector3f& sky_gradient_source = Eigen::Vector3f::Zero(),

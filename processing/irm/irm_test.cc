@@ -194,6 +194,17 @@ TEST(IrmTest, IndirectLightIsFittedInTheUnitsOfTheSky) {
   }
   EXPECT_LT(worst, 1e-3);
 
+  // Only the source photograph shows its sky: q is still 1 / (pi a_s), K_t is fitted.
+  const IrmSet source_only = BuildIrms(samples, sun_s, sun_t, IrmOptions{}, Eigen::Vector3f::Zero(),
+                                       Eigen::Vector3f::Zero(), a_s, Eigen::Vector3f::Zero());
+  ASSERT_TRUE(source_only.model.valid) << source_only.model.reason;
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(source_only.model.indirect_scale[c], 1.0f / (pi * a_s[c]), 1e-6f);
+    EXPECT_NEAR(source_only.model.sky_target[c], a_t[c] / a_s[c], 1e-3f);
+    EXPECT_NEAR(source_only.model.sun_target[c], e_sun_t[c] / (pi * a_s[c]), 1e-3f * e_sun_t[c] / (pi * a_s[c]));
+  }
+  EXPECT_LT(source_only.model.rms_ratio_error, 1e-3);
+
   // The same photographs read without the neighbours' light: the model cannot hold them.
   std::vector<Sample> blind = samples;
   for (Sample& s : blind) s.source_indirect = s.target_indirect = Eigen::Vector3f::Zero();
@@ -218,6 +229,41 @@ TEST(IrmTest, IndirectLightIsFittedInTheUnitsOfTheSky) {
   EXPECT_NE(no_bounce.model.indirect_reason.find("fit better without it"), std::string::npos)
       << no_bounce.model.indirect_reason;
   EXPECT_LT(no_bounce.model.rms_ratio_error, 1e-3);
+}
+
+TEST(IrmTest, WhenTheFreeFitFailsTheSkiesMeasureTheSkyRatio) {
+  // Three samples: too few for sun, sun and sky ratio (four rows at least), enough for the two
+  // suns once both photographs' skies give K_t.
+  const float pi = 3.14159265f;
+  const Eigen::Vector3f sun_s = Eigen::Vector3f(0.3f, -0.8f, 0.52f).normalized();
+  const Eigen::Vector3f sun_t = Eigen::Vector3f(-0.6f, 0.2f, 0.77f).normalized();
+  const Eigen::Vector3f e_sun_s(900, 850, 800), e_sun_t(1000, 980, 950);
+  const Eigen::Vector3f a_s(30, 35, 45), a_t(24, 30, 42);
+  std::vector<Sample> samples;
+  for (const auto& [normal, fs, ft] :
+       {std::tuple{Eigen::Vector3f(0, 0, 1), 1.0f, 1.0f}, std::tuple{Eigen::Vector3f(0, -1, 0), 1.0f, 0.0f},
+        std::tuple{Eigen::Vector3f(-1, 0, 0), 0.0f, 1.0f}}) {
+    Sample s;
+    s.normal = normal;
+    s.source_sun = fs;
+    s.target_sun = ft;
+    s.sky_view = 0.5f * (1.0f + normal.z());
+    const float cos_s = std::max(0.0f, normal.dot(sun_s)), cos_t = std::max(0.0f, normal.dot(sun_t));
+    s.source_rgb = 0.4f / pi * (e_sun_s * fs * cos_s + pi * a_s * s.sky_view);
+    s.target_rgb = 0.4f / pi * (e_sun_t * ft * cos_t + pi * a_t * s.sky_view);
+    samples.push_back(s);
+  }
+  const IrmSet free_fit = BuildIrms(samples, sun_s, sun_t, IrmOptions{});
+  EXPECT_FALSE(free_fit.model.valid);
+  const IrmSet set =
+      BuildIrms(samples, sun_s, sun_t, IrmOptions{}, Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), a_s, a_t);
+  ASSERT_TRUE(set.model.valid) << set.model.reason;
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(set.model.sky_target[c], a_t[c] / a_s[c], 1e-6f);
+    EXPECT_NEAR(set.model.sun_source[c], e_sun_s[c] / (pi * a_s[c]), 1e-3f * e_sun_s[c] / (pi * a_s[c]));
+    EXPECT_NEAR(set.model.sun_target[c], e_sun_t[c] / (pi * a_s[c]), 1e-3f * e_sun_t[c] / (pi * a_s[c]));
+  }
+  EXPECT_NE(set.summary.find("the sky ratio K_t from the photographs' skies"), std::string::npos) << set.summary;
 }
 
 TEST(IrmTest, AGradientSkyIsFollowedThroughEachSurfacesZenithMoment) {

@@ -441,6 +441,33 @@ void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const Vert
 
 }  // namespace
 
+namespace {
+
+// The median target / source ratio per channel of the samples in shadow (sun fraction at or
+// below the shadow threshold) in both photographs, else of all samples: a first guess of K_t.
+Eigen::Vector3f ShadowRatio(std::span<const Sample> samples, const IrmOptions& options) {
+  std::array<std::vector<float>, 3> shadow, all;
+  for (const Sample& s : samples) {
+    if (!s.source_rgb.allFinite() || !s.target_rgb.allFinite() || s.source_rgb.minCoeff() <= 0.0f) continue;
+    const bool in_shadow = s.source_sun <= options.shadow_threshold && s.target_sun <= options.shadow_threshold;
+    for (int c = 0; c < 3; ++c) {
+      const float ratio = s.target_rgb[c] / s.source_rgb[c];
+      all[static_cast<std::size_t>(c)].push_back(ratio);
+      if (in_shadow) shadow[static_cast<std::size_t>(c)].push_back(ratio);
+    }
+  }
+  Eigen::Vector3f out = Eigen::Vector3f::Ones();
+  for (int c = 0; c < 3; ++c) {
+    std::vector<float>& v = shadow[0].empty() ? all[static_cast<std::size_t>(c)] : shadow[static_cast<std::size_t>(c)];
+    if (v.empty()) continue;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    out[c] = v[v.size() / 2];
+  }
+  return out;
+}
+
+}  // namespace
+
 IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const View& target,
                           const ViewGeometry& source_geometry, const ViewGeometry& target_geometry,
                           const RelightOptions& options, RelightSummary* summary) {
@@ -486,9 +513,16 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     }
   }
   summary->consistent_samples = static_cast<int>(samples.size());
-  // Each photograph's sky shape (zero, a uniform sky, where it was not measured).
-  IrmSet irms = BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm,
-                          source_geometry.sky_shape.gradient, target_geometry.sky_shape.gradient);
+  // Each photograph's sky shape (zero, a uniform sky, where it was not measured) and sky
+  // radiance at the horizon (zero where not measured: BuildIrms falls back on the measured sky
+  // ratio only when its free fit fails).
+  const Eigen::Vector3f source_sky =
+      source_geometry.sky_shape.measured ? source_geometry.sky_shape.horizon : Eigen::Vector3f::Zero().eval();
+  const Eigen::Vector3f target_sky =
+      target_geometry.sky_shape.measured ? target_geometry.sky_shape.horizon : Eigen::Vector3f::Zero().eval();
+  IrmSet irms =
+      BuildIrms(samples, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm,
+                source_geometry.sky_shape.gradient, target_geometry.sky_shape.gradient, source_sky, target_sky);
   // Indirect light needs the sky views: the light a surface gathers from others comes along the
   // rays its sky view finds blocked, and without them (sky_samples 0, the paper's open sky) the
   // model's sky term is off by what a fitted q would only absorb (`relume bench --stage irm`:
@@ -496,7 +530,25 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
   if (options.indirect && irms.model.valid && source_geometry.sky_view.empty()) {
     irms.summary += "; indirect light not gathered: no sky views (sky_samples 0)";
   }
-  if (options.indirect && irms.model.valid && !source_geometry.sky_view.empty()) {
+  // Without a valid model the light from the other surfaces is still tried when the source's
+  // sky is measured (it fixes the indirect light's scale, irm.h): the first pass fills the
+  // radiance of the vertices no photograph shows from the sky alone (no sun; K_t measured, or
+  // without the target's sky the median ratio of the samples in shadow in both photographs), and
+  // the model is fitted with the indirect light that gives. Under interreflection a sun + sky
+  // model without it can fail outright (2 of 20 scenes of the IRM suite with bounces).
+  const bool source_sky_measured = source_sky.minCoeff() > 0.0f;
+  if (options.indirect && (irms.model.valid || source_sky_measured) && !source_geometry.sky_view.empty()) {
+    SunSkyModel first_fill = irms.model;
+    if (!first_fill.valid) {
+      first_fill = SunSkyModel{};
+      first_fill.valid = true;
+      first_fill.sun_dir_source = source.sun_dir.normalized();
+      first_fill.sun_dir_target = target.sun_dir.normalized();
+      first_fill.sky_target = target_sky.minCoeff() > 0.0f ? target_sky.cwiseQuotient(source_sky).eval()
+                                                           : ShadowRatio(samples, options.irm);
+      first_fill.sky_gradient_source = source_geometry.sky_shape.gradient;
+      first_fill.sky_gradient_target = target_geometry.sky_shape.gradient;
+    }
     // Interreflection: each vertex's light from the other surfaces, gathered from what the
     // photographs show (indirect.h), then the model refitted with it; the radiance of surfaces
     // a photograph does not show comes from the model, so each pass refines it. First for the
@@ -506,10 +558,6 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     // pixel interpolates from, and the model refitted once more with those.
     const auto indirect_start = std::chrono::steady_clock::now();
     const std::size_t n = mesh.vertex_count();
-    const Eigen::Vector3f source_sky =
-        source_geometry.sky_shape.measured ? source_geometry.sky_shape.horizon : Eigen::Vector3f::Zero().eval();
-    const Eigen::Vector3f target_sky =
-        target_geometry.sky_shape.measured ? target_geometry.sky_shape.horizon : Eigen::Vector3f::Zero().eval();
     auto build = [&](const std::vector<Sample>& with) {
       return BuildIrms(with, source.sun_dir.normalized(), target.sun_dir.normalized(), options.irm,
                        source_geometry.sky_shape.gradient, target_geometry.sky_shape.gradient, source_sky, target_sky);
@@ -563,7 +611,7 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
     {
       const Gathered g = gather_over(at_samples);
       for (int p = 0; p < options.indirect_passes; ++p) {
-        pass(g, irms.model);
+        pass(g, p == 0 ? first_fill : irms.model);
         IrmSet next = build(samples);
         if (!uses_indirect(next)) {
           // The first pass: the set without indirect light, saying why (BuildIrms). A later one:
