@@ -439,10 +439,6 @@ void FillRadiance(const TriangleMesh& mesh, const SunSkyModel& model, const Vert
   }
 }
 
-}  // namespace
-
-namespace {
-
 // The median target / source ratio per channel of the samples in shadow (sun fraction at or
 // below the shadow threshold) in both photographs, else of all samples: a first guess of K_t.
 Eigen::Vector3f ShadowRatio(std::span<const Sample> samples, const IrmOptions& options) {
@@ -535,7 +531,8 @@ IrmSet BuildIrmsFromViews(const RayCaster& caster, const View& source, const Vie
   // radiance of the vertices no photograph shows from the sky alone (no sun; K_t measured, or
   // without the target's sky the median ratio of the samples in shadow in both photographs), and
   // the model is fitted with the indirect light that gives. Under interreflection a sun + sky
-  // model without it can fail outright (2 of 20 scenes of the IRM suite with bounces).
+  // model without it can fail outright, and without the target's sky BuildIrms has no measured
+  // K_t to fall back on (1 of the 20 quick scenes of the IRM suite with bounces, seed 1).
   const bool source_sky_measured = source_sky.minCoeff() > 0.0f;
   if (options.indirect && (irms.model.valid || source_sky_measured) && !source_geometry.sky_view.empty()) {
     SunSkyModel first_fill = irms.model;
