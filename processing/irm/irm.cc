@@ -191,9 +191,10 @@ Eigen::Vector3f TrimmedMean(std::vector<Eigen::Vector3f>& values, float trim) {
 
 // How FitModel treats the samples' indirect light (top of irm.h).
 enum class IndirectFit {
-  kNone,   // q = 0: the model without it
-  kFixed,  // q given (from the source photograph's sky radiance)
-  kFitted  // q an unknown
+  kNone,    // q = 0: the model without it
+  kFixed,   // q given (from the source photograph's sky radiance)
+  kFitted,  // q an unknown
+  kTied     // q = K_t x fixed_scale (the target photograph's sky radiance alone: 1 / (pi a_t)), K_t fitted
 };
 
 // Fits the model to the measured bins (robust means, so sampling noise is averaged out
@@ -218,8 +219,11 @@ SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> co
     if (SkyView(samples[i].normal, samples[i].sky_view) > 0.05f) rows.push_back(i);
   }
   const bool fitted = indirect == IndirectFit::kFitted;
+  const bool tied = indirect == IndirectFit::kTied;
   const bool sky_known = sky_target.allFinite();
-  // Columns: S_s, S_t, then K_t unless known, then q when fitted.
+  RELUME_CHECK(!(tied && sky_known));
+  // Columns: S_s, S_t, then K_t unless known, then q when fitted (kTied: K_t's column carries
+  // q's term too, q = K_t fixed_scale).
   const int k_column = sky_known ? -1 : 2;
   const int q_column = fitted ? (sky_known ? 2 : 3) : -1;
   const int unknowns = 2 + (sky_known ? 0 : 1) + (fitted ? 1 : 0);
@@ -258,7 +262,7 @@ SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> co
         const auto row = static_cast<Eigen::Index>(r);
         a(row, 0) = -ratio * a_s * w;
         a(row, 1) = a_t * w;
-        if (k_column >= 0) a(row, k_column) = h_t * w;
+        if (k_column >= 0) a(row, k_column) = (h_t + (tied ? fixed_scale[c] * (i_t - ratio * i_s) : 0.0)) * w;
         if (q_column >= 0) a(row, q_column) = (i_t - ratio * i_s) * w;
         b(row) = (ratio * h_s - q_fixed * (i_t - ratio * i_s) - k_fixed * h_t) * w;
       }
@@ -284,7 +288,7 @@ SunSkyModel FitModel(std::span<const Sample> samples, std::span<const double> co
       }
       x = qr.solve(b);
       k = k_column >= 0 ? x[k_column] : k_fixed;
-      q = q_column >= 0 ? x[q_column] : q_fixed;
+      q = q_column >= 0 ? x[q_column] : (tied ? fixed_scale[c] * k : q_fixed);
       if (!(x.allFinite() && x[0] >= -1e-6 && x[1] >= -1e-6 && k > 0.0)) {
         model.reason = "the fit is not physical (negative sun or sky)";
         return model;
@@ -482,6 +486,25 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
   const bool source_sky = source_sky_radiance.allFinite() && source_sky_radiance.minCoeff() > 0.0f;
   const bool target_sky = target_sky_radiance.allFinite() && target_sky_radiance.minCoeff() > 0.0f;
   const Eigen::Vector3f measured_k_t = target_sky_radiance.cwiseQuotient(source_sky_radiance);
+  // q fitted: one more unknown always fits the samples at least as well, so the term must earn
+  // its place, a tenth less ratio error than the same samples' fit without it (`relume bench
+  // --stage irm` with no sky views, a scene without interreflection, fitted a small q and
+  // gathered every vertex for nothing).
+  auto fit_q = [&](const std::string& why) {
+    set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target,
+                         IndirectFit::kFitted);
+    const std::string no_sky = why + ", so q was fitted";
+    const SunSkyModel without =
+        FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
+    if (!set.model.valid) {
+      indirect_reason = "indirect light left out (" + no_sky + ", and the fit failed): " + set.model.reason;
+    } else if (without.valid && !(set.model.rms_ratio_error < 0.9 * without.rms_ratio_error)) {
+      indirect_reason = "indirect light left out (" + no_sky + "): it does not explain the samples better (rms " +
+                        "ratio error " + std::to_string(set.model.rms_ratio_error) + " against " +
+                        std::to_string(without.rms_ratio_error) + " without)";
+      set.model.valid = false;
+    }
+  };
   if (any_indirect) {
     // Indirect light varies from vertex to vertex within a bin (the ground beside a sunlit wall,
     // the open ground), which bin means wash out: fitted to the samples. With both photographs'
@@ -491,7 +514,8 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     // without interreflection, such as the simulator's by default). Fitting q as well gave
     // 0.3-1.1 times this value on random courtyards rendered by Blender with 4 bounces, and relit
     // shadows 5.6 % off at the median against 4.8 % with q from the sky (docs/irm.md). With the
-    // source's sky alone q is still known and K_t fitted; without it K_t and q are fitted.
+    // source's sky alone q is still known and K_t fitted; with the target's alone q = K_t /
+    // (pi a_t) follows K_t; without either K_t and q are fitted.
     if (source_sky && target_sky) {
       const Eigen::Vector3f& k_t = measured_k_t;
       const Eigen::Vector3f q = (std::numbers::pi_v<float> * source_sky_radiance).cwiseInverse();
@@ -523,24 +547,27 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
             std::to_string(without.rms_ratio_error) + " against " + std::to_string(set.model.rms_ratio_error) + ")";
         set.model.valid = false;
       }
-    } else {
-      // q fitted: one more unknown always fits the samples at least as well, so the term must
-      // earn its place, a tenth less ratio error than the same samples' fit without it
-      // (IrmOptions-free: `relume bench --stage irm` with no sky views, a scene without
-      // interreflection, fitted a small q and gathered every vertex for nothing).
+    } else if (target_sky) {
+      // Only the target's sky: the model's unit pi a_s is unknown, but q = 1 / (pi a_s) =
+      // K_t / (pi a_t), so q follows the fitted K_t. When that fit fails (the first pass's
+      // radiance of unseen surfaces comes from a model fitted without indirect light, which can
+      // be far off), q is fitted free, as without either sky.
+      const Eigen::Vector3f c = (std::numbers::pi_v<float> * target_sky_radiance).cwiseInverse();
       set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
-                           sky_gradient_target, IndirectFit::kFitted);
-      const std::string no_sky = "no sky in the source photograph to set its scale, so it was fitted";
+                           sky_gradient_target, IndirectFit::kTied, c);
       const SunSkyModel without =
           FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
       if (!set.model.valid) {
-        indirect_reason = "indirect light left out (" + no_sky + ", and the fit failed): " + set.model.reason;
-      } else if (without.valid && !(set.model.rms_ratio_error < 0.9 * without.rms_ratio_error)) {
-        indirect_reason = "indirect light left out (" + no_sky + "): it does not explain the samples better (rms " +
-                          "ratio error " + std::to_string(set.model.rms_ratio_error) + " against " +
-                          std::to_string(without.rms_ratio_error) + " without)";
+        fit_q("no sky in the source photograph, and q tied to K_t failed: " + set.model.reason);
+      } else if (without.valid && without.rms_ratio_error < set.model.rms_ratio_error) {
+        indirect_reason =
+            "indirect light left out (no sky in the source photograph, q tied to K_t): the samples fit better "
+            "without it (rms ratio error " +
+            std::to_string(without.rms_ratio_error) + " against " + std::to_string(set.model.rms_ratio_error) + ")";
         set.model.valid = false;
       }
+    } else {
+      fit_q("no sky in either photograph to set its scale");
     }
   }
   if (!set.model.valid) {

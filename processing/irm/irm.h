@@ -266,7 +266,8 @@ class RatioTable {
 // target_indirect) fit the model with it, to the samples: `*_sky_radiance` are the photographs'
 // sky radiances at the horizon (SkyShape::horizon, each photograph's units; zero: not
 // measured). With both, K_t = a_t / a_s and q = 1 / (pi a_s) are known and only the suns are
-// fitted; with the source's alone q is known and K_t fitted; without it K_t and q are fitted. Without a valid fit the
+// fitted; with the source's alone q is known and K_t fitted; with the target's alone q =
+// K_t / (pi a_t) follows the fitted K_t; without either K_t and q are fitted. Without a valid fit the
 // model is fitted without indirect light and SunSkyModel::indirect_reason says why; when that free fit fails too and
 // both sky radiances are given, the suns are fitted with the measured K_t.
 IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir_source,

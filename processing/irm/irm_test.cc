@@ -205,6 +205,17 @@ TEST(IrmTest, IndirectLightIsFittedInTheUnitsOfTheSky) {
   }
   EXPECT_LT(source_only.model.rms_ratio_error, 1e-3);
 
+  // Only the target photograph shows its sky: q = K_t / (pi a_t) follows the fitted K_t.
+  const IrmSet target_only = BuildIrms(samples, sun_s, sun_t, IrmOptions{}, Eigen::Vector3f::Zero(),
+                                       Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero(), a_t);
+  ASSERT_TRUE(target_only.model.valid) << target_only.model.reason;
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(target_only.model.indirect_scale[c], target_only.model.sky_target[c] / (pi * a_t[c]), 1e-6f);
+    EXPECT_NEAR(target_only.model.sky_target[c], a_t[c] / a_s[c], 1e-3f);
+    EXPECT_NEAR(target_only.model.indirect_scale[c], 1.0f / (pi * a_s[c]), 1e-3f / (pi * a_s[c]));
+  }
+  EXPECT_LT(target_only.model.rms_ratio_error, 1e-3);
+
   // The same photographs read without the neighbours' light: the model cannot hold them.
   std::vector<Sample> blind = samples;
   for (Sample& s : blind) s.source_indirect = s.target_indirect = Eigen::Vector3f::Zero();
