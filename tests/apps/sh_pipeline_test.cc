@@ -160,6 +160,21 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   fs::remove_all(root);
 }
 
+TEST(ShPipelineCliTest, InterreflectionBetweenTheObjectsKeepsTheRelitErrorWithinTheGoal) {
+  // The moving-light scene rendered with 3 diffuse bounces (issue 26: every relighting figure
+  // also with interreflection). Measured 2026-12-03: relit 1.88 %, irradiance 3.0 % (without
+  // bounces 1.89 % and 3.6 %): the floating objects send each other little light. With a floor
+  // under them (docs/processing-sh.md) the floor's cast shadows, not the bounces, dominate.
+  const fs::path root = TempDir("bounces");
+  const fs::path session = Capture(root, "sim-sh-moving-light-bounces.yaml");
+  const nlohmann::json m = Process(session, root / "out")["metrics"];
+  ASSERT_EQ(m["compared_frames"], 3) << m.dump(1);
+  EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), 0.02);
+  EXPECT_LT(m["irradiance_relative_rms_mean"].get<double>(), 0.05);
+  EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), m["baseline_relative_rms_mean"].get<double>() / 4.0);
+  fs::remove_all(root);
+}
+
 TEST(ShPipelineCliTest, MovingObjectWithSensorNoiseRelitToAnShFile) {
   const fs::path root = TempDir("moving_object");
   const fs::path session = Capture(root, "sim-sh-moving-object-kinect.yaml");
