@@ -6,6 +6,7 @@
 #include <limits>
 #include <numbers>
 
+#include "bench/suite.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -17,11 +18,8 @@ constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kSunRadius = 0.5f * 0.533f * kPi / 180.0f;
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
 
-std::uint64_t Mix(std::uint64_t x) {  // SplitMix64's finaliser
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
+std::uint64_t Mix(std::uint64_t x) {  // one SplitMix64 step
+  return SplitMix64Mix(x + 0x9e3779b97f4a7c15ULL);
 }
 
 // Two numbers in [0, 1) from a key: the per-vertex or per-pixel shift of the stratified grid.

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "core/error.h"
 
@@ -56,6 +57,19 @@ double FirstBounceOnTheWall(double x, double z) {
   return kPi * sum / (static_cast<double>(n) * n);
 }
 
+// The mean red indirect irradiance over the vertices `where` selects, and how many there were.
+template <typename Where>
+std::pair<double, int> MeanIndirect(const TriangleMesh& mesh, const InterreflectionTruth& truth, Where where) {
+  double sum = 0.0;
+  int count = 0;
+  for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+    if (!where(mesh.positions[v], mesh.normals[v])) continue;
+    sum += truth.vertex_indirect(0)[v].x();
+    ++count;
+  }
+  return {count > 0 ? sum / count : 0.0, count};
+}
+
 TEST(InterreflectionTruthTest, TheFirstBounceOnAWallIsTheLitGroundItSees) {
   const WallScene scene;
   const RayCaster caster(scene.mesh);
@@ -69,18 +83,11 @@ TEST(InterreflectionTruthTest, TheFirstBounceOnAWallIsTheLitGroundItSees) {
   // quadrature at x = 0 (the wall is long: x changes the answer by < 0.1 % there). Measured:
   // vertices -0.1 %, the pixel (one, 1024 rays) +1.5 %.
   const double want = FirstBounceOnTheWall(0.0, 5.0);
-  double sum = 0.0;
-  int count = 0;
-  for (std::size_t v = 0; v < scene.mesh.vertex_count(); ++v) {
-    const Eigen::Vector3f& p = scene.mesh.positions[v];
-    if (std::abs(p.y() - 0.5f) < 1e-4f && std::abs(p.z() - 5.0f) < 1e-4f && std::abs(p.x()) <= 50.0f &&
-        scene.mesh.normals[v].y() > 0.9f) {
-      sum += truth.vertex_indirect(0)[v].x();
-      ++count;
-    }
-  }
+  const auto [mean, count] = MeanIndirect(scene.mesh, truth, [](const Eigen::Vector3f& p, const Eigen::Vector3f& n) {
+    return std::abs(p.y() - 0.5f) < 1e-4f && std::abs(p.z() - 5.0f) < 1e-4f && std::abs(p.x()) <= 50.0f && n.y() > 0.9f;
+  });
   ASSERT_GE(count, 5);
-  EXPECT_NEAR(sum / count / want, 1.0, 0.01) << "want " << want << " W/m^2 from " << count << " vertices";
+  EXPECT_NEAR(mean / want, 1.0, 0.01) << "want " << want << " W/m^2 from " << count << " vertices";
 
   // A pixel there: a camera 20 m before the wall at 5 m height looks at it.
   const PinholeCamera camera = PinholeCamera::LookAt(PinholeIntrinsics::FromHorizontalFov(9, 9, 0.05),
@@ -103,17 +110,11 @@ TEST(InterreflectionTruthTest, MoreBouncesAddLightThatConverges) {
   for (int bounces = 1; bounces <= 4; ++bounces) {
     options.bounces = bounces;
     const InterreflectionTruth truth(caster, std::span(&scene.light, 1), options);
-    double sum = 0.0;
-    int count = 0;
-    for (std::size_t v = 0; v < scene.mesh.vertex_count(); ++v) {
-      const Eigen::Vector3f& p = scene.mesh.positions[v];
-      if (std::abs(p.z()) < 1e-4f && p.y() > 0.6f && p.y() < 4.0f && std::abs(p.x()) < 50.0f) {
-        sum += truth.vertex_indirect(0)[v].x();
-        ++count;
-      }
-    }
+    const auto [mean, count] = MeanIndirect(scene.mesh, truth, [](const Eigen::Vector3f& p, const Eigen::Vector3f&) {
+      return std::abs(p.z()) < 1e-4f && p.y() > 0.6f && p.y() < 4.0f && std::abs(p.x()) < 50.0f;
+    });
     ASSERT_GT(count, 0);
-    ground_at_foot.push_back(sum / count);
+    ground_at_foot.push_back(mean);
   }
   // Each bounce adds less than the one before (albedo 0.3: about a third or less).
   for (std::size_t k = 1; k < ground_at_foot.size(); ++k) EXPECT_GT(ground_at_foot[k], ground_at_foot[k - 1]);

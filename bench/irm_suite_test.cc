@@ -15,16 +15,19 @@ namespace {
 constexpr int kScenes = 6;
 constexpr std::uint64_t kSeed = 3;
 
+// A suite's quick run on `scenes` scenes of kSeed, summarised.
+std::vector<SuiteResult> RunQuick(std::vector<SuiteResult> (*run)(const SuiteOptions&), int scenes) {
+  SuiteOptions options;
+  options.scenes = scenes;
+  options.seed = kSeed;
+  options.quick = true;
+  std::vector<SuiteResult> r = run(options);
+  for (SuiteResult& s : r) s.Summarize();
+  return r;
+}
+
 const std::vector<SuiteResult>& QuickSuite() {
-  static const std::vector<SuiteResult> results = [] {
-    SuiteOptions options;
-    options.scenes = kScenes;
-    options.seed = kSeed;
-    options.quick = true;
-    std::vector<SuiteResult> r = RunIrmSuite(options);
-    for (SuiteResult& s : r) s.Summarize();
-    return r;
-  }();
+  static const std::vector<SuiteResult> results = RunQuick(RunIrmSuite, kScenes);
   return results;
 }
 
@@ -139,15 +142,7 @@ TEST(IrmSuiteTest, TheSameSeedGivesTheSameErrors) {
 constexpr int kBounceScenes = 4;
 
 const std::vector<SuiteResult>& QuickBouncesSuite() {
-  static const std::vector<SuiteResult> results = [] {
-    SuiteOptions options;
-    options.scenes = kBounceScenes;
-    options.seed = kSeed;
-    options.quick = true;
-    std::vector<SuiteResult> r = RunIrmBouncesSuite(options);
-    for (SuiteResult& s : r) s.Summarize();
-    return r;
-  }();
+  static const std::vector<SuiteResult> results = RunQuick(RunIrmBouncesSuite, kBounceScenes);
   return results;
 }
 

@@ -26,7 +26,10 @@ bool SuiteOptions::IsValid(std::string* why) const {
 std::uint64_t SceneSeed(std::uint64_t suite_seed, int index) {
   // SplitMix64 (Steele, Lea, Flood 2014) of the suite seed and the index: neighbouring seeds
   // and indices give unrelated scenes.
-  std::uint64_t z = suite_seed * 0x9e3779b97f4a7c15ULL + static_cast<std::uint64_t>(index) + 1;
+  return SplitMix64Mix(suite_seed * 0x9e3779b97f4a7c15ULL + static_cast<std::uint64_t>(index) + 1);
+}
+
+std::uint64_t SplitMix64Mix(std::uint64_t z) {
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
   return z ^ (z >> 31);

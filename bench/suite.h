@@ -40,6 +40,8 @@ struct SuiteOptions {
 
 // The seed of scene `index` of a suite seeded with `suite_seed` (SplitMix64 of both).
 std::uint64_t SceneSeed(std::uint64_t suite_seed, int index);
+// SplitMix64's output function (Steele, Lea, Flood 2014): a well-mixed 64-bit hash of z.
+std::uint64_t SplitMix64Mix(std::uint64_t z);
 
 // A portable random source for scene generators: the same numbers on every platform.
 class SceneRandom {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "core/error.h"
@@ -486,24 +487,40 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
   const bool source_sky = source_sky_radiance.allFinite() && source_sky_radiance.minCoeff() > 0.0f;
   const bool target_sky = target_sky_radiance.allFinite() && target_sky_radiance.minCoeff() > 0.0f;
   const Eigen::Vector3f measured_k_t = target_sky_radiance.cwiseQuotient(source_sky_radiance);
+  // The model fitted to the samples with indirect light treated as `mode` (FitModel).
+  auto fit = [&](IndirectFit mode, const Eigen::Vector3f& scale = Eigen::Vector3f::Zero(),
+                 const Eigen::Vector3f& k_t = Eigen::Vector3f::Constant(kNaN)) {
+    return FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target,
+                    mode, scale, k_t);
+  };
+  // The per-sample fit without indirect light and with K_t free: what each fit with the term is
+  // judged against, and a fallback below. Computed once, when first asked for.
+  std::optional<SunSkyModel> free_fit;
+  auto free_model = [&]() -> const SunSkyModel& {
+    if (!free_fit) free_fit = fit(IndirectFit::kNone);
+    return *free_fit;
+  };
+  // Keeps set.model (fitted with the term; `label` says how) only when it explains the samples
+  // better than `without`: its ratio error below `margin` times that one's. Else says why.
+  auto keep_if_better = [&](const SunSkyModel& without, const std::string& label, double margin,
+                            const std::string& verdict) {
+    const std::string how = label.empty() ? "" : " (" + label + ")";
+    if (!set.model.valid) {
+      indirect_reason = "indirect light left out" + how + ": " + set.model.reason;
+    } else if (without.valid && !(set.model.rms_ratio_error < margin * without.rms_ratio_error)) {
+      indirect_reason = "indirect light left out" + how + ": the samples fit better without it (rms ratio error " +
+                        std::to_string(without.rms_ratio_error) + " against " +
+                        std::to_string(set.model.rms_ratio_error) + ")" + verdict;
+      set.model.valid = false;
+    }
+  };
   // q fitted: one more unknown always fits the samples at least as well, so the term must earn
   // its place, a tenth less ratio error than the same samples' fit without it (`relume bench
   // --stage irm` with no sky views, a scene without interreflection, fitted a small q and
   // gathered every vertex for nothing).
   auto fit_q = [&](const std::string& why) {
-    set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target,
-                         IndirectFit::kFitted);
-    const std::string no_sky = why + ", so q was fitted";
-    const SunSkyModel without =
-        FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
-    if (!set.model.valid) {
-      indirect_reason = "indirect light left out (" + no_sky + ", and the fit failed): " + set.model.reason;
-    } else if (without.valid && !(set.model.rms_ratio_error < 0.9 * without.rms_ratio_error)) {
-      indirect_reason = "indirect light left out (" + no_sky + "): it does not explain the samples better (rms " +
-                        "ratio error " + std::to_string(set.model.rms_ratio_error) + " against " +
-                        std::to_string(without.rms_ratio_error) + " without)";
-      set.model.valid = false;
-    }
+    set.model = fit(IndirectFit::kFitted);
+    keep_if_better(free_model(), why + ", so q was fitted", 0.9, "");
   };
   if (any_indirect) {
     // Indirect light varies from vertex to vertex within a bin (the ground beside a sunlit wall,
@@ -516,55 +533,25 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     // shadows 5.6 % off at the median against 4.8 % with q from the sky (docs/irm.md). With the
     // source's sky alone q is still known and K_t fitted; with the target's alone q = K_t /
     // (pi a_t) follows K_t; without either K_t and q are fitted.
+    const float pi = std::numbers::pi_v<float>;
     if (source_sky && target_sky) {
-      const Eigen::Vector3f& k_t = measured_k_t;
-      const Eigen::Vector3f q = (std::numbers::pi_v<float> * source_sky_radiance).cwiseInverse();
-      set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
-                           sky_gradient_target, IndirectFit::kFixed, q, k_t);
-      const SunSkyModel without = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
-                                           sky_gradient_target, IndirectFit::kFixed, Eigen::Vector3f::Zero(), k_t);
-      if (!set.model.valid) {
-        indirect_reason = "indirect light left out: " + set.model.reason;
-      } else if (without.valid && without.rms_ratio_error < set.model.rms_ratio_error) {
-        indirect_reason = "indirect light left out: the samples fit better without it (rms ratio error " +
-                          std::to_string(without.rms_ratio_error) + " against " +
-                          std::to_string(set.model.rms_ratio_error) + "): no interreflection in these photographs";
-        set.model.valid = false;
-      }
+      set.model = fit(IndirectFit::kFixed, (pi * source_sky_radiance).cwiseInverse(), measured_k_t);
+      keep_if_better(fit(IndirectFit::kFixed, Eigen::Vector3f::Zero(), measured_k_t), "", 1.0,
+                     ": no interreflection in these photographs");
     } else if (source_sky) {
       // Only the source's sky: q = 1 / (pi a_s) is still known (the model's unit), K_t fitted.
-      const Eigen::Vector3f q = (std::numbers::pi_v<float> * source_sky_radiance).cwiseInverse();
-      set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
-                           sky_gradient_target, IndirectFit::kFixed, q);
-      const SunSkyModel without =
-          FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
-      if (!set.model.valid) {
-        indirect_reason = "indirect light left out (no sky in the target photograph, K_t fitted): " + set.model.reason;
-      } else if (without.valid && without.rms_ratio_error < set.model.rms_ratio_error) {
-        indirect_reason =
-            "indirect light left out (no sky in the target photograph, K_t fitted): the samples fit "
-            "better without it (rms ratio error " +
-            std::to_string(without.rms_ratio_error) + " against " + std::to_string(set.model.rms_ratio_error) + ")";
-        set.model.valid = false;
-      }
+      set.model = fit(IndirectFit::kFixed, (pi * source_sky_radiance).cwiseInverse());
+      keep_if_better(free_model(), "no sky in the target photograph, K_t fitted", 1.0, "");
     } else if (target_sky) {
       // Only the target's sky: the model's unit pi a_s is unknown, but q = 1 / (pi a_s) =
       // K_t / (pi a_t), so q follows the fitted K_t. When that fit fails (the first pass's
       // radiance of unseen surfaces comes from a model fitted without indirect light, which can
       // be far off), q is fitted free, as without either sky.
-      const Eigen::Vector3f c = (std::numbers::pi_v<float> * target_sky_radiance).cwiseInverse();
-      set.model = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
-                           sky_gradient_target, IndirectFit::kTied, c);
-      const SunSkyModel without =
-          FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
-      if (!set.model.valid) {
+      set.model = fit(IndirectFit::kTied, (pi * target_sky_radiance).cwiseInverse());
+      if (set.model.valid) {
+        keep_if_better(free_model(), "no sky in the source photograph, q tied to K_t", 1.0, "");
+      } else {
         fit_q("no sky in the source photograph, and q tied to K_t failed: " + set.model.reason);
-      } else if (without.valid && without.rms_ratio_error < set.model.rms_ratio_error) {
-        indirect_reason =
-            "indirect light left out (no sky in the source photograph, q tied to K_t): the samples fit better "
-            "without it (rms ratio error " +
-            std::to_string(without.rms_ratio_error) + " against " + std::to_string(set.model.rms_ratio_error) + ")";
-        set.model.valid = false;
       }
     } else {
       fit_q("no sky in either photograph to set its scale");
@@ -576,8 +563,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
     if (!set.model.valid || set.model.rms_relative_residual > 0.01) {
       // Bin means smear the ratio across a bin; with exact data the samples themselves fit
       // better. Keep whichever explains the data best.
-      SunSkyModel per_sample =
-          FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source, sky_gradient_target);
+      const SunSkyModel& per_sample = free_model();
       if (per_sample.valid &&
           (!set.model.valid || per_sample.rms_relative_residual < set.model.rms_relative_residual)) {
         set.model = per_sample;
@@ -588,8 +574,7 @@ IrmSet BuildIrms(std::span<const Sample> samples, const Eigen::Vector3f& sun_dir
       // term for pushes K_t or a sun below zero: 4 of 20 scenes of the IRM suite with bounces).
       // The sky ratio the photographs' own sky pixels measure leaves only the suns to fit; the
       // indirect light is then gathered from this model (relight.h) and the fit made again.
-      SunSkyModel fixed = FitModel(usable_samples, ones, sun_dir_source, sun_dir_target, sky_gradient_source,
-                                   sky_gradient_target, IndirectFit::kNone, Eigen::Vector3f::Zero(), measured_k_t);
+      SunSkyModel fixed = fit(IndirectFit::kNone, Eigen::Vector3f::Zero(), measured_k_t);
       if (fixed.valid) {
         indirect_reason += "; the sky ratio K_t from the photographs' skies (the free fit: " + set.model.reason + ")";
         set.model = fixed;
