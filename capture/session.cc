@@ -480,7 +480,11 @@ std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers:
 }
 
 std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
-    std::span<const drivers::RgbdFrame> frames) {
+    std::span<const drivers::RgbdFrame> frames, std::span<const RgbdOriginalFiles> originals) {
+  if (!originals.empty() && originals.size() != frames.size()) {
+    throw InvalidArgumentError("WriteRgbdFrames: " + std::to_string(originals.size()) + " original file sets for " +
+                               std::to_string(frames.size()) + " frames");
+  }
   // Records and images: depth then colour for each frame.
   std::vector<FrameRecord> records;
   std::vector<cv::Mat> images;
@@ -507,9 +511,23 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
   // Encoding dominates the cost of a frame: encode every image of the batch in parallel.
   std::vector<std::vector<std::uint8_t>> encoded(images.size());
   std::vector<std::string> failed(images.size());
+  // A file recorded elsewhere: its own bytes (k even: depth, odd: colour).
+  const auto original = [&](std::size_t k) -> const std::vector<std::uint8_t>* {
+    if (originals.empty()) return nullptr;
+    const RgbdOriginalFiles& o = originals[k / 2];
+    const std::vector<std::uint8_t>& bytes = k % 2 == 0 ? o.depth : o.color;
+    return bytes.empty() ? nullptr : &bytes;
+  };
+  for (std::size_t k = 0; k < records.size(); ++k) {
+    if (original(k) != nullptr) {
+      const RgbdOriginalFiles& o = originals[k / 2];
+      records[k].file_format = k % 2 == 0 ? o.depth_format : o.color_format;
+    }
+  }
   cv::parallel_for_(cv::Range(0, static_cast<int>(images.size())), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i) {
       const auto k = static_cast<std::size_t>(i);
+      if (original(k) != nullptr) continue;
       try {
         encoded[k] =
             records[k].file_format == "tiff" ? EncodeTiff(images[k]) : Encode(images[k], "." + records[k].file_format);
@@ -523,7 +541,8 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
   }
   std::set<fs::path> folders;
   for (std::size_t k = 0; k < records.size(); ++k) {
-    records[k] = StoreFile(std::move(records[k]), encoded[k], /*sync_folder=*/false);
+    const std::vector<std::uint8_t>* own = original(k);
+    records[k] = StoreFile(std::move(records[k]), own != nullptr ? *own : encoded[k], /*sync_folder=*/false);
     folders.insert((dir_ / records[k].file_path).parent_path());
   }
   for (const fs::path& folder : folders) SyncDirectory(folder);  // the renames are durable before the rows

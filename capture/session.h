@@ -122,6 +122,12 @@ struct StorageFaultPlan {
   bool Any() const { return slow_write_ms > 0.0 || full_after_mb > 0.0; }
 };
 
+// An RGB-D frame's files as another recorder wrote them (SessionWriter::WriteRgbdFrames).
+struct RgbdOriginalFiles {
+  std::vector<std::uint8_t> depth, color;
+  std::string depth_format, color_format;  // "png", "jpeg", ...: the rows' file_format
+};
+
 struct SessionWriterOptions {
   RgbdFileFormat rgbd_format = RgbdFileFormat::kTiffZstd;
   DepthUnits depth_units = DepthUnits::kMillimetres;
@@ -164,7 +170,11 @@ class SessionWriter {
   // Several RGB-D frames acknowledged together (group commit): their images are encoded in
   // parallel, each file written and fsynced, each folder fsynced once, and all rows committed
   // in one transaction. Same durability as one at a time, far fewer fsyncs per frame.
-  std::vector<std::pair<FrameRecord, FrameRecord>> WriteRgbdFrames(std::span<const drivers::RgbdFrame> frames);
+  // `originals` (empty, or one per frame): files recorded elsewhere (capture/import_rgbd.h),
+  // stored byte for byte in place of encoding the frame's pixels, which must be what they
+  // decode to (they give the row's fields); an empty file is encoded as usual.
+  std::vector<std::pair<FrameRecord, FrameRecord>> WriteRgbdFrames(std::span<const drivers::RgbdFrame> frames,
+                                                                   std::span<const RgbdOriginalFiles> originals = {});
 
   std::int64_t AddEvent(const EventRecord& event);
   std::int64_t AddCalibration(const CalibrationRecord& calibration);

@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "calibration/image_file.h"
+#include "capture/import_rgbd.h"
 #include "capture/rgbd_geometry.h"
 #include "core/color.h"
 #include "core/error.h"
@@ -101,6 +102,9 @@ struct Knobs {
   // noise 0.13-0.15; the demo's outdoor stream with the sun's cast shadows 0.38 (relit 72 %).
   double max_fit_residual = 0.25;
   bool true_normals = false;  // diagnostic: the world's normals instead of the estimated ones
+  // A truth made outside relume (an independent renderer): truth_dir/rgb.txt lists
+  // "TIMESTAMP FILE.exr", linear renders of the colour camera at the frames' times.
+  std::string truth_dir;
 
   // Stage tags: "geometry" (depth filters + normals), "fit", "relight"; "plan": decides which
   // frames and filters run, and the keys follow from that; "report": the summary only.
@@ -138,6 +142,10 @@ struct Knobs {
     v.Knob("min_irradiance_fraction", relight.min_irradiance_fraction,
            "source irradiance, as a share of its mean, below which a pixel is not divided", {"relight"});
     v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"report"});
+    v.Knob("truth_dir", truth_dir,
+           "compare with a truth made outside relume: rgb.txt listing 'TIMESTAMP FILE.exr' linear renders of the "
+           "colour camera (docs/real-data.md)",
+           {"report"});
     v.Knob("max_fit_residual", max_fit_residual,
            "median fit residual above which SH is reported not to fit the scene's light", {"report"});
   }
@@ -1108,16 +1116,115 @@ FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
 // The figures over all frames that the run's metrics report.
 struct FrameTotals {
   std::vector<double> relit_errors, baseline_errors, irradiance_errors, relit8, base8;
+  std::vector<double> floor_errors;  // external truth: the destination photograph's own error
   std::int64_t guarded = 0;
   std::int64_t relit_pixels = 0;
 };
+
+// ---- errors against a truth made outside relume (truth_dir) ------------------------------------
+
+// The external truth's renders by time (truth_dir/rgb.txt, the recording's own layout).
+class ExternalShTruth {
+ public:
+  explicit ExternalShTruth(const fs::path& dir) : dir_(dir), entries_(capture::ReadRgbdList(dir, "rgb.txt")) {}
+  const fs::path& dir() const { return dir_; }
+  // The render at `utc` (within 1 ms), or an empty Mat when the list has none.
+  cv::Mat At(UtcTime utc, const PinholeIntrinsics& size) const {
+    for (const capture::RgbdListEntry& e : entries_) {
+      if (std::chrono::abs(e.utc - utc) > std::chrono::milliseconds(1)) continue;
+      const fs::path path = dir_ / e.file;
+      cv::Mat m = calibration::LoadRadianceExr(path.string()).pixels;
+      if (m.type() != CV_32FC3 || m.cols != size.width || m.rows != size.height) {
+        throw InvalidArgumentError(path.string() + ": the truth must be an RGB OpenEXR of the colour frames' size (" +
+                                   std::to_string(size.width) + "x" + std::to_string(size.height) + ")");
+      }
+      return m;
+    }
+    return {};
+  }
+
+ private:
+  fs::path dir_;
+  std::vector<capture::RgbdListEntry> entries_;
+};
+
+// Share of pixels whose recorded depth appeared, vanished or moved by more than 1 cm between
+// two frames: above 1 % the scene is taken to have moved.
+double MovedDepthFraction(const cv::Mat& a, const cv::Mat& b) {
+  std::int64_t moved = 0, any = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      const float u = a.at<float>(y, x), v = b.at<float>(y, x);
+      if (!std::isfinite(u) && !std::isfinite(v)) continue;
+      ++any;
+      moved += !(std::isfinite(u) && std::isfinite(v) && std::abs(u - v) <= 0.01f);
+    }
+  }
+  return any > 0 ? static_cast<double>(moved) / static_cast<double>(any) : 0.0;
+}
+
+// Frame i relit to the destination frame's light against the external render at the
+// destination's time (a static scene: the source geometry under the destination light). One
+// scale is fitted (the renderer's units are not the photographs'). The floor: the destination
+// frame's own photograph, linearised, against the same render on the same pixels (its encoding
+// and noise, which a relit image cannot beat).
+nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth& truth,
+                                        const std::vector<RgbdPair>& pairs, const PinholeCamera& camera,
+                                        const Destination& dst, std::size_t i, const FrameStages& f,
+                                        const Relit& relit) {
+  nlohmann::json t;
+  t["truth"] = "external: " + truth.dir().string();
+  if (dst.kind != "frame") {
+    t["truth_under_destination"] =
+        "none: the external truth holds renders at the frames' times, not under " + dst.description;
+    return t;
+  }
+  const std::size_t d = *dst.frame_index;
+  const double moved =
+      MovedDepthFraction(run.session().LoadDepth(pairs[i].depth), run.session().LoadDepth(pairs[d].depth));
+  if (moved > 0.01) {
+    t["truth_under_destination"] = "none: the scene moved between the source and destination frames (" +
+                                   Percent(moved) +
+                                   " of depth pixels), so no render shows the source geometry "
+                                   "under the destination light";
+    return t;
+  }
+  const cv::Mat dst_truth = truth.At(pairs[d].color.utc, camera.intrinsics);
+  if (dst_truth.empty()) {
+    t["truth_under_destination"] = "none: " + (truth.dir() / "rgb.txt").string() + " lists no render at frame " +
+                                   std::to_string(pairs[d].color.id) + "'s time";
+    return t;
+  }
+  t["truth_under_destination"] =
+      "the external render at the destination frame's time (static scene: " + Percent(moved) +
+      " of depth pixels moved)";
+  const RadianceImage relit_image = calibration::LoadRadianceExr((relit.dir / "relit.exr").string());
+  const cv::Mat valid = LoadMask(relit.dir / "valid.png");
+  const metrics::SignalError e =
+      metrics::SignalRelativeRms(relit_image.pixels, dst_truth, valid, metrics::Scale::kFitted);
+  const metrics::SignalError base =
+      metrics::SignalRelativeRms(f.radiance[i].radiance.get().pixels, dst_truth, valid, metrics::Scale::kFitted);
+  const metrics::SignalError floor =
+      metrics::SignalRelativeRms(f.radiance[d].radiance.get().pixels, dst_truth, valid, metrics::Scale::kFitted);
+  t["compared_pixels"] = e.pixels;
+  if (e.pixels > 0) {
+    t["relit_relative_rms"] = e.relative_rms;
+    t["baseline_relative_rms"] = base.relative_rms;
+    t["floor_relative_rms"] = floor.relative_rms;
+    t["scale_to_truth"] = e.scale;
+  } else {
+    t["truth_under_destination"] = t["truth_under_destination"].get<std::string>() + "; no relit pixel to compare";
+  }
+  return t;
+}
 
 // Frame i's entry in the metrics' "frames": its fit, its relighting to the destination light (a
 // source frame other than the destination's own) and, with compare_truth, its errors against the
 // world's truth; adds its figures to `totals`.
 nlohmann::json RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in, const FrameStages& f, std::size_t i,
                             const Destination& dst, const ShRgb& dst_light,
-                            std::optional<sim::GroundTruth>* dst_frame_truth, FrameTotals* totals) {
+                            std::optional<sim::GroundTruth>* dst_frame_truth, const ExternalShTruth* external,
+                            FrameTotals* totals) {
   const std::string id = std::to_string(in.pairs[i].color.id);
   nlohmann::json m = {{"color_frame", in.pairs[i].color.id},
                       {"depth_frame", in.pairs[i].depth.id},
@@ -1133,7 +1240,16 @@ nlohmann::json RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in
     totals->guarded += relit->summary["guarded"].get<std::int64_t>();
     totals->relit_pixels += relit->summary["relit"].get<std::int64_t>();
   }
-  if (k.compare_truth && in.has_world) {
+  if (external != nullptr) {
+    if (relit) {
+      m.update(CompareWithExternalTruth(run, *external, in.pairs, in.camera, dst, i, f, *relit));
+      if (m.contains("relit_relative_rms")) {
+        totals->relit_errors.push_back(m["relit_relative_rms"].get<double>());
+        totals->baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
+        totals->floor_errors.push_back(m["floor_relative_rms"].get<double>());
+      }
+    }
+  } else if (k.compare_truth && in.has_world) {
     const TruthInputs truth{&in.pairs, &in.camera, &dst, dst_frame_truth, in.known_albedo};
     m.update(CompareWithTruth(run, truth, i, f.radiance[i], f.geometry[i], f.fits[i], relit ? &*relit : nullptr));
     if (m.contains("irradiance_relative_rms"))
@@ -1164,8 +1280,11 @@ void AddShMetrics(PipelineRun& run, const Destination& dst, bool known_albedo, c
   if (!t.relit_errors.empty()) {
     metrics["relit_relative_rms_mean"] = mean(t.relit_errors);
     metrics["baseline_relative_rms_mean"] = mean(t.baseline_errors);
-    metrics["relit_rms_8bit_mean"] = mean(t.relit8);
-    metrics["baseline_rms_8bit_mean"] = mean(t.base8);
+    if (!t.relit8.empty()) {
+      metrics["relit_rms_8bit_mean"] = mean(t.relit8);
+      metrics["baseline_rms_8bit_mean"] = mean(t.base8);
+    }
+    if (!t.floor_errors.empty()) metrics["floor_relative_rms_mean"] = mean(t.floor_errors);
     metrics["compared_frames"] = static_cast<int>(t.relit_errors.size());
   }
 }
@@ -1192,11 +1311,18 @@ void RunShPipeline(PipelineRun& run) {
   nlohmann::json& frames_json = run.metrics()["frames"];
   frames_json = nlohmann::json::array();
   std::optional<sim::GroundTruth> dst_frame_truth;
+  std::optional<ExternalShTruth> external;
+  if (!k.truth_dir.empty()) {
+    external.emplace(k.truth_dir);
+    run.Decide("truth", "choose", "external truth: the renders " + k.truth_dir + "/rgb.txt lists");
+  }
   FrameTotals totals;
   for (std::size_t i = 0; i < in.pairs.size(); ++i) {
-    frames_json.push_back(RelightFrame(run, k, in, frames, i, dst, dst_light, &dst_frame_truth, &totals));
+    frames_json.push_back(RelightFrame(run, k, in, frames, i, dst, dst_light, &dst_frame_truth,
+                                       external ? &*external : nullptr, &totals));
   }
   AddShMetrics(run, dst, in.known_albedo, totals);
+  if (external) run.metrics()["truth"] = "external: " + k.truth_dir;
 }
 
 std::string ShHeadline(const nlohmann::json& m) {
@@ -1210,6 +1336,8 @@ std::string ShHeadline(const nlohmann::json& m) {
     text += "; against the truth (" + std::to_string(m.value("compared_frames", 0)) + " frames): relit " +
             PercentText(Field(m, "relit_relative_rms_mean")) + " (not relit " +
             PercentText(Field(m, "baseline_relative_rms_mean")) + ")";
+    if (m.contains("floor_relative_rms_mean"))
+      text += ", the destination photograph itself " + PercentText(Field(m, "floor_relative_rms_mean"));
   }
   if (m.contains("irradiance_relative_rms_mean")) {
     text += ", fitted irradiance " + PercentText(Field(m, "irradiance_relative_rms_mean"));
@@ -1222,6 +1350,7 @@ std::vector<Figure> ShFigures(const nlohmann::json& m) {
   const auto get = [&](const char* key) { return Field(m, key); };
   AddFigure(f, "relit vs truth (mean over frames, signal-relative RMS)", get("relit_relative_rms_mean"), "%");
   AddFigure(f, "not relit vs truth (the same frames)", get("baseline_relative_rms_mean"), "%");
+  AddFigure(f, "destination photograph vs truth (the floor, external truth)", get("floor_relative_rms_mean"), "%");
   AddFigure(f, "fitted irradiance vs truth (mean)", get("irradiance_relative_rms_mean"), "%");
   AddFigure(f, "fit residual (median over frames)", get("fit_residual_median"), "%");
   AddFigure(f, "SH describes the scene's light", get("sh_fits_scene"), "");

@@ -3,7 +3,7 @@
 # turned into sessions the way a field team's files would be, and processed against Blender's
 # own renders as the truth.
 #
-#   scripts/blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N]
+#   scripts/blender_dataset.sh RELUME OUT [--scene courtyard|room|rgbd] [--bounces N] [--samples N] [--seed N]
 #       [--format jpeg|tiff]
 #
 # courtyard (default; scripts/blender/render_courtyard.py): the sun where `relume sun` puts it at
@@ -16,6 +16,12 @@
 #   radiosity` estimates every material's albedo (absolute, from the chart) and relights with a
 #   new lamp, scored against the true albedo and Blender's render under that lamp
 #   (docs/radiosity.md).
+# rgbd (scripts/blender/render_rgbd.py): an RGB-D recording, 12 frames at 30 fps of three objects
+#   under a distant key light circling them and a fixed fill (tests/data/scenes/sh-moving-light.yaml
+#   rendered by Cycles, default 3 bounces): 8-bit sRGB colour PNGs and 16-bit millimetre depth
+#   PNGs in the TUM RGB-D layout, imported with `relume session import --rgbd`; `--pipeline sh`
+#   relights every frame to the last one's light and is scored against Blender's linear render at
+#   that time (docs/processing-sh.md).
 # Steps, each what a user does with real files:
 #  1. Blender renders linear EXRs (the truth), five-frame 8-bit JPEG brackets through its sRGB
 #     view (the camera), the geometry as OBJ files (the survey) and the camera.
@@ -28,7 +34,7 @@
 # Exit codes: 0 done, 77 Blender or exiv2 missing (the tests are then skipped), other: a failure.
 set -euo pipefail
 
-usage="usage: blender_dataset.sh RELUME OUT [--scene courtyard|room] [--bounces N] [--samples N] [--seed N] [--format jpeg|tiff]"
+usage="usage: blender_dataset.sh RELUME OUT [--scene courtyard|room|rgbd] [--bounces N] [--samples N] [--seed N] [--format jpeg|tiff]"
 relume=${1:?$usage}
 out=${2:?$usage}
 shift 2
@@ -51,7 +57,8 @@ done
 case $scene in
   courtyard) bounces=${bounces:-0} ;;
   room) bounces=${bounces:-8} ;;
-  *) echo "blender_dataset: --scene is courtyard or room" >&2; exit 2 ;;
+  rgbd) bounces=${bounces:-3} ;;
+  *) echo "blender_dataset: --scene is courtyard, room or rgbd" >&2; exit 2 ;;
 esac
 case $format in
   jpeg) ext=jpg ;;
@@ -151,6 +158,20 @@ if kind == "room":
 open(os.path.join(out, "scene.yaml"), "w").write("\n".join(lines) + "\n")
 PY
 }
+
+if [[ $scene == rgbd ]]; then
+  # The recording as an RGB-D sensor's tools write it: no EXIF, the intrinsics from the camera's
+  # calibration (here Blender's camera), the timestamps in rgb.txt and depth.txt.
+  render render_rgbd.py
+  intrinsics=$(python3 -c 'import json, sys
+c = json.load(open(sys.argv[1]))
+print("%r,%r,%r,%r" % (c["fx"], c["fy"], c["cx"], c["cy"]))' "$out/render/camera.json")
+  "$relume" session import --rgbd "$out/render/rgbd" --intrinsics "$intrinsics" --out "$out/session" \
+    --site "$site" --camera-id blender-cycles-rgbd
+  cp -r "$out/render/truth/." "$out/truth/"
+  "$relume" process "$out/session" --pipeline sh --out "$out/sh" --set "truth_dir=$out/truth"
+  exit 0
+fi
 
 if [[ $scene == courtyard ]]; then
   day=2026-06-21

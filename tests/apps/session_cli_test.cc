@@ -80,5 +80,43 @@ TEST(SessionCliTest, ImportRefusesFilesWithoutTheirTimeAndBadFlags) {
   fs::remove_all(dir);
 }
 
+// `relume session import --rgbd`: the flags reach capture::ImportRgbd (tested in
+// capture/import_rgbd_test.cc) and its errors reach the user; `session info` shows the device.
+TEST(SessionCliTest, ImportsAnRgbdRecordingAndNamesWhatIsMissing) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("session_import_rgbd_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "rec" / "rgb");
+  fs::create_directories(dir / "rec" / "depth");
+  std::ofstream rgb(dir / "rec" / "rgb.txt"), depth(dir / "rec" / "depth.txt");
+  for (int k = 0; k < 3; ++k) {
+    const std::string name = std::to_string(k) + ".png";
+    cv::imwrite((dir / "rec" / "rgb" / name).string(), cv::Mat(12, 16, CV_8UC3, cv::Scalar(10, 20, 30 + k)));
+    cv::imwrite((dir / "rec" / "depth" / name).string(), cv::Mat(12, 16, CV_16UC1, cv::Scalar(1200 + k)));
+    rgb << "1773999000." << 100 + 33 * k << " rgb/" << name << "\n";
+    depth << "1773999000." << 100 + 33 * k << " depth/" << name << "\n";
+  }
+  rgb.close();
+  depth.close();
+  const std::string base = "session import --rgbd " + (dir / "rec").string() + " --out " + (dir / "s").string() +
+                           " --site " + RELUME_SOURCE_DIR + "/config/sites/athens-acropolis.yaml";
+  const testing::CliResult no_intrinsics = testing::RunRelume(base);
+  EXPECT_NE(no_intrinsics.exit_code, 0);
+  EXPECT_NE(no_intrinsics.output.find("--rgbd needs --intrinsics fx,fy,cx,cy"), std::string::npos)
+      << no_intrinsics.output;
+  EXPECT_FALSE(fs::exists(dir / "s"));
+  const testing::CliResult both = testing::RunRelume(base + " " + (dir / "rec").string() + " --intrinsics 20,20,8,6");
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.output.find("not both"), std::string::npos) << both.output;
+
+  const testing::CliResult ok = testing::RunRelume(base + " --intrinsics 20,20,8,6 --camera-id kinect");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("imported 3 RGB-D frame pairs of import:kinect"), std::string::npos) << ok.output;
+  const testing::CliResult info = testing::RunRelume("session info " + (dir / "s").string());
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("import:kinect"), std::string::npos) << info.output;
+  EXPECT_EQ(capture::SessionReader(dir / "s").Frames().size(), 6u);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace relume

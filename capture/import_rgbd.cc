@@ -1,0 +1,345 @@
+#include "capture/import_rgbd.h"
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <utility>
+
+#include "capture/durable_file.h"
+#include "capture/session.h"
+#include "core/error.h"
+#include "core/input_file.h"
+
+namespace relume::capture {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::uint8_t> ReadBytes(const fs::path& path) {
+  const std::string text = ReadInputFile(path);
+  return {text.begin(), text.end()};
+}
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+// The row's file_format of a colour or depth file, from its extension.
+std::string FormatOf(const fs::path& file) {
+  const std::string ext = Lower(file.extension().string());
+  if (ext == ".png") return "png";
+  if (ext == ".jpg" || ext == ".jpeg") return "jpeg";
+  return "";
+}
+
+// "1305031102.175304" as an exact UtcTime; nullopt when it is not a non-negative decimal number.
+std::optional<UtcTime> ParseUnixTime(const std::string& text) {
+  const std::size_t dot = text.find('.');
+  const std::string whole = text.substr(0, dot);
+  std::string fraction = dot == std::string::npos ? "" : text.substr(dot + 1);
+  const auto digits = [](const std::string& s) {
+    return std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c) != 0; });
+  };
+  if (whole.empty() || whole.size() > 12 || !digits(whole) || !digits(fraction)) return std::nullopt;
+  if (fraction.size() > 9) fraction.resize(9);  // below a nanosecond
+  fraction.resize(9, '0');
+  return UtcTime(std::chrono::seconds(std::stoll(whole)) + Nanoseconds(std::stoll(fraction)));
+}
+
+std::string Size(const cv::Mat& m) {
+  return std::to_string(m.cols) + "x" + std::to_string(m.rows);
+}
+
+// A colour file decoded to RGB with its row's pixel fields. Throws InvalidArgumentError naming
+// the file when it is not 8- or 16-bit colour.
+CameraImage DecodeColor(const std::vector<std::uint8_t>& bytes, const fs::path& path) {
+  const cv::Mat decoded = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  if (decoded.empty() || (decoded.depth() != CV_8U && decoded.depth() != CV_16U) ||
+      (decoded.channels() != 3 && decoded.channels() != 4)) {
+    throw InvalidArgumentError(path.string() +
+                               ": not an 8- or 16-bit colour PNG or JPEG (the colour frames of an RGB-D import)");
+  }
+  CameraImage image;
+  cv::cvtColor(decoded, image.pixels, decoded.channels() == 4 ? cv::COLOR_BGRA2RGB : cv::COLOR_BGR2RGB);
+  image.layout = ColorLayout::kRgb;
+  image.encoding = SampleEncoding::kCameraResponse;
+  const bool sixteen = decoded.depth() == CV_16U;
+  image.bits_per_sample = sixteen ? 16 : 8;
+  image.black_level = 0;
+  image.white_level = sixteen ? 65535 : 255;
+  return image;
+}
+
+// A depth file in metres (NaN where it holds 0). Throws InvalidArgumentError naming the file when
+// it is not a 16-bit single-channel PNG.
+cv::Mat DecodeDepth(const std::vector<std::uint8_t>& bytes, const fs::path& path, double units_per_metre) {
+  const cv::Mat decoded = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  if (decoded.empty() || decoded.type() != CV_16UC1) {
+    throw InvalidArgumentError(path.string() +
+                               ": not a 16-bit single-channel PNG (the depth frames of an RGB-D import hold the "
+                               "depth times --depth-scale, 0 where there is none)");
+  }
+  cv::Mat depth_m(decoded.size(), CV_32FC1);
+  for (int y = 0; y < decoded.rows; ++y) {
+    const std::uint16_t* in = decoded.ptr<std::uint16_t>(y);
+    float* out = depth_m.ptr<float>(y);
+    for (int x = 0; x < decoded.cols; ++x) {
+      out[x] = in[x] == 0 ? NAN : static_cast<float>(static_cast<double>(in[x]) / units_per_metre);
+    }
+  }
+  return depth_m;
+}
+
+struct Pair {
+  std::size_t depth = 0, color = 0;  // indices into the lists
+};
+
+// Each depth frame with the nearest colour frame within `max_gap`, each colour frame used once:
+// candidates taken in order of their gap (associate.py of the TUM benchmark). Sorted by depth time.
+std::vector<Pair> Associate(const std::vector<RgbdListEntry>& depth, const std::vector<RgbdListEntry>& color,
+                            Nanoseconds max_gap) {
+  std::vector<std::pair<Nanoseconds, Pair>> candidates;
+  std::vector<std::size_t> color_order(color.size());
+  for (std::size_t i = 0; i < color.size(); ++i) color_order[i] = i;
+  std::stable_sort(color_order.begin(), color_order.end(),
+                   [&](std::size_t a, std::size_t b) { return color[a].utc < color[b].utc; });
+  for (std::size_t d = 0; d < depth.size(); ++d) {
+    auto it = std::lower_bound(color_order.begin(), color_order.end(), depth[d].utc - max_gap,
+                               [&](std::size_t c, UtcTime t) { return color[c].utc < t; });
+    for (; it != color_order.end() && color[*it].utc <= depth[d].utc + max_gap; ++it) {
+      candidates.push_back({std::chrono::abs(color[*it].utc - depth[d].utc), Pair{d, *it}});
+    }
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<bool> depth_used(depth.size()), color_used(color.size());
+  std::vector<Pair> pairs;
+  for (const auto& [gap, p] : candidates) {
+    if (depth_used[p.depth] || color_used[p.color]) continue;
+    depth_used[p.depth] = color_used[p.color] = true;
+    pairs.push_back(p);
+  }
+  std::stable_sort(pairs.begin(), pairs.end(),
+                   [&](const Pair& a, const Pair& b) { return depth[a.depth].utc < depth[b.depth].utc; });
+  return pairs;
+}
+
+// The pair's frame for SessionWriter, and its files (the originals).
+struct LoadedPair {
+  drivers::RgbdFrame frame;
+  RgbdOriginalFiles files;
+};
+
+LoadedPair LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color,
+                    const PinholeIntrinsics& intrinsics) {
+  const fs::path depth_path = options.folder / depth.file, color_path = options.folder / color.file;
+  if (FormatOf(depth.file) != "png") {
+    throw InvalidArgumentError(depth_path.string() + ": depth frames must be 16-bit PNG files");
+  }
+  if (FormatOf(color.file).empty()) {
+    throw InvalidArgumentError(color_path.string() + ": colour frames must be PNG or JPEG files");
+  }
+  LoadedPair p;
+  p.files.depth = ReadBytes(depth_path);
+  p.files.color = ReadBytes(color_path);
+  p.files.depth_format = "png";
+  p.files.color_format = FormatOf(color.file);
+  p.frame.depth_m = DecodeDepth(p.files.depth, depth_path, options.depth_units_per_metre);
+  p.frame.color = DecodeColor(p.files.color, color_path);
+  if (p.frame.color.pixels.cols != intrinsics.width || p.frame.color.pixels.rows != intrinsics.height) {
+    throw InvalidArgumentError(color_path.string() + " is " + Size(p.frame.color.pixels) +
+                               " but the colour camera is " + std::to_string(intrinsics.width) + "x" +
+                               std::to_string(intrinsics.height) +
+                               " (--intrinsics' size, or the first colour frame's): a recording has one size");
+  }
+  if (p.frame.depth_m.size() != p.frame.color.pixels.size()) {
+    throw InvalidArgumentError(depth_path.string() + " is " + Size(p.frame.depth_m) + " but its colour frame " +
+                               color_path.string() + " is " + Size(p.frame.color.pixels) +
+                               ": relume needs depth registered to colour (the colour camera's viewpoint and size); "
+                               "register it first, e.g. with OpenNI's image registration or librealsense's align");
+  }
+  p.frame.depth_intrinsics = intrinsics;
+  p.frame.color_intrinsics = intrinsics;
+  p.frame.registered_to_color = true;
+  p.frame.color_exposure.exposure_time_s = options.exposure_time_s;
+  p.frame.color_exposure.iso = options.iso;
+  return p;
+}
+
+drivers::FrameTiming Timing(UtcTime utc, UtcTime first, std::uint64_t sequence) {
+  drivers::FrameTiming t;
+  t.host_utc = utc;
+  t.host_monotonic = MonotonicTime(utc - first);
+  t.device_timestamp = utc.time_since_epoch();
+  t.sequence = sequence;
+  return t;
+}
+
+}  // namespace
+
+bool RgbdImportOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& reason) {
+    if (why != nullptr) *why = reason;
+    return false;
+  };
+  if (folder.empty()) return fail("no RGB-D folder (--rgbd DIR, holding rgb.txt and depth.txt)");
+  std::string reason;
+  if (!site.IsValid(&reason)) return fail("site: " + reason);
+  if (camera_id.empty()) return fail("--camera-id must not be empty");
+  const PinholeIntrinsics& k = color_intrinsics;
+  if (!(std::isfinite(k.fx) && k.fx > 0.0 && std::isfinite(k.fy) && k.fy > 0.0 && std::isfinite(k.cx) &&
+        std::isfinite(k.cy))) {
+    return fail("--intrinsics must give the colour camera's fx,fy,cx,cy in pixels (fx, fy > 0)");
+  }
+  if (k.width < 0 || k.height < 0) return fail("the colour camera's width and height must not be negative");
+  if (!(std::isfinite(depth_units_per_metre) && depth_units_per_metre > 0.0)) {
+    return fail("--depth-scale must be a positive number (depth values per metre: 1000 for millimetres)");
+  }
+  if (!(max_pair_gap_s >= 0.0 && max_pair_gap_s <= 10.0)) return fail("--max-pair-gap must be within [0, 10] s");
+  for (const auto& [value, flag] : {std::pair{exposure_time_s, "--exposure-time"}, {iso, "--iso"}}) {
+    if (!std::isnan(value) && !(std::isfinite(value) && value > 0.0)) {
+      return fail(std::string(flag) + " must be a positive number");
+    }
+  }
+  if (frames_per_batch < 1) return fail("frames_per_batch must be at least 1");
+  return true;
+}
+
+std::string RgbdImportSummary::Report() const {
+  std::ostringstream out;
+  out << "imported " << pairs << " RGB-D frame pairs of " << device_id << ", " << FormatIso8601(first_utc) << " .. "
+      << FormatIso8601(last_utc) << ", " << bytes / 1024 << " KiB -> " << session.string() << "\n";
+  out << "  largest depth-colour time gap " << largest_pair_gap_s * 1e3 << " ms\n";
+  if (unpaired_color > 0 || unpaired_depth > 0) {
+    out << "  not imported (no partner within the gap): " << unpaired_depth << " depth and " << unpaired_color
+        << " colour frame(s)\n";
+  }
+  if (depth_converted) {
+    out << "  depth stored as float metres (OpenEXR); the originals' SHA-256 are in the session's events\n";
+  }
+  return out.str();
+}
+
+std::vector<RgbdListEntry> ReadRgbdList(const fs::path& folder, const std::string& name) {
+  const fs::path path = folder / name;
+  std::istringstream in(ReadInputFile(path));
+  std::vector<RgbdListEntry> entries;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream fields(line);
+    std::string stamp, file, extra;
+    if (!(fields >> stamp) || stamp.front() == '#') continue;  // blank or comment
+    const std::optional<UtcTime> utc = ParseUnixTime(stamp);
+    if (!utc || !(fields >> file) || (fields >> extra)) {
+      throw InvalidArgumentError(path.string() + " line " + std::to_string(number) + ": '" + line +
+                                 "' is not 'TIMESTAMP FILE' (Unix time in seconds, UTC, and a file relative to " +
+                                 folder.string() + ")");
+    }
+    entries.push_back({*utc, fs::path(file)});
+  }
+  if (entries.empty()) throw InvalidArgumentError(path.string() + " lists no frames");
+  return entries;
+}
+
+RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& out) {
+  ThrowIfInvalid(options, "RGB-D import options");
+  const std::vector<RgbdListEntry> color = ReadRgbdList(options.folder, "rgb.txt");
+  const std::vector<RgbdListEntry> depth = ReadRgbdList(options.folder, "depth.txt");
+  const auto max_gap = std::chrono::duration_cast<Nanoseconds>(std::chrono::duration<double>(options.max_pair_gap_s));
+  const std::vector<Pair> pairs = Associate(depth, color, max_gap);
+  if (pairs.empty()) {
+    throw InvalidArgumentError("no depth frame of " + (options.folder / "depth.txt").string() +
+                               " has a colour frame within " + std::to_string(options.max_pair_gap_s * 1e3) +
+                               " ms: are both lists in the same clock? (--max-pair-gap widens the window)");
+  }
+  PinholeIntrinsics intrinsics = options.color_intrinsics;
+  if (intrinsics.width == 0 || intrinsics.height == 0) {
+    const fs::path first = options.folder / color[pairs.front().color].file;
+    const cv::Mat image = DecodeColor(ReadBytes(first), first).pixels;
+    intrinsics.width = image.cols;
+    intrinsics.height = image.rows;
+  }
+  std::string why;
+  if (!intrinsics.IsValid(&why)) throw InvalidArgumentError("--intrinsics: " + why);
+
+  RgbdImportSummary summary;
+  summary.session = out;
+  summary.pairs = static_cast<int>(pairs.size());
+  summary.unpaired_depth = static_cast<int>(depth.size() - pairs.size());
+  summary.unpaired_color = static_cast<int>(color.size() - pairs.size());
+  summary.depth_converted = options.depth_units_per_metre != 1000.0;
+  UtcTime first = UtcTime::max(), last = UtcTime::min();
+  for (const Pair& p : pairs) {
+    first = std::min({first, depth[p.depth].utc, color[p.color].utc});
+    last = std::max({last, depth[p.depth].utc, color[p.color].utc});
+    summary.largest_pair_gap_s =
+        std::max(summary.largest_pair_gap_s,
+                 std::chrono::duration<double>(std::chrono::abs(depth[p.depth].utc - color[p.color].utc)).count());
+  }
+  summary.first_utc = first;
+  summary.last_utc = last;
+  // Every pair read and decoded before the session exists: a refused import leaves nothing.
+  for (const Pair& p : pairs) LoadPair(options, depth[p.depth], color[p.color], intrinsics);
+
+  drivers::DeviceInfo device;
+  device.backend = "import";
+  device.id = options.camera_id;
+  device.kind = drivers::DeviceKind::kRgbdSensor;
+  device.model = "RGB-D recording (TUM RGB-D layout)";
+  device.address = "files";
+  summary.device_id = device.FullId();
+  SessionInfo info;
+  info.name = options.name.empty() ? out.filename().string() : options.name;
+  info.site = options.site;
+  info.software_version = "relume import";
+  info.clock_name = "the recording's timestamps (rgb.txt, depth.txt)";
+  info.created_utc = UtcNow();
+  SessionWriterOptions writer_options;
+  writer_options.rgbd_format = RgbdFileFormat::kPng;
+  writer_options.depth_units = summary.depth_converted ? DepthUnits::kMetres : DepthUnits::kMillimetres;
+  std::unique_ptr<SessionWriter> writer = SessionWriter::Create(out, info, writer_options);
+  writer->AddDevice(device);
+
+  const auto batch = static_cast<std::size_t>(options.frames_per_batch);
+  for (std::size_t begin = 0; begin < pairs.size(); begin += batch) {
+    const std::size_t end = std::min(pairs.size(), begin + batch);
+    std::vector<drivers::RgbdFrame> frames;
+    std::vector<RgbdOriginalFiles> files;
+    for (std::size_t i = begin; i < end; ++i) {
+      const RgbdListEntry& d = depth[pairs[i].depth];
+      const RgbdListEntry& c = color[pairs[i].color];
+      LoadedPair p = LoadPair(options, d, c, intrinsics);
+      p.frame.device_id = device.FullId();
+      p.frame.depth_timing = Timing(d.utc, first, i);
+      p.frame.color_timing = Timing(c.utc, first, i);
+      summary.bytes += p.files.color.size() + p.files.depth.size();
+      if (summary.depth_converted) {
+        summary.original_depth_sha256.push_back(d.file.generic_string() + " " + Sha256Hex(p.files.depth));
+        p.files.depth.clear();  // stored as metres: encoded by the writer
+      }
+      frames.push_back(std::move(p.frame));
+      files.push_back(std::move(p.files));
+    }
+    const std::vector<std::pair<FrameRecord, FrameRecord>> rows = writer->WriteRgbdFrames(frames, files);
+    if (summary.depth_converted) {
+      for (std::size_t i = begin; i < end; ++i) {
+        writer->AddEvent({0, UtcNow(), MonotonicNow(), device.FullId(), "note",
+                          "depth frame " + std::to_string(rows[i - begin].first.id) + " from original " +
+                              summary.original_depth_sha256[i] + " (" + std::to_string(options.depth_units_per_metre) +
+                              " per metre), stored as float metres"});
+      }
+    }
+  }
+  writer->AddEvent({0, UtcNow(), MonotonicNow(), device.FullId(), "note",
+                    "imported " + std::to_string(summary.pairs) + " RGB-D frame pairs from " + options.folder.string() +
+                        " (" + std::to_string(summary.unpaired_depth) + " depth and " +
+                        std::to_string(summary.unpaired_color) + " colour frames without a partner left out)"});
+  return summary;
+}
+
+}  // namespace relume::capture

@@ -1,0 +1,226 @@
+#include "capture/import_rgbd.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+
+#include "capture/durable_file.h"
+#include "capture/rgbd_geometry.h"
+#include "capture/session.h"
+#include "core/error.h"
+#include "core/sun/sun_position.h"
+
+namespace relume::capture {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::uint8_t> Encode(const cv::Mat& image, const std::string& extension) {
+  std::vector<std::uint8_t> bytes;
+  EXPECT_TRUE(cv::imencode(extension, image, bytes));
+  return bytes;
+}
+
+void WriteFile(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
+  fs::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
+// 1773999000 s and `microseconds` as a TUM timestamp.
+std::string Stamp(int microseconds) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "1773999000.%06d", microseconds);
+  return text;
+}
+
+// A recording in the TUM RGB-D layout: colour frames 1/30 s apart from t0, each depth frame
+// 2 ms before its colour frame; an extra colour frame at the end without depth.
+class ImportRgbdTest : public ::testing::Test {
+ protected:
+  static constexpr int kFrames = 5;
+  static constexpr int kWidth = 32, kHeight = 24;
+
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("relume-import-rgbd-" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    options_.folder = dir_ / "rec";
+    options_.site = Site::FromDegrees(47.37689, 8.54169, 460.0);
+    options_.color_intrinsics.fx = options_.color_intrinsics.fy = 30.0;
+    options_.color_intrinsics.cx = 16.0;
+    options_.color_intrinsics.cy = 12.0;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Writes the recording with depth values of `units` per metre (1.0-1.5 m and a hole).
+  void WriteRecording(double units, const std::string& color_extension = ".png") {
+    fs::create_directories(options_.folder);
+    std::ofstream rgb_list(options_.folder / "rgb.txt"), depth_list(options_.folder / "depth.txt");
+    rgb_list << "# color images\n# timestamp filename\n";
+    depth_list << "# depth maps\n";
+    cv::RNG rng(7);
+    for (int k = 0; k <= kFrames; ++k) {
+      const std::string stamp = Stamp(100000 + k * 33333);
+      cv::Mat color(kHeight, kWidth, CV_8UC3);
+      rng.fill(color, cv::RNG::UNIFORM, 0, 255);
+      const std::string color_name = "rgb/" + std::to_string(k) + color_extension;
+      colors_[color_name] = Encode(color, color_extension);
+      WriteFile(options_.folder / color_name, colors_[color_name]);
+      rgb_list << stamp << " " << color_name << "\n";
+      if (k == kFrames) break;  // the last colour frame has no depth
+      cv::Mat depth(kHeight, kWidth, CV_16UC1);
+      for (int y = 0; y < kHeight; ++y)
+        for (int x = 0; x < kWidth; ++x)
+          depth.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(std::lround(units * (1.0 + 0.02 * x + 0.001 * k)));
+      depth.at<std::uint16_t>(3, 4) = 0;  // a hole
+      const std::string depth_name = "depth/" + std::to_string(k) + ".png";
+      depths_[depth_name] = Encode(depth, ".png");
+      depth_values_.push_back(depth);
+      WriteFile(options_.folder / depth_name, depths_[depth_name]);
+      // 2 ms before the colour frame.
+      depth_list << Stamp(100000 + k * 33333 - 2000) << " " << depth_name << "\n";
+    }
+  }
+
+  fs::path dir_;
+  RgbdImportOptions options_;
+  std::map<std::string, std::vector<std::uint8_t>> colors_, depths_;
+  std::vector<cv::Mat> depth_values_;
+};
+
+TEST_F(ImportRgbdTest, PairsFramesKeepsTheFilesAndRecordsTheGeometry) {
+  WriteRecording(1000.0);
+  const RgbdImportSummary summary = ImportRgbd(options_, dir_ / "session");
+  EXPECT_EQ(summary.pairs, kFrames);
+  EXPECT_EQ(summary.unpaired_color, 1);
+  EXPECT_EQ(summary.unpaired_depth, 0);
+  EXPECT_NEAR(summary.largest_pair_gap_s, 0.002, 1e-9);
+  EXPECT_FALSE(summary.depth_converted);
+  EXPECT_EQ(summary.device_id, "import:rgbd");
+
+  const SessionReader reader(dir_ / "session");
+  const std::vector<FrameRecord> frames = reader.Frames();
+  ASSERT_EQ(frames.size(), 2u * kFrames);
+  const UtcTime t0 = UtcTime(std::chrono::seconds(1773999000)) + std::chrono::microseconds(100000);
+  for (int k = 0; k < kFrames; ++k) {
+    const FrameRecord& depth = frames[static_cast<std::size_t>(2 * k)];
+    const FrameRecord& color = frames[static_cast<std::size_t>(2 * k + 1)];
+    EXPECT_EQ(depth.stream, "depth");
+    EXPECT_EQ(color.stream, "color");
+    // Times exact to the microsecond the lists give.
+    EXPECT_EQ(color.utc, t0 + std::chrono::microseconds(k * 33333));
+    EXPECT_EQ(depth.utc, color.utc - std::chrono::milliseconds(2));
+    // Byte for byte, both files.
+    EXPECT_EQ(reader.ReadFrameFile(color), colors_["rgb/" + std::to_string(k) + ".png"]);
+    EXPECT_EQ(reader.ReadFrameFile(depth), depths_["depth/" + std::to_string(k) + ".png"]);
+    EXPECT_EQ(color.sha256, Sha256Hex(colors_["rgb/" + std::to_string(k) + ".png"]));
+    // Depth in metres, the hole NaN.
+    const cv::Mat metres = reader.LoadDepth(depth);
+    EXPECT_TRUE(std::isnan(metres.at<float>(3, 4)));
+    EXPECT_NEAR(metres.at<float>(5, 10), depth_values_[static_cast<std::size_t>(k)].at<std::uint16_t>(5, 10) * 1e-3,
+                1e-6);
+    // The sun for the site, and the pixels as decoded.
+    const SunPosition sun = ComputeSunPosition(options_.site, color.utc);
+    EXPECT_NEAR(color.sun_elevation_deg, RadToDeg(sun.elevation_rad), 1e-6);
+    const CameraImage image = reader.LoadImage(color);
+    EXPECT_EQ(image.pixels.cols, kWidth);
+    EXPECT_EQ(image.bits_per_sample, 8);
+  }
+  // The geometry row: registered, the intrinsics given, the first colour frame's size.
+  const std::vector<CalibrationRecord> rows = reader.Calibrations();
+  const CalibrationRecord* geometry = RgbdGeometryAt(rows, "import:rgbd", frames[0].id);
+  ASSERT_NE(geometry, nullptr);
+  drivers::RgbdFrame g;
+  ApplyRgbdGeometryJson(geometry->json, &g);
+  EXPECT_TRUE(g.registered_to_color);
+  EXPECT_EQ(g.color_intrinsics.width, kWidth);
+  EXPECT_EQ(g.color_intrinsics.height, kHeight);
+  EXPECT_DOUBLE_EQ(g.color_intrinsics.fx, 30.0);
+  EXPECT_DOUBLE_EQ(g.color_intrinsics.cy, 12.0);
+}
+
+// The benchmark's own depth scale (5000 per metre): depth is stored as float metres, exactly,
+// and the events keep each original's SHA-256.
+TEST_F(ImportRgbdTest, OtherDepthUnitsAreStoredAsMetres) {
+  WriteRecording(5000.0, ".jpg");
+  options_.depth_units_per_metre = 5000.0;
+  const RgbdImportSummary summary = ImportRgbd(options_, dir_ / "session");
+  EXPECT_TRUE(summary.depth_converted);
+  ASSERT_EQ(summary.original_depth_sha256.size(), static_cast<std::size_t>(kFrames));
+  EXPECT_EQ(summary.original_depth_sha256[0], "depth/0.png " + Sha256Hex(depths_["depth/0.png"]));
+  const SessionReader reader(dir_ / "session");
+  const std::vector<FrameRecord> frames = reader.Frames();
+  ASSERT_EQ(frames.size(), 2u * kFrames);
+  EXPECT_EQ(frames[0].file_format, "exr");
+  EXPECT_EQ(frames[1].file_format, "jpeg");
+  EXPECT_EQ(reader.ReadFrameFile(frames[1]), colors_["rgb/0.jpg"]);
+  const cv::Mat metres = reader.LoadDepth(frames[0]);
+  EXPECT_FLOAT_EQ(metres.at<float>(5, 10), static_cast<float>(depth_values_[0].at<std::uint16_t>(5, 10) / 5000.0));
+  EXPECT_TRUE(std::isnan(metres.at<float>(3, 4)));
+  int provenance = 0;
+  for (const EventRecord& e : reader.Events()) {
+    provenance += e.message.find(Sha256Hex(depths_["depth/0.png"])) != std::string::npos;
+  }
+  EXPECT_EQ(provenance, 1);
+}
+
+TEST_F(ImportRgbdTest, DepthNotRegisteredToColourIsRefusedAndNothingIsMade) {
+  WriteRecording(1000.0);
+  WriteFile(options_.folder / "depth/3.png", Encode(cv::Mat(12, 16, CV_16UC1, cv::Scalar(1000)), ".png"));
+  try {
+    ImportRgbd(options_, dir_ / "session");
+    FAIL() << "a depth frame of another size was imported";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("depth/3.png is 16x12"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("registered to colour"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "session"));
+}
+
+TEST_F(ImportRgbdTest, BadListsFilesAndOptionsAreNamed) {
+  WriteRecording(1000.0);
+  { std::ofstream(options_.folder / "depth.txt", std::ios::app) << "1773999001.5\n"; }
+  try {
+    ImportRgbd(options_, dir_ / "session");
+    FAIL();
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("depth.txt line 7"), std::string::npos) << e.what();
+  }
+  WriteRecording(1000.0);
+  fs::remove(options_.folder / "rgb/2.png");
+  EXPECT_THROW(ImportRgbd(options_, dir_ / "session"), IoError);
+  EXPECT_FALSE(fs::exists(dir_ / "session"));
+
+  WriteRecording(1000.0);
+  options_.max_pair_gap_s = 0.001;  // the streams are 2 ms apart
+  try {
+    ImportRgbd(options_, dir_ / "session");
+    FAIL();
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("--max-pair-gap"), std::string::npos) << e.what();
+  }
+
+  RgbdImportOptions bad = options_;
+  bad.color_intrinsics.fx = 0.0;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("--intrinsics"), std::string::npos);
+  bad = options_;
+  bad.depth_units_per_metre = -1.0;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("--depth-scale"), std::string::npos);
+  bad = options_;
+  bad.color_intrinsics.width = 64;  // not the frames' size
+  bad.color_intrinsics.height = 48;
+  bad.max_pair_gap_s = 0.02;
+  EXPECT_THROW(ImportRgbd(bad, dir_ / "session"), InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace relume::capture
