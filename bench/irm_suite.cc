@@ -370,7 +370,9 @@ namespace {
 
 // The suite with `bounces` diffuse bounces in the renders (0: direct light only).
 std::vector<SuiteResult> RunIrmSuiteWith(const SuiteOptions& options, int bounces) {
-  const IrmSuiteSize size = IrmSuiteSizeFor(options.quick);
+  IrmSuiteSize size = IrmSuiteSizeFor(options.quick);
+  size.render_vertex_rays *= options.truth_rays_factor;
+  size.render_pixel_rays *= options.truth_rays_factor;
   const irm::RelightOptions relight;  // the defaults, as `relume process --pipeline irm`
   std::string method =
       "irm::RelightImage, default options (32 bins, 16 sun-disk rays, 144 sky rays, "
@@ -387,8 +389,10 @@ std::vector<SuiteResult> RunIrmSuiteWith(const SuiteOptions& options, int bounce
              std::to_string(size.render_vertex_rays) + " rays per vertex) interpolated as the method's";
   }
   const std::string prefix = bounces > 0 ? "irm-outdoor-bounces-" : "irm-outdoor-";
-  const std::string rendered =
-      bounces > 0 ? "; rendered with " + std::to_string(bounces) + " diffuse bounces" : "; rendered with direct light";
+  const std::string rendered = bounces > 0
+                                   ? "; rendered with " + std::to_string(bounces) + " diffuse bounces (" +
+                                         std::to_string(size.render_pixel_rays) + " final-gather rays per pixel)"
+                                   : "; rendered with direct light";
   const char* regions[3] = {"lit", "shadow", "penumbra"};
   const char* definitions[3] = {"sun >= 0.99 at both times", "sun <= 0.01 or behind the surface at either time",
                                 "sun strictly between 0.01 and 0.99 at either time"};

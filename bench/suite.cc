@@ -20,6 +20,10 @@ bool SuiteOptions::IsValid(std::string* why) const {
     if (why) *why = "scenes must be between 1 and 100000 (got " + std::to_string(scenes) + ")";
     return false;
   }
+  if (truth_rays_factor < 1 || truth_rays_factor > 64) {
+    if (why) *why = "truth_rays_factor must be between 1 and 64 (got " + std::to_string(truth_rays_factor) + ")";
+    return false;
+  }
   return true;
 }
 

@@ -33,6 +33,10 @@ struct SuiteOptions {
   // Set: one scene, this seed (a scene of suite.csv reproduced alone); `scenes` and `seed`
   // are then ignored.
   std::optional<std::uint64_t> scene_seed;
+  // Multiplies the rays of the renders' bounce-light quadrature (the IRM bounces suite's truth
+  // and photographs): its Monte Carlo noise is in every error, the floor's too, so a larger
+  // factor shows how much of an error is render noise. 1: the size's default.
+  int truth_rays_factor = 1;
   bool IsValid(std::string* why) const;
   int SceneCount() const { return scene_seed ? 1 : scenes; }
   std::uint64_t SeedOf(int index) const;  // the seed of scene `index` (< SceneCount())

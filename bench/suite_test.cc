@@ -103,6 +103,10 @@ TEST(SuiteRunTest, RefusesUnknownStagesAndBadOptions) {
   EXPECT_FALSE(options.IsValid(&why));
   EXPECT_NE(why.find("scenes"), std::string::npos);
   EXPECT_THROW(RunSuites("all", options), InvalidArgumentError);
+  options.scenes = 1;
+  options.truth_rays_factor = 0;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("truth_rays_factor"), std::string::npos);
 }
 
 TEST(SuiteOutputTest, WritesTableCsvAndJson) {

@@ -82,6 +82,10 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_option("--seed", args->suite_options.seed, "Seed of the random suites")->capture_default_str();
   cmd->add_option("--scene-seed", args->suite_options.scene_seed,
                   "Run only the scene of this seed (a row of suite.csv), instead of --scenes/--seed");
+  cmd->add_option("--truth-rays-factor", args->suite_options.truth_rays_factor,
+                  "Multiplies the bounce-light rays of the IRM bounces suite's renders (less render noise in the "
+                  "photographs, the truth and the floor)")
+      ->capture_default_str();
   cmd->callback([args]() {
     args->suite_options.quick = args->quick;
     Run(*args);
