@@ -12,6 +12,7 @@
 #include "capture/session.h"
 #include "core/error.h"
 #include "core/input_file.h"
+#include "drivers/device_error.h"
 
 namespace relume::capture {
 namespace {
@@ -179,6 +180,34 @@ drivers::FrameTiming Timing(UtcTime utc, UtcTime first, std::uint64_t sequence) 
   return t;
 }
 
+// A new session in `out` holding one imported RGB-D device; sets *device.
+std::unique_ptr<SessionWriter> CreateRgbdSession(const fs::path& out, const std::string& name, const Site& site,
+                                                 const std::string& camera_id, const std::string& model,
+                                                 const std::string& clock, bool depth_in_metres,
+                                                 drivers::DeviceInfo* device) {
+  device->backend = "import";
+  device->id = camera_id;
+  device->kind = drivers::DeviceKind::kRgbdSensor;
+  device->model = model;
+  device->address = "files";
+  SessionInfo info;
+  info.name = name.empty() ? out.filename().string() : name;
+  info.site = site;
+  info.software_version = "relume import";
+  info.clock_name = clock;
+  info.created_utc = UtcNow();
+  SessionWriterOptions writer_options;
+  writer_options.rgbd_format = RgbdFileFormat::kPng;
+  writer_options.depth_units = depth_in_metres ? DepthUnits::kMetres : DepthUnits::kMillimetres;
+  std::unique_ptr<SessionWriter> writer = SessionWriter::Create(out, info, writer_options);
+  writer->AddDevice(*device);
+  return writer;
+}
+
+void Note(SessionWriter& writer, const std::string& device_id, const std::string& message) {
+  writer.AddEvent({0, UtcNow(), MonotonicNow(), device_id, "note", message});
+}
+
 }  // namespace
 
 bool RgbdImportOptions::IsValid(std::string* why) const {
@@ -221,6 +250,7 @@ std::string RgbdImportSummary::Report() const {
   if (depth_converted) {
     out << "  depth stored as float metres (OpenEXR); the originals' SHA-256 are in the session's events\n";
   }
+  for (const std::string& note : notes) out << "  note: " << note << "\n";
   return out.str();
 }
 
@@ -287,23 +317,10 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
   for (const Pair& p : pairs) LoadPair(options, depth[p.depth], color[p.color], intrinsics);
 
   drivers::DeviceInfo device;
-  device.backend = "import";
-  device.id = options.camera_id;
-  device.kind = drivers::DeviceKind::kRgbdSensor;
-  device.model = "RGB-D recording (TUM RGB-D layout)";
-  device.address = "files";
+  const std::unique_ptr<SessionWriter> writer =
+      CreateRgbdSession(out, options.name, options.site, options.camera_id, "RGB-D recording (TUM RGB-D layout)",
+                        "the recording's timestamps (rgb.txt, depth.txt)", summary.depth_converted, &device);
   summary.device_id = device.FullId();
-  SessionInfo info;
-  info.name = options.name.empty() ? out.filename().string() : options.name;
-  info.site = options.site;
-  info.software_version = "relume import";
-  info.clock_name = "the recording's timestamps (rgb.txt, depth.txt)";
-  info.created_utc = UtcNow();
-  SessionWriterOptions writer_options;
-  writer_options.rgbd_format = RgbdFileFormat::kPng;
-  writer_options.depth_units = summary.depth_converted ? DepthUnits::kMetres : DepthUnits::kMillimetres;
-  std::unique_ptr<SessionWriter> writer = SessionWriter::Create(out, info, writer_options);
-  writer->AddDevice(device);
 
   const auto batch = static_cast<std::size_t>(options.frames_per_batch);
   for (std::size_t begin = 0; begin < pairs.size(); begin += batch) {
@@ -328,17 +345,124 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
     const std::vector<std::pair<FrameRecord, FrameRecord>> rows = writer->WriteRgbdFrames(frames, files);
     if (summary.depth_converted) {
       for (std::size_t i = begin; i < end; ++i) {
-        writer->AddEvent({0, UtcNow(), MonotonicNow(), device.FullId(), "note",
-                          "depth frame " + std::to_string(rows[i - begin].first.id) + " from original " +
-                              summary.original_depth_sha256[i] + " (" + std::to_string(options.depth_units_per_metre) +
-                              " per metre), stored as float metres"});
+        Note(*writer, device.FullId(),
+             "depth frame " + std::to_string(rows[i - begin].first.id) + " from original " +
+                 summary.original_depth_sha256[i] + " (" + std::to_string(options.depth_units_per_metre) +
+                 " per metre), stored as float metres");
       }
     }
   }
-  writer->AddEvent({0, UtcNow(), MonotonicNow(), device.FullId(), "note",
-                    "imported " + std::to_string(summary.pairs) + " RGB-D frame pairs from " + options.folder.string() +
-                        " (" + std::to_string(summary.unpaired_depth) + " depth and " +
-                        std::to_string(summary.unpaired_color) + " colour frames without a partner left out)"});
+  Note(*writer, device.FullId(),
+       "imported " + std::to_string(summary.pairs) + " RGB-D frame pairs from " + options.folder.string() + " (" +
+           std::to_string(summary.unpaired_depth) + " depth and " + std::to_string(summary.unpaired_color) +
+           " colour frames without a partner left out)");
+  return summary;
+}
+
+bool RgbdStreamImportOptions::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& reason) {
+    if (why != nullptr) *why = reason;
+    return false;
+  };
+  std::string reason;
+  if (!site.IsValid(&reason)) return fail("site: " + reason);
+  if (camera_id.empty()) return fail("--camera-id must not be empty");
+  if (!start_utc) {
+    return fail(
+        "the recording's start time is needed (--start 2026-03-20T11:00:00Z): a recording holds only its device's "
+        "clock");
+  }
+  if (frames < 0) return fail("frames must not be negative");
+  if (frame_timeout <= std::chrono::milliseconds(0)) return fail("frame_timeout must be positive");
+  if (frames_per_batch < 1) return fail("frames_per_batch must be at least 1");
+  return true;
+}
+
+RgbdImportSummary ImportRgbdStream(drivers::RgbdSensor& sensor, const RgbdStreamImportOptions& options,
+                                   const fs::path& out) {
+  ThrowIfInvalid(options, "RGB-D stream import options");
+  const std::string what = options.source.empty() ? sensor.info().FullId() : options.source;
+  std::vector<drivers::RgbdFrame> batch;
+  batch.push_back(sensor.WaitForFrame(options.frame_timeout));  // before the session exists
+  if (!batch.front().depth_timing.device_timestamp || !batch.front().color_timing.device_timestamp) {
+    throw InvalidArgumentError(what + ": its frames carry no device time, so their times cannot be placed");
+  }
+  const Nanoseconds origin = *batch.front().depth_timing.device_timestamp;
+  const UtcTime start = *options.start_utc;
+
+  RgbdImportSummary summary;
+  summary.session = out;
+  drivers::DeviceInfo device;
+  const std::unique_ptr<SessionWriter> writer =
+      CreateRgbdSession(out, options.name, options.site, options.camera_id, options.model,
+                        "the recording's device clock from the stated start (" + FormatIso8601(start) + ")",
+                        /*depth_in_metres=*/false, &device);
+  summary.device_id = device.FullId();
+  Note(*writer, device.FullId(),
+       "importing " + what + (options.source_sha256.empty() ? "" : " (SHA-256 " + options.source_sha256 + ")") +
+           ", first frame at " + FormatIso8601(start));
+  summary.first_utc = UtcTime::max();
+  summary.last_utc = UtcTime::min();
+  // Places a frame on the UTC axis (the start plus its device time since the first frame);
+  // false when it has no device time.
+  const auto place = [&](drivers::RgbdFrame& f) {
+    if (!f.depth_timing.device_timestamp || !f.color_timing.device_timestamp) return false;
+    if (options.registered) {
+      f.registered_to_color = true;
+      f.depth_intrinsics = f.color_intrinsics;
+      f.color_from_depth = Eigen::Isometry3d::Identity();
+    }
+    for (drivers::FrameTiming* t : {&f.depth_timing, &f.color_timing}) {
+      t->host_utc = start + (*t->device_timestamp - origin);
+      t->host_monotonic = MonotonicTime(*t->device_timestamp - origin);
+    }
+    f.device_id = device.FullId();
+    summary.first_utc = std::min({summary.first_utc, f.depth_timing.host_utc, f.color_timing.host_utc});
+    summary.last_utc = std::max({summary.last_utc, f.depth_timing.host_utc, f.color_timing.host_utc});
+    const Nanoseconds gap = std::chrono::abs(f.depth_timing.host_utc - f.color_timing.host_utc);
+    summary.largest_pair_gap_s = std::max(summary.largest_pair_gap_s, std::chrono::duration<double>(gap).count());
+    return true;
+  };
+  place(batch.front());
+  if (!batch.front().registered_to_color) {
+    summary.notes.push_back(
+        "the recording does not say that depth is registered to colour: the SH pipeline needs registered depth "
+        "(if it was recorded with image registration on, import it again with --registered)");
+  }
+  const auto flush = [&] {
+    if (batch.empty()) return;
+    writer->WriteRgbdFrames(batch);
+    summary.pairs += static_cast<int>(batch.size());
+    batch.clear();
+  };
+  int read = 1;
+  while (options.frames == 0 || read < options.frames) {
+    drivers::RgbdFrame frame;
+    try {
+      frame = sensor.WaitForFrame(options.frame_timeout);
+    } catch (const drivers::DeviceError& e) {
+      if (e.kind() != drivers::DeviceErrorKind::kTimeout) {
+        flush();  // what was read is kept
+        throw;
+      }
+      if (options.frames > 0) {
+        summary.notes.push_back("the recording ended after " + std::to_string(read) + " of its " +
+                                std::to_string(options.frames) + " frames");
+      }
+      break;
+    }
+    ++read;
+    if (!place(frame)) {
+      summary.notes.push_back("frame " + std::to_string(read) + " has no device time: left out");
+      continue;
+    }
+    batch.push_back(std::move(frame));
+    if (batch.size() >= static_cast<std::size_t>(options.frames_per_batch)) flush();
+  }
+  flush();
+  for (const std::string& note : summary.notes) Note(*writer, device.FullId(), note);
+  Note(*writer, device.FullId(), "imported " + std::to_string(summary.pairs) + " RGB-D frame pairs from " + what);
+  summary.bytes = writer->bytes_written();
   return summary;
 }
 

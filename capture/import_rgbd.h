@@ -25,17 +25,27 @@
 //    The sun per frame, for the session's site.
 //  - Every list line and every file is read and decoded before the session is created, so a
 //    refused import leaves nothing behind.
+//
+// `relume session import --oni FILE --start UTC` (ImportRgbdStream): a recording another library
+// plays back as an RGB-D sensor (an OpenNI2 .oni file through drivers/openni2): every frame it
+// returns, with the geometry it reports, stored as a captured stream's frames (encoded: the
+// recording is one file, whose SHA-256 the session's events keep). A recording holds only its
+// device's clock, so the user states the first frame's UTC; each frame's UTC is that plus its
+// device time since the first frame.
 #pragma once
 
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/pinhole.h"
 #include "core/site.h"
 #include "core/time.h"
+#include "drivers/rgbd_sensor.h"
 
 namespace relume::capture {
 
@@ -73,6 +83,7 @@ struct RgbdImportSummary {
   // With depth_converted: "FILE SHA-256" of every original depth file, as the session's
   // events record them.
   std::vector<std::string> original_depth_sha256;
+  std::vector<std::string> notes;  // e.g. a played recording that ended early
 
   std::string Report() const;  // several lines for the CLI
 };
@@ -92,5 +103,34 @@ std::vector<RgbdListEntry> ReadRgbdList(const std::filesystem::path& folder, con
 // size, an undecodable file, no pair within the gap), IoError for a missing file or a storage
 // failure (frames stored by then stay acknowledged).
 RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const std::filesystem::path& out);
+
+struct RgbdStreamImportOptions {
+  Site site;
+  std::string name;  // the session's name (default: the output folder's)
+  std::string camera_id = "rgbd";
+  std::string model = "RGB-D recording";  // the device's model in the session
+  // UTC of the recording's first frame (required: recordings carry no wall-clock time).
+  std::optional<UtcTime> start_utc;
+  // Frames the recording holds (OpenNI2's frame count), or 0: read until the sensor times out.
+  int frames = 0;
+  std::chrono::milliseconds frame_timeout{5000};
+  // The user's word that depth was registered to colour when recorded, for recordings that do
+  // not say (an OpenNI2 .oni plays back with registration off whatever it was): the frames are
+  // then stored as registered (depth in the colour camera, its intrinsics).
+  bool registered = false;
+  std::string source;         // what was imported (a file), for the session's events
+  std::string source_sha256;  // its SHA-256 when it is one file
+  int frames_per_batch = 16;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Reads frames from `sensor` (started by the caller with the stream configuration to import)
+// into a new session in `out`. The first frame is read before the session is created, so a
+// recording that gives none leaves nothing behind. Throws InvalidArgumentError when frames
+// carry no device time, DeviceError from the sensor, IoError for storage failures (frames stored
+// by then stay acknowledged). A recording that ends before `frames` is kept and noted.
+RgbdImportSummary ImportRgbdStream(drivers::RgbdSensor& sensor, const RgbdStreamImportOptions& options,
+                                   const std::filesystem::path& out);
 
 }  // namespace relume::capture

@@ -15,6 +15,7 @@
 #include "capture/session.h"
 #include "core/error.h"
 #include "core/sun/sun_position.h"
+#include "drivers/device_error.h"
 
 namespace relume::capture {
 namespace {
@@ -220,6 +221,88 @@ TEST_F(ImportRgbdTest, BadListsFilesAndOptionsAreNamed) {
   bad.color_intrinsics.height = 48;
   bad.max_pair_gap_s = 0.02;
   EXPECT_THROW(ImportRgbd(bad, dir_ / "session"), InvalidArgumentError);
+}
+
+// A recording played back as a sensor (the interface an OpenNI2 .oni player implements; the
+// real one is tested in drivers/openni2/openni2_backend_test.cc): `frames` frames 33.3 ms apart
+// on a device clock that starts at 5 s, then the end (kTimeout).
+class PlayedRecording : public drivers::RgbdSensor {
+ public:
+  explicit PlayedRecording(int frames) : frames_(frames) {
+    info_.backend = "played";
+    info_.id = "rec.oni";
+  }
+  const drivers::DeviceInfo& info() const override { return info_; }
+  std::vector<drivers::RgbdStreamConfig> SupportedConfigs() const override { return {drivers::RgbdStreamConfig{}}; }
+  void Start(const drivers::RgbdStreamConfig&) override { streaming_ = true; }
+  void Stop() override { streaming_ = false; }
+  bool streaming() const override { return streaming_; }
+  drivers::RgbdFrame WaitForFrame(Nanoseconds) override {
+    if (next_ == frames_) throw drivers::DeviceError(drivers::DeviceErrorKind::kTimeout, "played:rec.oni", "the end");
+    drivers::RgbdFrame f;
+    f.depth_m = cv::Mat(12, 16, CV_32FC1, cv::Scalar(1.25f + 0.001f * static_cast<float>(next_)));
+    f.color.pixels = cv::Mat(12, 16, CV_8UC3, cv::Scalar(10, 20, 30 + next_));
+    f.color.layout = ColorLayout::kRgb;
+    f.color.bits_per_sample = 8;
+    f.color.white_level = 255;
+    f.depth_intrinsics = f.color_intrinsics = PinholeIntrinsics::FromHorizontalFov(16, 12, 1.0);
+    f.registered_to_color = true;
+    const Nanoseconds device = std::chrono::seconds(5) + std::chrono::microseconds(33333) * next_;
+    f.depth_timing.device_timestamp = device;
+    f.color_timing.device_timestamp = device + std::chrono::milliseconds(1);
+    f.depth_timing.host_utc = f.color_timing.host_utc = UtcNow();  // the playback's clock: not the recording's
+    ++next_;
+    return f;
+  }
+
+ private:
+  drivers::DeviceInfo info_;
+  int frames_, next_ = 0;
+  bool streaming_ = false;
+};
+
+TEST_F(ImportRgbdTest, APlayedRecordingIsPlacedAtItsStatedStart) {
+  PlayedRecording recording(7);
+  recording.Start({});
+  RgbdStreamImportOptions options;
+  options.site = options_.site;
+  options.start_utc = ParseIso8601("2026-03-20T11:00:00Z").utc;
+  options.frames = 9;  // the recording claims 9: it ends after 7, which are kept and noted
+  options.frames_per_batch = 3;
+  options.source = "rec.oni";
+  options.source_sha256 = "abc123";
+  options.frame_timeout = std::chrono::milliseconds(10);
+  const RgbdImportSummary summary = ImportRgbdStream(recording, options, dir_ / "session");
+  EXPECT_EQ(summary.pairs, 7);
+  EXPECT_EQ(summary.device_id, "import:rgbd");
+  ASSERT_EQ(summary.notes.size(), 1u);
+  EXPECT_EQ(summary.notes[0], "the recording ended after 7 of its 9 frames");
+  EXPECT_NEAR(summary.largest_pair_gap_s, 0.001, 1e-9);
+  const SessionReader reader(dir_ / "session");
+  const std::vector<FrameRecord> frames = reader.Frames();
+  ASSERT_EQ(frames.size(), 14u);
+  for (int k = 0; k < 7; ++k) {
+    const FrameRecord& depth = frames[static_cast<std::size_t>(2 * k)];
+    EXPECT_EQ(depth.utc, *options.start_utc + std::chrono::microseconds(33333) * k);
+    EXPECT_EQ(frames[static_cast<std::size_t>(2 * k + 1)].utc, depth.utc + std::chrono::milliseconds(1));
+    EXPECT_NEAR(reader.LoadDepth(depth).at<float>(3, 3), 1.25 + 0.001 * k, 5e-4);  // millimetres
+  }
+  bool provenance = false;
+  for (const EventRecord& e : reader.Events()) provenance = provenance || e.message.find("abc123") != std::string::npos;
+  EXPECT_TRUE(provenance);
+
+  // No start time: refused before anything is read or made.
+  options.start_utc.reset();
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("--start"), std::string::npos);
+  EXPECT_THROW(ImportRgbdStream(recording, options, dir_ / "other"), InvalidArgumentError);
+  EXPECT_FALSE(fs::exists(dir_ / "other"));
+  // A recording with no frame at all leaves nothing behind either.
+  PlayedRecording empty(0);
+  options.start_utc = ParseIso8601("2026-03-20T11:00:00Z").utc;
+  EXPECT_THROW(ImportRgbdStream(empty, options, dir_ / "other"), drivers::DeviceError);
+  EXPECT_FALSE(fs::exists(dir_ / "other"));
 }
 
 }  // namespace

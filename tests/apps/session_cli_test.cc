@@ -106,7 +106,14 @@ TEST(SessionCliTest, ImportsAnRgbdRecordingAndNamesWhatIsMissing) {
   EXPECT_FALSE(fs::exists(dir / "s"));
   const testing::CliResult both = testing::RunRelume(base + " " + (dir / "rec").string() + " --intrinsics 20,20,8,6");
   EXPECT_NE(both.exit_code, 0);
-  EXPECT_NE(both.output.find("not both"), std::string::npos) << both.output;
+  EXPECT_NE(both.output.find("give one of image files or folders, --rgbd DIR or --oni FILE"), std::string::npos)
+      << both.output;
+
+  const testing::CliResult oni_without_start =
+      testing::RunRelume("session import --oni " + (dir / "rec.oni").string() + " --out " + (dir / "s").string() +
+                         " --site " + RELUME_SOURCE_DIR + "/config/sites/athens-acropolis.yaml");
+  EXPECT_NE(oni_without_start.exit_code, 0);
+  EXPECT_NE(oni_without_start.output.find("--oni needs --start"), std::string::npos) << oni_without_start.output;
 
   const testing::CliResult ok = testing::RunRelume(base + " --intrinsics 20,20,8,6 --camera-id kinect");
   ASSERT_EQ(ok.exit_code, 0) << ok.output;
