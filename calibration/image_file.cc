@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "calibration/demosaic.h"
 #include "core/error.h"
@@ -64,8 +65,23 @@ void CheckRadianceFileName(const std::string& path) {
   }
 }
 
-void SaveRadianceExr(const RadianceImage& radiance, const std::string& path) {
+ExrCompression ParseExrCompression(const std::string& text) {
+  if (text == "zip") return ExrCompression::kZip;
+  if (text == "none") return ExrCompression::kNone;
+  if (text == "piz") return ExrCompression::kPiz;
+  throw InvalidArgumentError("EXR compression '" + text + "': expected none, zip or piz");
+}
+
+void SaveRadianceExr(const RadianceImage& radiance, const std::string& path, ExrCompression compression) {
   CheckRadianceFileName(path);
+  std::vector<int> params;
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".exr") {
+    params = {cv::IMWRITE_EXR_COMPRESSION, compression == ExrCompression::kNone  ? cv::IMWRITE_EXR_COMPRESSION_NO
+                                           : compression == ExrCompression::kPiz ? cv::IMWRITE_EXR_COMPRESSION_PIZ
+                                                                                 : cv::IMWRITE_EXR_COMPRESSION_ZIP};
+  }
   cv::Mat bgr;
   if (radiance.pixels.channels() == 3) {
     cv::cvtColor(radiance.pixels, bgr, cv::COLOR_RGB2BGR);
@@ -74,7 +90,7 @@ void SaveRadianceExr(const RadianceImage& radiance, const std::string& path) {
   }
   bool ok = false;
   try {
-    ok = cv::imwrite(path, bgr);
+    ok = cv::imwrite(path, bgr, params);
   } catch (const cv::Exception& e) {
     throw IoError(path, std::string("cannot be written: ") + e.what());
   }

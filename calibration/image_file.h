@@ -24,7 +24,14 @@ LoadedFrame LoadFrame(const std::string& path);
 // other formats that keep float radiance; any other extension is refused up front (PNG or
 // JPEG would round radiance to 8-bit integers): see CheckRadianceFileName.
 RadianceImage LoadRadianceExr(const std::string& path);
-void SaveRadianceExr(const RadianceImage& radiance, const std::string& path);
+// How an .exr is compressed (lossless all): ZIP, OpenCV's default, saves little on photographs'
+// noisy floats and costs much (a 1200 x 800 merge: 10.5 MB against 11.5 MB uncompressed, in
+// 20x the time: docs/benchmarks.md, "hdr-files"); smooth renders compress far better.
+enum class ExrCompression { kZip, kNone, kPiz };
+// "zip", "none" or "piz"; throws InvalidArgumentError naming the choices otherwise.
+ExrCompression ParseExrCompression(const std::string& text);
+void SaveRadianceExr(const RadianceImage& radiance, const std::string& path,
+                     ExrCompression compression = ExrCompression::kZip);
 // Throws InvalidArgumentError unless `path` names a float image format (.exr, .tif, .tiff, .pfm).
 void CheckRadianceFileName(const std::string& path);
 

@@ -23,12 +23,11 @@ struct BenchArgs {
 
 using StageFn = void (*)(bool, std::vector<bench::Row>&);
 const std::vector<std::pair<std::string, StageFn>>& Stages() {
-  static const std::vector<std::pair<std::string, StageFn>> stages = {{"hdr", bench::BenchHdr},
-                                                                      {"sun", bench::BenchSun},
-                                                                      {"sh", bench::BenchSh},
-                                                                      {"irm", bench::BenchIrm},
-                                                                      {"radiosity", bench::BenchRadiosity},
-                                                                      {"planner", bench::BenchPlanner}};
+  static const std::vector<std::pair<std::string, StageFn>> stages = {
+      {"hdr", bench::BenchHdr},        {"hdr-files", bench::BenchHdrFiles},
+      {"sun", bench::BenchSun},        {"sh", bench::BenchSh},
+      {"irm", bench::BenchIrm},        {"radiosity", bench::BenchRadiosity},
+      {"planner", bench::BenchPlanner}};
   return stages;
 }
 

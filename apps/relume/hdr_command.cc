@@ -35,6 +35,7 @@ void RunHdrMerge(const HdrMergeArgs& args, std::ostream& out) {
     }
   }
   CheckRadianceFileName(args.out);  // before the work, not after it
+  const ExrCompression compression = ParseExrCompression(args.exr_compression);
   std::vector<CameraImage> frames;
   std::vector<double> metadata_times;
   for (const auto& f : args.files) {
@@ -64,7 +65,7 @@ void RunHdrMerge(const HdrMergeArgs& args, std::ostream& out) {
   const bool corrected = profile && profile->gain_input == "radiance" && radiance.pixels.channels() == 3 &&
                          (!profile->gain.IsIdentity() || !profile->ccm.isIdentity());
   if (corrected) radiance = ApplyProfile(*profile, radiance);
-  SaveRadianceExr(radiance, args.out);
+  SaveRadianceExr(radiance, args.out, compression);
   std::filesystem::path base(args.out);
   base.replace_extension();
   // Number of contributing frames per pixel, scaled for viewing (255 = every frame).
@@ -107,6 +108,10 @@ void AddHdrCommand(CLI::App& app) {
   merge->add_option("--profile", a->profile, "Calibration profile (response; gain and CCM applied when present)");
   merge->add_option("--out", a->out, "Output EXR")->capture_default_str();
   merge->add_option("--threads", a->threads, "Threads (0 = all cores)")->capture_default_str();
+  merge
+      ->add_option("--exr-compression", a->exr_compression,
+                   "none, zip or piz (lossless; zip saves ~9 % on a photograph's noisy floats at 20x the write time)")
+      ->capture_default_str();
   merge->callback([a]() { RunHdrMerge(*a, std::cout); });
 }
 

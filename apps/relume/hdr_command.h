@@ -23,6 +23,7 @@ struct HdrMergeArgs {
   std::string profile;  // required for 8/16-bit camera-encoded files
   std::string out = "merged.exr";
   int threads = 0;
+  std::string exr_compression = "none";  // calibration::ParseExrCompression
 };
 void RunHdrMerge(const HdrMergeArgs& args, std::ostream& out);
 

@@ -38,6 +38,7 @@ std::string Format(double v);
 
 // One function per stage; each appends its rows.
 void BenchHdr(bool quick, std::vector<Row>& rows);
+void BenchHdrFiles(bool quick, std::vector<Row>& rows);  // end to end from files, relume vs OpenCV
 void BenchSun(bool quick, std::vector<Row>& rows);
 void BenchSh(bool quick, std::vector<Row>& rows);
 void BenchIrm(bool quick, std::vector<Row>& rows);
