@@ -1199,27 +1199,12 @@ class ExternalShTruth {
   std::vector<capture::RgbdListEntry> entries_;
 };
 
-// Share of pixels whose recorded depth appeared, vanished or moved by more than 1 cm between
-// two frames: above 1 % the scene is taken to have moved.
-double MovedDepthFraction(const cv::Mat& a, const cv::Mat& b) {
-  std::int64_t moved = 0, any = 0;
-  for (int y = 0; y < a.rows; ++y) {
-    for (int x = 0; x < a.cols; ++x) {
-      const float u = a.at<float>(y, x), v = b.at<float>(y, x);
-      if (!std::isfinite(u) && !std::isfinite(v)) continue;
-      ++any;
-      moved += !(std::isfinite(u) && std::isfinite(v) && std::abs(u - v) <= 0.01f);
-    }
-  }
-  return any > 0 ? static_cast<double>(moved) / static_cast<double>(any) : 0.0;
-}
-
 // Frame i relit to the destination frame's light against the external render at the
 // destination's time (a static scene: the source geometry under the destination light). One
 // scale is fitted (the renderer's units are not the photographs'). The floor: the destination
 // frame's own photograph, linearised, against the same render on the same pixels (its encoding
 // and noise, which a relit image cannot beat).
-nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth& truth,
+nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth& truth, double range_sigma_at_1m_m,
                                         const std::vector<RgbdPair>& pairs, const PinholeCamera& camera,
                                         const Destination& dst, std::size_t i, const FrameStages& f,
                                         const Relit& relit) {
@@ -1231,9 +1216,11 @@ nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
     return t;
   }
   const std::size_t d = *dst.frame_index;
-  const double moved =
-      MovedDepthFraction(run.session().LoadDepth(pairs[i].depth), run.session().LoadDepth(pairs[d].depth));
-  if (moved > 0.01) {
+  // The scene is static when under 2 % of the depth pixels changed beyond 3 range sigmas of the
+  // sensor's noise (the normals-reuse test's measure).
+  const double moved = ChangedFraction(run.session().LoadDepth(pairs[i].depth), run.session().LoadDepth(pairs[d].depth),
+                                       range_sigma_at_1m_m, 3.0);
+  if (moved > 0.02) {
     t["truth_under_destination"] = "none: the scene moved between the source and destination frames (" +
                                    Percent(moved) +
                                    " of depth pixels), so no render shows the source geometry "
@@ -1293,7 +1280,8 @@ nlohmann::json RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in
   }
   if (external != nullptr) {
     if (relit) {
-      m.update(CompareWithExternalTruth(run, *external, in.pairs, in.camera, dst, i, f, *relit));
+      m.update(CompareWithExternalTruth(run, *external, k.bilateral.range_sigma_at_1m_m, in.pairs, in.camera, dst, i, f,
+                                        *relit));
       if (m.contains("relit_relative_rms")) {
         totals->relit_errors.push_back(m["relit_relative_rms"].get<double>());
         totals->baseline_errors.push_back(m["baseline_relative_rms"].get<double>());

