@@ -307,8 +307,12 @@ TEST_F(OpenNI2BackendTest, RecordsToOniAndPlaysBackIntoASessionThroughTheCli) {
     sensor->StopRecording();
     sensor->Stop();
   }
-  const std::string base = std::string(RELUME_BINARY) + " session import --oni " + oni.string() + " --site " +
-                           RELUME_SOURCE_DIR + "/config/sites/athens-acropolis.yaml --out " + (dir / "s").string();
+  // Under AddressSanitizer the CLI's leak check is off: OpenNI2's file driver leaks from its
+  // playback thread, and by exit the driver is unloaded, so its frames have no module a
+  // suppression could name. The import's own code is leak-checked in ImportRgbdTest.
+  const std::string base = "ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 " + std::string(RELUME_BINARY) +
+                           " session import --oni " + oni.string() + " --site " + RELUME_SOURCE_DIR +
+                           "/config/sites/athens-acropolis.yaml --out " + (dir / "s").string();
   EXPECT_NE(std::system((base + " > " + (dir / "no-start.txt").string() + " 2>&1").c_str()), 0);
   EXPECT_FALSE(std::filesystem::exists(dir / "s"));
   // OpenNI2's .oni does not keep the registration mode: the user states it.
