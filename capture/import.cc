@@ -31,23 +31,9 @@ std::string Lower(std::string s) {
   return s;
 }
 
-// The stored file's format name, as the session records it ("jpeg", "tiff", "png", "cr2", ...).
-std::string FormatOf(const fs::path& path) {
-  std::string ext = Lower(path.extension().string());
-  if (!ext.empty()) ext.erase(0, 1);
-  if (ext == "jpg") return "jpeg";
-  if (ext == "tif") return "tiff";
-  return ext;
-}
-
 bool Importable(const fs::path& path) {
-  const std::string format = FormatOf(path);
+  const std::string format = FileFormatOf(path);
   return format == "jpeg" || format == "tiff" || format == "png" || IsRawFormat(format);
-}
-
-std::vector<std::uint8_t> ReadBytes(const fs::path& path) {
-  const std::string text = ReadInputFile(path);
-  return {text.begin(), text.end()};
 }
 
 // One file's EXIF, as the import needs it.
@@ -105,7 +91,7 @@ std::optional<std::chrono::seconds> ParseOffset(const std::string& text) {
 FileMetadata ReadMetadata(const fs::path& path, const ImportOptions& options) {
   FileMetadata m;
   m.path = path;
-  m.bytes = ReadBytes(path);
+  m.bytes = ReadInputBytes(path);
   Exiv2::ExifData exif;
   try {
 #pragma GCC diagnostic push
@@ -317,7 +303,7 @@ ImportSummary ImportStills(const ImportOptions& options, const fs::path& out) {
       frame.device_id = device.FullId();
       frame.model = device.model;
       frame.original_file = m.bytes;
-      frame.original_format = FormatOf(m.path);
+      frame.original_format = FileFormatOf(m.path);
       Decode(m, frame.original_format, options.linear, &frame);
       if (!frame.undecoded_reason.empty())
         summary.notes.push_back(m.path.filename().string() + ": " + frame.undecoded_reason);

@@ -19,22 +19,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::vector<std::uint8_t> ReadBytes(const fs::path& path) {
-  const std::string text = ReadInputFile(path);
-  return {text.begin(), text.end()};
-}
-
-std::string Lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
-// The row's file_format of a colour or depth file, from its extension.
+// The row's file_format of a colour or depth file; empty for what the import does not read.
 std::string FormatOf(const fs::path& file) {
-  const std::string ext = Lower(file.extension().string());
-  if (ext == ".png") return "png";
-  if (ext == ".jpg" || ext == ".jpeg") return "jpeg";
-  return "";
+  const std::string format = FileFormatOf(file);
+  return format == "png" || format == "jpeg" ? format : "";
 }
 
 // "1305031102.175304" as an exact UtcTime; nullopt when it is not a non-negative decimal number.
@@ -145,8 +133,8 @@ LoadedPair LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth
     throw InvalidArgumentError(color_path.string() + ": colour frames must be PNG or JPEG files");
   }
   LoadedPair p;
-  p.files.depth = ReadBytes(depth_path);
-  p.files.color = ReadBytes(color_path);
+  p.files.depth = ReadInputBytes(depth_path);
+  p.files.color = ReadInputBytes(color_path);
   p.files.depth_format = "png";
   p.files.color_format = FormatOf(color.file);
   p.frame.depth_m = DecodeDepth(p.files.depth, depth_path, options.depth_units_per_metre);
@@ -290,7 +278,7 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
   PinholeIntrinsics intrinsics = options.color_intrinsics;
   if (intrinsics.width == 0 || intrinsics.height == 0) {
     const fs::path first = options.folder / color[pairs.front().color].file;
-    const cv::Mat image = DecodeColor(ReadBytes(first), first).pixels;
+    const cv::Mat image = DecodeColor(ReadInputBytes(first), first).pixels;
     intrinsics.width = image.cols;
     intrinsics.height = image.rows;
   }

@@ -1,5 +1,7 @@
 #include "core/input_file.h"
 
+#include <algorithm>
+#include <cctype>
 #include <sstream>
 #include <system_error>
 
@@ -27,6 +29,21 @@ std::string ReadInputFile(const std::filesystem::path& path) {
   text << stream.rdbuf();
   if (stream.bad()) throw IoError(path.string(), "read error");
   return text.str();
+}
+
+std::vector<std::uint8_t> ReadInputBytes(const std::filesystem::path& path) {
+  const std::string text = ReadInputFile(path);
+  return {text.begin(), text.end()};
+}
+
+std::string FileFormatOf(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (!ext.empty()) ext.erase(0, 1);
+  if (ext == "jpg") return "jpeg";
+  if (ext == "tif") return "tiff";
+  return ext;
 }
 
 }  // namespace relume

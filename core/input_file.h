@@ -4,9 +4,11 @@
 // std::ios_failure ("Is a directory") from deep inside a parser.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace relume {
 
@@ -14,5 +16,11 @@ namespace relume {
 std::ifstream OpenInputFile(const std::filesystem::path& path, std::ios::openmode mode = std::ios::in);
 // The whole file, byte for byte (errors as OpenInputFile's, and read errors).
 std::string ReadInputFile(const std::filesystem::path& path);
+// The same as bytes (an image file kept byte for byte).
+std::vector<std::uint8_t> ReadInputBytes(const std::filesystem::path& path);
+
+// The format name a session records for a file ("jpeg", "tiff", "png", "cr2", ...): its
+// extension in lower case, without the dot, with "jpg" as "jpeg" and "tif" as "tiff".
+std::string FileFormatOf(const std::filesystem::path& path);
 
 }  // namespace relume
