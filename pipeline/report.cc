@@ -303,9 +303,13 @@ void WriteEvents(std::ostringstream& html, const std::vector<capture::EventRecor
 
 void WriteCalibration(std::ostringstream& html, const capture::CalibrationRecord& c, const fs::path& assets) {
   html << "<h3 id=\"calibration-" << c.id << "\">calibration " << c.id << ": " << Escape(c.kind) << " of "
-       << Escape(c.device_id) << "</h3>\n<p>from frames";
-  for (const std::int64_t id : c.source_frame_ids) html << " " << id;
-  html << ", recorded " << Escape(FormatIso8601(c.created_utc)) << "</p>\n";
+       << Escape(c.device_id) << "</h3>\n<p>";
+  if (!c.source_frame_ids.empty()) {
+    html << "from frames";
+    for (const std::int64_t id : c.source_frame_ids) html << " " << id;
+    html << ", ";
+  }
+  html << "recorded " << Escape(FormatIso8601(c.created_utc)) << "</p>\n";
   if (c.kind == "rgbd_geometry") {
     // An RGB-D sensor's intrinsics and registration, stored by the session writer: not a profile.
     try {
@@ -325,6 +329,7 @@ void WriteCalibration(std::ostringstream& html, const capture::CalibrationRecord
   }
   try {
     const calibration::CalibrationProfile profile = calibration::ProfileFromJson(c.json, "calibration");
+    if (!profile.camera.empty()) html << "<p>" << Escape(profile.camera) << "</p>\n";
     if (c.kind == "profile") {
       html << "<p>chart fit: " << profile.fit.patches_used << " patches, mean &#916;E2000 "
            << Fixed(profile.fit.mean_delta_e, 3) << ", max " << Fixed(profile.fit.max_delta_e, 3) << ", condition "

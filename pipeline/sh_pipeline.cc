@@ -25,7 +25,6 @@
 #include "processing/segmentation.h"
 #include "processing/sh_display.h"
 #include "processing/sh_fit.h"
-#include "sim/devices/camera_model.h"
 
 namespace relume::pipeline {
 namespace fs = std::filesystem;
@@ -265,8 +264,8 @@ PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* h
   const std::string intrinsics = "colour intrinsics from the session's rgbd_geometry row " +
                                  std::to_string(recorded.row) + " (fx " + std::to_string(camera.intrinsics.fx) + " px)";
   const SceneModel* model = run.scene_model();
-  if (model != nullptr && model->FindCamera(pair.color.device_id) != nullptr &&
-      model->FindCamera(pair.color.device_id)->has_pose) {
+  const SceneModelCamera* lens = model != nullptr ? model->FindCamera(pair.color.device_id) : nullptr;
+  if (lens != nullptr && lens->has_pose) {
     const SceneModelCamera& device = run.RequireCamera(pair.color.device_id, "the sh pipeline");
     camera.world_from_camera = device.camera.world_from_camera;
     *how = intrinsics + "; pose from the scene model";
@@ -350,7 +349,7 @@ bool HasResponse(const capture::SessionReader& session, const std::string& devic
   return false;
 }
 
-// Colour without a recorded response or a simulated model: the sRGB transfer curve inverted,
+// Colour without a recorded response: the sRGB transfer curve inverted,
 // divided by exposure time and ISO / 100 where the frame records them (relative units).
 FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f) {
   FrameRadiance out;
@@ -385,36 +384,16 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f)
   return out;
 }
 
-FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const sim::SimDeviceSpec* spec,
-                            const PinholeCamera& camera) {
+// A colour frame's radiance: through the session's recorded response (a calibration, or the
+// factory response capture writes for a simulated sensor, rig/factory_response.h), else the
+// sRGB curve.
+FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair) {
   if (HasResponse(run.session(), pair.color.device_id)) {
     const BracketRadiance b = LinearRadiance(run, {pair.color});
     // LinearRadiance has read it already: no second read of the file.
     return {Lazy<RadianceImage>([radiance = b.radiance] { return radiance; }), b.key};
   }
-  if (spec == nullptr) return SrgbColorRadiance(run, pair.color);
-  FrameRadiance out;
-  const capture::FrameRecord& f = pair.color;
-  sim::ExposureParams exposure;
-  exposure.exposure_time_s = f.exposure.exposure_time_s;
-  exposure.aperture_f = f.exposure.aperture_f;
-  exposure.iso = std::isfinite(f.exposure.iso) ? f.exposure.iso : 100.0;
-  exposure.gain_db = std::isfinite(f.exposure.gain_db) ? f.exposure.gain_db : 0.0;
-  std::string why;
-  if (!exposure.IsValid(&why))
-    throw InvalidArgumentError("colour frame " + std::to_string(f.id) + " records no usable exposure (" + why +
-                               "): record a response with `relume calibrate response`");
-  out.key.Add("stage", "sh-color-radiance-v1").Add("frame", f.sha256);
-  out.key.Add("exposure_time_s", exposure.exposure_time_s).Add("aperture_f", exposure.aperture_f);
-  out.key.Add("iso", exposure.iso).Add("gain_db", exposure.gain_db);
-  out.key.Add("rig", run.rig()->yaml_text);
-  const StageCache::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
-    const RadianceImage radiance =
-        sim::RadianceFromCameraImage(run.session().LoadImage(f), camera.intrinsics, exposure, spec->rgbd.color_model);
-    calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
-  });
-  out.radiance = LazyExr(stage.dir / "radiance.exr");
-  return out;
+  return SrgbColorRadiance(run, pair.color);
 }
 
 // ---- geometry: depth filter + normals -----------------------------------------------------
@@ -1026,7 +1005,6 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
 struct ShInputs {
   std::vector<RgbdPair> pairs;
   std::string device;
-  const sim::SimDeviceSpec* spec = nullptr;  // none for a session recorded from a real sensor
   PinholeCamera camera;
   std::vector<bool> is_source;  // per pair: relit (--source, default all)
   bool has_world = false;
@@ -1044,7 +1022,6 @@ ShInputs ReadShInputs(PipelineRun& run, const Knobs& k) {
                                "sensor's frames (a rig with an rgbd_sensor, see tests/data/rigs/sim-sh-*.yaml)");
   }
   in.device = in.pairs.front().color.device_id;
-  in.spec = FindDeviceSpec(run.rig(), in.device);
   std::string how;
   in.camera = ColorCamera(run, in.pairs.front(), &how);
   run.Decide("geometry", "choose", how);
@@ -1085,13 +1062,11 @@ bool ChooseAlbedo(PipelineRun& run, const Knobs& k, bool has_world) {
 // Without a recorded response: how the colour frames become radiance.
 void DecideRadianceModel(PipelineRun& run, const ShInputs& in) {
   if (!HasResponse(run.session(), in.device)) {
-    run.Decide(
-        "radiance", "choose",
-        "no response recorded for " + in.device +
-            (in.spec != nullptr ? std::string(": inverting the simulated sensor's own colour model")
-                                : std::string(": assuming the sRGB transfer curve, divided by the recorded exposure "
-                                              "where there is one (record a response with `relume calibrate "
-                                              "response` for an exact one)")));
+    run.Decide("radiance", "choose",
+               "no response recorded for " + in.device +
+                   ": assuming the sRGB transfer curve, divided by the recorded exposure where there is one (record a "
+                   "response with `relume calibrate response` for an exact one; sessions captured from simulated rigs "
+                   "before capture wrote their sensors' factory responses have none)");
   }
 }
 
@@ -1123,7 +1098,7 @@ FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
   FrameStages f;
   for (std::size_t i = 0; i < in.pairs.size(); ++i) {
     const RgbdPair& pair = in.pairs[i];
-    f.radiance.push_back(ColorRadiance(run, pair, in.spec, in.camera));
+    f.radiance.push_back(ColorRadiance(run, pair));
     f.geometry.push_back(Geometry(run, k, pair, in.camera, i == 0 ? nullptr : &f.geometry.back()));
     f.fits.push_back(Fit(run, k, in.known_albedo, pair, in.camera, f.radiance.back(), f.geometry.back()));
     run.AddOutput(f.fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));
@@ -1136,26 +1111,47 @@ FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
   return f;
 }
 
-// Cast shadows the fitted lights throw within each frame's depth (processing/cast_shadow.h): the
-// median over frames of the irradiance share the SH model misses there.
+// One frame's cast shadows (processing/cast_shadow.h): a stage keyed by the frame's geometry
+// and fit, so an unchanged rerun reads them back instead of marching the rays again.
+nlohmann::json FrameCastShadows(PipelineRun& run, const ShInputs& in, const RgbdPair& pair, const FrameGeometry& g,
+                                const FrameFit& fit) {
+  const processing::CastShadowOptions options;
+  StageKey key;
+  key.Add("stage", "sh-cast-shadows-v1").AddKey("geometry", g.key).AddKey("fit", fit.key);
+  const PinholeIntrinsics& k = in.camera.intrinsics;
+  key.Add("fx", k.fx).Add("fy", k.fy).Add("cx", k.cx).Add("cy", k.cy);
+  key.Add("max_distance_m", options.max_distance_m).Add("steps", options.steps);
+  key.Add("surface_bias_m", options.surface_bias_m).Add("depth_tolerance_m", options.depth_tolerance_m);
+  key.Add("depth_tolerance_per_m", options.depth_tolerance_per_m).Add("thickness_m", options.thickness_m);
+  key.Add("min_directional_share", options.min_directional_share);
+  const StageCache::Result stage =
+      run.RunStage("shadows-" + std::to_string(pair.color.id), key, [&](const fs::path& dir) {
+        const cv::Mat depth = LoadFloat(g.dir / "depth.exr");
+        cv::Mat depth1;
+        if (depth.channels() == 1) {
+          depth1 = depth;
+        } else {
+          cv::extractChannel(depth, depth1, 0);
+        }
+        const processing::CastShadowEstimate e =
+            processing::EstimateCastShadows(depth1, g.normals.get(), g.mask.get(), k, fit.light, options);
+        WriteJson(dir / "shadows.json", {{"color_frame", pair.color.id},
+                                         {"shadowed_fraction", e.shadowed_fraction()},
+                                         {"directional_share", e.directional_share},
+                                         {"removed_share_rms", e.removed_share_rms}});
+      });
+  return ReadJson(stage.dir / "shadows.json");
+}
+
+// Cast shadows the fitted lights throw within each frame's depth: the median over frames of the
+// irradiance share the SH model misses there.
 double CastShadowShare(PipelineRun& run, const ShInputs& in, const FrameStages& f) {
   std::vector<double> shares;
   nlohmann::json per_frame = nlohmann::json::array();
   for (std::size_t i = 0; i < f.fits.size(); ++i) {
-    const cv::Mat depth = LoadFloat(f.geometry[i].dir / "depth.exr");
-    cv::Mat depth1;
-    if (depth.channels() == 1) {
-      depth1 = depth;
-    } else {
-      cv::extractChannel(depth, depth1, 0);
-    }
-    const processing::CastShadowEstimate e = processing::EstimateCastShadows(
-        depth1, f.geometry[i].normals.get(), f.geometry[i].mask.get(), in.camera.intrinsics, f.fits[i].light);
-    shares.push_back(e.removed_share_rms);
-    per_frame.push_back({{"color_frame", in.pairs[i].color.id},
-                         {"shadowed_fraction", e.shadowed_fraction()},
-                         {"directional_share", e.directional_share},
-                         {"removed_share_rms", e.removed_share_rms}});
+    const nlohmann::json frame = FrameCastShadows(run, in, in.pairs[i], f.geometry[i], f.fits[i]);
+    shares.push_back(frame.at("removed_share_rms").get<double>());
+    per_frame.push_back(frame);
   }
   std::sort(shares.begin(), shares.end());
   const std::size_t n = shares.size();

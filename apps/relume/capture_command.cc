@@ -19,6 +19,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "drivers/device_error.h"
+#include "rig/factory_response.h"
 #include "rig/rig_config.h"
 #include "rig/scene_model_from_rig.h"
 
@@ -256,6 +257,10 @@ std::unique_ptr<capture::SessionWriter> CreateSession(const CaptureRequest& requ
     record.kind = capture::kSceneModelKind;
     record.json = capture::SceneModelToJson(rig::SceneModelFromRig(rig));
     writer->AddCalibration(record);
+    // The simulated RGB-D sensors' colour responses, as their maker would ship them
+    // (rig/factory_response.h): processing linearises their single exposures from these rows.
+    for (const capture::CalibrationRecord& response : rig::FactoryResponseRecords(rig, info.created_utc))
+      writer->AddCalibration(response);
   }
   return writer;
 }

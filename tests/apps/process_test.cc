@@ -193,8 +193,9 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
   ASSERT_EQ(chromium.exit_code, 0) << "chromium failed; install it with scripts/install-deps.sh";
   const std::string& dom = chromium.output;
   EXPECT_NE(dom.find("data-images-broken=\"0\""), std::string::npos) << dom.substr(0, 2000);
-  EXPECT_NE(dom.find("data-images-loaded=\"5\""), std::string::npos)
-      << "one preview per bracket, and the first in the overview";
+  EXPECT_NE(dom.find("data-images-loaded=\"6\""), std::string::npos)
+      << "one preview per bracket, the first in the overview, and the RGB-D sensor's factory response";
+  EXPECT_NE(dom.find("sim:rgbd colour camera, factory response"), std::string::npos);
   // Decisions are collapsed, with their counts per action.
   EXPECT_NE(dom.find("<details class=\"decisions\"><summary>"), std::string::npos);
   EXPECT_NE(dom.find("data-figures=\"1\""), std::string::npos) << "the timeline";
@@ -285,20 +286,26 @@ TEST(ProcessCliTest, CalibrationsFromTheSessionAreStoredThereAndApplied) {
       testing::RunRelume("capture --rig " + source + "/tests/data/rigs/sim-tiny-outdoor.yaml --out " + session.string())
           .exit_code,
       0);
+  // Capture wrote the simulated RGB-D sensor's factory response (rig/factory_response.h); the
+  // calibrate commands add theirs after it.
+  ASSERT_EQ(Calibrations(session).size(), 1u);
+  EXPECT_EQ(Calibrations(session)[0].kind, "response");
+  EXPECT_EQ(Calibrations(session)[0].device_id, "sim:rgbd");
   const testing::CliResult response = testing::RunRelume("calibrate response --session " + session.string() +
                                                          " --frames bracket:2 --out " + (dir / "phone.json").string());
   ASSERT_EQ(response.exit_code, 0) << response.output;
-  ASSERT_EQ(Calibrations(session).size(), 1u);
-  EXPECT_EQ(Calibrations(session)[0].kind, "response");
+  ASSERT_EQ(Calibrations(session).size(), 2u);
+  EXPECT_EQ(Calibrations(session)[1].kind, "response");
+  EXPECT_EQ(Calibrations(session)[1].device_id, "sim:phone");
   // The chart shot's profile, stored also in the day's session of the same DSLR.
   const testing::CliResult store_in = testing::RunRelume(
       "calibrate chart --session " + chart_session.string() + " --frames bracket:1 --store-in " + session.string() +
       " --reference " + source + "/config/colorchecker/xrite_classic_2014_lab_d50.yaml --out " +
       (dir / "profile2.json").string());
   ASSERT_EQ(store_in.exit_code, 0) << store_in.output;
-  ASSERT_EQ(Calibrations(session).size(), 2u);
-  EXPECT_EQ(Calibrations(session)[1].kind, "profile");
-  EXPECT_EQ(Calibrations(session)[1].device_id, "sim:dslr");
+  ASSERT_EQ(Calibrations(session).size(), 3u);
+  EXPECT_EQ(Calibrations(session)[2].kind, "profile");
+  EXPECT_EQ(Calibrations(session)[2].device_id, "sim:dslr");
   const testing::CliResult processed =
       testing::RunRelume("process " + session.string() + " --pipeline radiance --out " + (dir / "q").string());
   ASSERT_EQ(processed.exit_code, 0) << processed.output;

@@ -105,6 +105,10 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   EXPECT_NE(strict["headline"].get<std::string>().find("SH DOES NOT FIT"), std::string::npos) << strict["headline"];
   for (const auto& [stage, action] : StageActions(strict)) EXPECT_EQ(action, "reuse") << stage;
 
+  // The sensor's factory response linearises the colour frames: nothing assumes sRGB.
+  EXPECT_EQ(first["decisions"].dump().find("assuming the sRGB"), std::string::npos);
+  EXPECT_EQ(CountDecisions(first, "radiance", "run"), 4);
+
   // Noise-free, static: frames 2-4 reuse the first frame's normals, with the reason.
   EXPECT_EQ(CountDecisions(first, "normals", "skip"), 3);
   for (const nlohmann::json& o : first["outputs"]) EXPECT_TRUE(fs::exists(out / o["path"].get<std::string>())) << o;
@@ -114,17 +118,21 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   // renders of the report; it is no stage's input).
   const nlohmann::json again = Process(session, out, "--set compare_truth=false");
   const auto actions = StageActions(again);
-  EXPECT_EQ(actions.size(), 15u);  // 4 radiance + 4 geometry + 4 fit + 3 relight
+  EXPECT_EQ(actions.size(), 15u);  // 4 geometry + 4 fit + 4 cast shadows + 3 relight
   for (const auto& [stage, action] : actions) EXPECT_EQ(action, "reuse") << stage;
+  // The colour frames through the sensor's factory response: one "radiance" stage per frame.
+  EXPECT_EQ(CountDecisions(again, "radiance", "reuse"), 4);
+  EXPECT_EQ(CountDecisions(again, "radiance", "run"), 0);
 
-  // One knob: sh_order=1 recomputes the fits, the relighting and their comparison with the truth
+  // One knob: sh_order=1 recomputes the fits, their cast shadows, the relighting and its comparison with the truth
   // only (radiance and geometry reused).
   const nlohmann::json order1 = Process(session, out, "--set sh_order=1");
   const auto order1_actions = StageActions(order1);
   EXPECT_EQ(order1_actions.size(), 19u);  // 15 + 4 truth
+  EXPECT_EQ(CountDecisions(order1, "radiance", "reuse"), 4);
   for (const auto& [stage, action] : order1_actions) {
-    const bool depends =
-        stage.rfind("fit-", 0) == 0 || stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
+    const bool depends = stage.rfind("fit-", 0) == 0 || stage.rfind("shadows-", 0) == 0 ||
+                         stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
     EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   for (const nlohmann::json& f : order1["metrics"]["frames"]) EXPECT_EQ(f["fit"]["order_used"], 1);
@@ -147,8 +155,8 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   const nlohmann::json unknown = Process(session, out, "--set albedo=unknown");
   EXPECT_EQ(unknown["metrics"]["albedo"], "unknown");
   for (const auto& [stage, action] : StageActions(unknown)) {
-    const bool depends =
-        stage.rfind("fit-", 0) == 0 || stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
+    const bool depends = stage.rfind("fit-", 0) == 0 || stage.rfind("shadows-", 0) == 0 ||
+                         stage.rfind("relight-", 0) == 0 || stage.rfind("truth-", 0) == 0;
     EXPECT_EQ(action, depends ? "run" : "reuse") << stage;
   }
   EXPECT_LT(unknown["metrics"]["relit_relative_rms_mean"].get<double>(), 0.03);
