@@ -28,6 +28,9 @@ enum HdrPixelStatus : std::uint8_t {
   kHdrGood = 0,                 // every channel had at least one well-exposed sample
   kHdrSaturatedLowerBound = 1,  // some channel saturated in every frame
   kHdrBlackUpperBound = 2,      // some channel black in every frame
+  // Not from a merge: no sample at all, where a frame undistorted onto its pinhole camera had
+  // nothing (calibration/undistort.h); the radiance there is NaN.
+  kHdrNoSample = 4,
 };
 
 struct HdrMergeOptions {

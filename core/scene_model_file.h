@@ -12,7 +12,8 @@
 //     - device: gphoto2:canon-eos   # the session's device id (`relume session info`)
 //       intrinsics: {width: 6000, height: 4000, fx: 5000, fy: 5000, cx: 3000, cy: 2000}
 //       # or: {width: 6000, height: 4000, horizontal_fov_deg: 62}
-//       distortion: [k1, k2, p1, p2, k3]   # optional (OpenCV); pipelines need undistorted frames
+//       distortion: [k1, k2, p1, p2, k3]   # optional (OpenCV): irm and radiosity undistort the
+//                                          #   frames onto the pinhole camera; sh refuses it
 //       position_m: [12.0, -30.0, 1.6]
 //       look_at_m: [0.0, 0.0, 5.0]         # or world_from_camera: [16 numbers, row-major]
 //       up: [0, 0, 1]                      # optional, with look_at_m

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <span>
 
+#include "calibration/undistort.h"
 #include "capture/durable_file.h"
 #include "capture/folder_lock.h"
 #include "capture/path_policy.h"
@@ -73,16 +74,11 @@ const SceneModelCamera& PipelineRun::RequireCamera(const std::string& device_id,
                                scene_model_row_ + "); give it one with `relume calibrate pose --session " +
                                session_.dir().string() + " --device " + device_id + " --gcp FILE` (docs/real-data.md)");
   }
-  for (double k : camera->distortion) {
-    if (k != 0.0) {
-      throw InvalidArgumentError(purpose + ": camera " + device_id + " has lens distortion in the scene model (" +
-                                 scene_model_row_ +
-                                 "), and relume's pipelines take pinhole images; undistorting frames is not built yet "
-                                 "(undistort them before import, and store the camera without distortion)");
-    }
-  }
   Decide("scene", "note",
-         "camera " + device_id + " from the scene model (" + scene_model_row_ + "): " + camera->source);
+         "camera " + device_id + " from the scene model (" + scene_model_row_ + "): " + camera->source +
+             (calibration::HasDistortion(camera->distortion)
+                  ? "; its frames are undistorted onto this pinhole camera (calibration/undistort.h)"
+                  : ""));
   return *camera;
 }
 

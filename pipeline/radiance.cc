@@ -12,6 +12,7 @@
 #include "calibration/hdr_merge.h"
 #include "calibration/image_file.h"
 #include "calibration/response.h"
+#include "calibration/undistort.h"
 #include "core/color.h"
 #include "core/error.h"
 
@@ -209,6 +210,25 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   AddKnobsToKey(key, knobs, "radiance");
   key.Add("profile", profile_id).Add("response", response_id);
 
+  // A lens with distortion in the scene model: the merged frame is resampled onto the model's
+  // pinhole camera, which the pipelines project through (calibration/undistort.h).
+  const SceneModel* model = run.scene_model();
+  const SceneModelCamera* lens = model != nullptr ? model->FindCamera(out.device_id) : nullptr;
+  const bool undistort = lens != nullptr && calibration::HasDistortion(lens->distortion);
+  if (undistort) {
+    const PinholeIntrinsics& k = lens->camera.intrinsics;
+    key.Add("undistort", "v1").Add("width", k.width).Add("height", k.height);
+    key.Add("fx", k.fx).Add("fy", k.fy).Add("cx", k.cx).Add("cy", k.cy);
+    std::string coefficients;
+    for (const double c : lens->distortion) {
+      key.Add("distortion", c);
+      coefficients += (coefficients.empty() ? "" : ", ") + std::to_string(c);
+    }
+    run.Decide(
+        "radiance", "choose",
+        name + ": undistorting onto the scene model's pinhole camera (k1, k2, p1, p2[, k3] = " + coefficients + ")");
+  }
+
   const bool sensor_linear = bracket.front().encoding == SampleEncoding::kSensorLinear;
   if (bracket.size() == 1) {
     run.Decide("radiance", "skip", name + ": single exposure, linearised without a merge");
@@ -229,7 +249,12 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
                name + ": applying colour profile (calibration " + std::to_string(profile_id) + ")");
 
   const StageCache::Result stage = run.RunStage("radiance", key, [&](const fs::path& dir) {
-    const LinearisedBracket linear = LineariseBracket(session, bracket, response, profile, merge, response_options);
+    LinearisedBracket linear = LineariseBracket(session, bracket, response, profile, merge, response_options);
+    if (undistort) {
+      const calibration::Undistorter undistorter(lens->camera.intrinsics, lens->distortion);
+      linear.radiance = undistorter.Apply(linear.radiance);
+      linear.status = undistorter.ApplyNearest(linear.status, calibration::kHdrNoSample);
+    }
     calibration::SaveRadianceExr(linear.radiance, (dir / "radiance.exr").string());
     calibration::SaveImage(linear.status, (dir / "status.png").string());
     calibration::SaveImage(RadiancePreview(linear.radiance), (dir / "preview.png").string());

@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "calibration/image_file.h"
+#include "calibration/undistort.h"
 #include "capture/import_rgbd.h"
 #include "capture/rgbd_geometry.h"
 #include "core/color.h"
@@ -265,6 +266,12 @@ PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* h
                                  std::to_string(recorded.row) + " (fx " + std::to_string(camera.intrinsics.fx) + " px)";
   const SceneModel* model = run.scene_model();
   const SceneModelCamera* lens = model != nullptr ? model->FindCamera(pair.color.device_id) : nullptr;
+  if (lens != nullptr && calibration::HasDistortion(lens->distortion)) {
+    throw InvalidArgumentError("the sh pipeline: camera " + pair.color.device_id +
+                               " has lens distortion in the scene model, and its depth is registered to the distorted "
+                               "colour image; undistorting RGB-D frames is not built (undistort colour and depth "
+                               "before import, and store the camera without distortion)");
+  }
   if (lens != nullptr && lens->has_pose) {
     const SceneModelCamera& device = run.RequireCamera(pair.color.device_id, "the sh pipeline");
     camera.world_from_camera = device.camera.world_from_camera;

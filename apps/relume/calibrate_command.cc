@@ -596,7 +596,7 @@ void AddCalibrateCommand(CLI::App& app) {
   intrinsics->add_option("--square", in->square_m, "Square size (m)")->capture_default_str();
   intrinsics
       ->add_option("--distortion", in->distortion,
-                   "none (pinhole; relume's pipelines take pinhole images), radial (k1, k2) or full")
+                   "none (pinhole), radial (k1, k2) or full; irm and radiosity undistort frames with it")
       ->capture_default_str();
   intrinsics->callback([in]() { RunCalibrateIntrinsics(*in, std::cout); });
 

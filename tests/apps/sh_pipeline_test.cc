@@ -166,6 +166,21 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   EXPECT_EQ(CountDecisions(filtered, "denoise", "skip"), 0);
   EXPECT_GT(filtered["metrics"]["relit_relative_rms_mean"].get<double>(), relit);
   EXPECT_LT(filtered["metrics"]["relit_relative_rms_mean"].get<double>(), 0.0215);
+
+  // A colour camera with lens distortion: its depth is registered to the distorted image, which
+  // sh does not undistort; it says so instead of relighting misaligned normals.
+  std::ofstream(root / "lens.yaml") << "cameras:\n"
+                                       "  - device: sim:rgbd\n"
+                                       "    intrinsics: {width: 640, height: 480, horizontal_fov_deg: 60}\n"
+                                       "    distortion: [-0.1, 0.01, 0, 0, 0]\n"
+                                       "    position_m: [0, -2, 1]\n"
+                                       "    look_at_m: [0, 0, 0.5]\n";
+  const auto add =
+      RunRelume("session add-scene-model " + session.string() + " --from " + (root / "lens.yaml").string());
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  const auto refused = RunRelume("process " + session.string() + " --pipeline sh --out " + (root / "lens").string());
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("has lens distortion in the scene model"), std::string::npos) << refused.output;
   fs::remove_all(root);
 }
 
