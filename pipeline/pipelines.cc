@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "calibration/image_file.h"
 #include "calibration/response.h"
@@ -63,7 +64,8 @@ void RunRadiancePipeline(PipelineRun& run) {
   double worst = 0.0;
   int done = 0;
   for (const auto& bracket : brackets) {
-    const BracketRadiance r = LinearRadiance(run, bracket);
+    // Images are read only when the truth stage runs: a rerun reads none.
+    const BracketRadiance r = LinearRadiance(run, bracket, /*load=*/false);
     nlohmann::json m = {{"device", r.device_id},
                         {"frames", r.frame_ids},
                         {"utc", FormatIso8601(r.utc)},
@@ -81,7 +83,9 @@ void RunRadiancePipeline(PipelineRun& run) {
       key.Add("device", spec->id).Add("utc", FormatIso8601(r.utc));
       const StageCache::Result stage = run.RunStage("radiance-truth", key, [&](const std::filesystem::path& dir) {
         const sim::GroundTruth gt = run.rig()->world->Render(spec->camera, r.utc);
-        const TruthComparison cmp = CompareWithTruth(r.radiance, r.status, gt.radiance);
+        const RadianceImage radiance = calibration::LoadRadianceExr(r.exr.string());
+        const cv::Mat status = cv::imread((r.exr.parent_path() / "status.png").string(), cv::IMREAD_UNCHANGED);
+        const TruthComparison cmp = CompareWithTruth(radiance, status, gt.radiance);
         std::ofstream(dir / "truth.json")
             << nlohmann::json{{"relative_rms", cmp.relative_rms}, {"pixels", cmp.pixels}, {"scale", cmp.scale}};
       });

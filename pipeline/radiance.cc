@@ -176,7 +176,7 @@ DeviceCalibrations RecordedCalibrations(const capture::SessionReader& session, c
   return c;
 }
 
-BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket) {
+BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket, bool load) {
   RELUME_CHECK(!bracket.empty());
   const capture::SessionReader& session = run.session();
   BracketRadiance out;
@@ -260,6 +260,7 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
     calibration::SaveImage(RadiancePreview(linear.radiance), (dir / "preview.png").string());
   });
   out.exr = stage.dir / "radiance.exr";
+  if (!load) return out;
   out.radiance = calibration::LoadRadianceExr(out.exr.string());
   out.status = cv::imread((stage.dir / "status.png").string(), cv::IMREAD_UNCHANGED);
   return out;

@@ -109,8 +109,10 @@ DeviceCalibrations RecordedCalibrations(const capture::SessionReader& session, c
 // Settings read (all optional): merge_black_margin, merge_saturation_margin (codes),
 // response_samples, response_lambda, response_smoothness (code or log-code). Throws InvalidArgumentError when the
 // frames cannot be linearised (an encoded single frame and no recorded response: the message says to run `relume
-// calibrate`).
-BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket);
+// calibrate`). `load` false: the stage runs (or is reused) but its images are not read back
+// (`radiance` and `status` stay empty; `exr` names the radiance), for callers that read them
+// lazily.
+BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::FrameRecord>& bracket, bool load = true);
 
 // An 8-bit sRGB preview of linear radiance: scaled so that `white` maps to 1, clipped, sRGB
 // transfer. With white <= 0 the 99th percentile of the finite luminance is used.

@@ -396,9 +396,9 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f)
 // sRGB curve.
 FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair) {
   if (HasResponse(run.session(), pair.color.device_id)) {
-    const BracketRadiance b = LinearRadiance(run, {pair.color});
-    // LinearRadiance has read it already: no second read of the file.
-    return {Lazy<RadianceImage>([radiance = b.radiance] { return radiance; }), b.key};
+    // Read only when a stage that needs it runs (a rerun reads no image).
+    const BracketRadiance b = LinearRadiance(run, {pair.color}, /*load=*/false);
+    return {LazyExr(b.exr), b.key};
   }
   return SrgbColorRadiance(run, pair.color);
 }
