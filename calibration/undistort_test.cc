@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <opencv2/calib3d.hpp>
 
+#include "calibration/testing/lens.h"
 #include "core/error.h"
 
 namespace relume::calibration {
@@ -18,12 +18,7 @@ double Pattern(double xn, double yn) {
 // What a lens with `distortion` records of Pattern: each recorded pixel shows the point of the
 // plane the lens bent onto it (found by inverting the distortion to 1e-12).
 RadianceImage Photograph(const PinholeIntrinsics& k, const std::vector<double>& distortion) {
-  const cv::Matx33d k_cv(k.fx, 0.0, k.cx - 0.5, 0.0, k.fy, k.cy - 0.5, 0.0, 0.0, 1.0);
-  std::vector<cv::Point2d> pixels, normalised;
-  for (int v = 0; v < k.height; ++v)
-    for (int u = 0; u < k.width; ++u) pixels.emplace_back(u, v);
-  cv::undistortPoints(pixels, normalised, k_cv, distortion, cv::noArray(), cv::noArray(),
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
+  const std::vector<cv::Point2d> normalised = testing::NormalisedPointsThroughLens(k, distortion);
   RadianceImage image = MakeRadianceImage(k.width, k.height, RadianceUnit::kRelative);
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {

@@ -21,6 +21,7 @@
 #include <string>
 
 #include "calibration/image_file.h"
+#include "calibration/testing/lens.h"
 #include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/error.h"
@@ -593,30 +594,6 @@ TEST(IrmCliTest, ACameraPosedFromControlPointsRelightsAsWellAsTheRigsOwn) {
   fs::remove_all(dir);
 }
 
-// What a lens with OpenCV distortion `d` records of a pinhole frame: each recorded pixel shows
-// the point of the pinhole image the lens bent onto it (bilinear). Linear counts interpolate
-// physically; a barrel lens sees past the pinhole's edge, where the edge pixels are repeated
-// (the undistorted frame never reaches there).
-CameraImage ThroughLens(const CameraImage& pinhole, const PinholeIntrinsics& k, const std::vector<double>& d) {
-  const cv::Matx33d k_cv(k.fx, 0.0, k.cx - 0.5, 0.0, k.fy, k.cy - 0.5, 0.0, 0.0, 1.0);
-  std::vector<cv::Point2d> pixels, normalised;
-  for (int v = 0; v < k.height; ++v)
-    for (int u = 0; u < k.width; ++u) pixels.emplace_back(u, v);
-  cv::undistortPoints(pixels, normalised, k_cv, d, cv::noArray(), cv::noArray(),
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
-  cv::Mat map_x(k.height, k.width, CV_32FC1), map_y(k.height, k.width, CV_32FC1);
-  for (int v = 0; v < k.height; ++v) {
-    for (int u = 0; u < k.width; ++u) {
-      const cv::Point2d& n = normalised[static_cast<std::size_t>(v * k.width + u)];
-      map_x.at<float>(v, u) = static_cast<float>(n.x * k.fx + k.cx - 0.5);
-      map_y.at<float>(v, u) = static_cast<float>(n.y * k.fy + k.cy - 0.5);
-    }
-  }
-  CameraImage out = pinhole;
-  cv::remap(pinhole.pixels, out.pixels, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  return out;
-}
-
 // The pinhole frame back from a frame taken through the lens, as the pipeline undistorts one
 // (bilinear), done here on the recorded counts.
 CameraImage BackFromLens(const CameraImage& lens, const PinholeIntrinsics& k, const std::vector<double>& d) {
@@ -653,7 +630,9 @@ void CopyThroughLens(const fs::path& from, const fs::path& to, const std::vector
     if (f.stream != "still") continue;
     drivers::StillFrame frame;
     frame.device_id = f.device_id;
-    frame.image = ThroughLens(in.LoadImage(f), k, d);
+    // Linear counts interpolate physically (calibration/testing/lens.h).
+    frame.image = in.LoadImage(f);
+    frame.image.pixels = calibration::testing::ThroughLens(frame.image.pixels, k, d);
     if (back) frame.image = BackFromLens(frame.image, k, d);
     frame.exposure = f.exposure;
     frame.timing = {f.utc, f.monotonic, f.device_timestamp, f.sequence};
