@@ -36,8 +36,8 @@ void ExpectRowReproducesModel(const sim::SimDeviceSpec& spec, double exposure_ti
   exposure.exposure_time_s = exposure_time_s;
   const RadianceImage model =
       sim::RadianceFromCameraImage(codes, spec.camera.intrinsics, exposure, spec.rgbd.color_model);
-  const calibration::HdrMergeResult merged = calibration::MergeHdr(
-      {codes}, {exposure_time_s * exposure.iso / 100.0}, *profile->response, calibration::HdrMergeOptions{});
+  const calibration::HdrMergeResult merged = calibration::MergeHdr({codes}, {exposure_time_s * exposure.iso / 100.0},
+                                                                   *profile->response, calibration::HdrMergeOptions{});
   int compared = 0;
   for (int z = 3; z < 253; ++z) {  // the merge's margins: codes it reports as bounds
     const float expected = model.pixels.at<cv::Vec3f>(0, z)[1];
