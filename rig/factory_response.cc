@@ -25,14 +25,13 @@ std::optional<calibration::CalibrationProfile> FactoryColorResponse(const sim::S
   const double cx = intrinsics.cx, cy = intrinsics.cy;
   constexpr int kLevels = 256;
   std::vector<double> inverse(kLevels);
-  for (int z = 0; z < kLevels; ++z) {
-    // Code 255 is saturated (the model returns NaN there); the merge never trusts it, and the
-    // curve keeps the level it saturates at so that it stays non-decreasing.
-    const double r =
-        z < kLevels - 1 ? sim::RadianceFromEncodedValue(z, intrinsics, cx, cy, exposure, model) : inverse[kLevels - 2];
+  for (int z = 0; z < kLevels - 1; ++z) {
+    const double r = sim::RadianceFromEncodedValue(z, intrinsics, cx, cy, exposure, model);
     inverse[static_cast<std::size_t>(z)] = std::isfinite(r) ? r * exposure.iso / 100.0 : 0.0;
   }
-  if (inverse.back() < inverse[kLevels - 2]) inverse.back() = inverse[kLevels - 2];
+  // Code 255 is saturated (the model returns NaN there); the merge never trusts it, and the curve
+  // keeps the level below it so that it stays non-decreasing.
+  inverse.back() = inverse[kLevels - 2];
   calibration::CameraResponse response;
   response.levels = kLevels;
   response.inverse.assign(3, inverse);
