@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/time.h"
 #include "pipeline/process.h"
+#include "rig/session_truth.h"
 
 namespace relume::batch {
 namespace fs = std::filesystem;
@@ -178,6 +179,7 @@ TaskRecord RunBatchTask(const fs::path& plan_file, int index, const std::string&
     pipeline::PipelineRequest request = plan.request;
     request.session_dir = task.session;
     request.out_dir = work;
+    request.load_truth = rig::LoadSessionTruth;  // evaluation; null for real sessions
     const pipeline::ProcessResult processed = pipeline::ProcessSession(request, [](const pipeline::PipelineReport& r) {
       std::cout << "  " << r.name << ": "
                 << (!r.error.empty() ? r.error : (r.summary.is_object() ? r.summary.value("headline", "done") : "done"))

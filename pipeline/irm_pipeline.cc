@@ -819,11 +819,11 @@ cv::Mat ShadowAgreement(const RayCaster& caster, const PinholeCamera& camera, co
 // The relit source (relight_dir/relit.exr, status.png) against the world rendered from the source
 // camera at the target's time, per region (lit, shadow, penumbra), on relit pixels where the mesh
 // and the world agree; writes the error image to `error_png`.
-nlohmann::json CompareIrmWithTruth(const sim::World& world, const RayCaster& caster, const irm::View& source,
+nlohmann::json CompareIrmWithTruth(const SessionTruth& world, const RayCaster& caster, const irm::View& source,
                                    const irm::View& target, UtcTime source_utc, UtcTime target_utc,
                                    const fs::path& relight_dir, const fs::path& error_png) {
-  const sim::GroundTruth truth = world.Render(source.camera, target_utc);
-  const sim::GroundTruth source_truth = world.Render(source.camera, source_utc);
+  const GroundTruth truth = world.Render(source.camera, target_utc);
+  const GroundTruth source_truth = world.Render(source.camera, source_utc);
   const RadianceImage relit = calibration::LoadRadianceExr((relight_dir / "relit.exr").string());
   const cv::Mat status = cv::imread((relight_dir / "status.png").string(), cv::IMREAD_UNCHANGED);
   if (status.empty()) throw IoError((relight_dir / "status.png").string(), "cannot be read; run with --force");
@@ -1116,7 +1116,7 @@ void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& reli
       truth_key.AddFileContent(name, path);
     }
   } else {
-    truth_key.Add("world", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+    truth_key.Add("truth", run.truth()->Key());
   }
   truth_key.Add("source_utc", FormatIso8601(v.source_radiance.utc))
       .Add("target_utc", FormatIso8601(v.target_radiance.utc));
@@ -1126,12 +1126,11 @@ void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& reli
     truth_key.Add("target_sun", static_cast<double>(v.target.sun_dir[k]));
   }
   const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
-    WriteJsonFile(
-        dir / "truth.json",
-        truth_dir.empty()
-            ? CompareIrmWithTruth(*run.rig()->world, v.caster.get(), v.source, v.target, v.source_radiance.utc,
-                                  v.target_radiance.utc, relight.dir, dir / "truth_error.png")
-            : CompareIrmWithExternalTruth(truth_dir, v.source, relight.dir, dir / "truth_error.png"));
+    WriteJsonFile(dir / "truth.json",
+                  truth_dir.empty()
+                      ? CompareIrmWithTruth(*run.truth(), v.caster.get(), v.source, v.target, v.source_radiance.utc,
+                                            v.target_radiance.utc, relight.dir, dir / "truth_error.png")
+                      : CompareIrmWithExternalTruth(truth_dir, v.source, relight.dir, dir / "truth_error.png"));
   });
   fs::copy_file(truth.dir / "truth_error.png", run.out_dir() / "truth_error.png", fs::copy_options::overwrite_existing);
   run.AddOutput(run.out_dir() / "truth_error.png",
@@ -1196,7 +1195,7 @@ void RunIrmPipeline(PipelineRun& run) {
   AddIrmMetrics(run, geometry, mesh, views, build.irms, relight.json);
   if (!knobs.truth_dir.empty()) {
     RunTruthStage(run, views, relight, geometry.key, knobs.truth_dir);
-  } else if (compare_truth && run.rig() != nullptr && run.rig()->world) {
+  } else if (compare_truth && run.truth() != nullptr) {
     RunTruthStage(run, views, relight, geometry.key, "");
   }
 }

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <span>
+#include <tuple>
 
 #include "calibration/undistort.h"
 #include "capture/durable_file.h"
@@ -20,8 +21,11 @@ namespace relume::pipeline {
 namespace fs = std::filesystem;
 
 PipelineRun::PipelineRun(const PipelineRequest& request, const capture::SessionReader& session,
-                         std::shared_ptr<const rig::RigConfig> rig)
-    : request_(request), session_(session), rig_(std::move(rig)), cache_(request.out_dir / "stages", request.reuse) {
+                         std::shared_ptr<const SessionTruth> truth)
+    : request_(request),
+      session_(session),
+      truth_(std::move(truth)),
+      cache_(request.out_dir / "stages", request.reuse) {
   for (const auto& [key, value] : request_.settings) settings_read_[key] = false;
 }
 
@@ -252,14 +256,21 @@ std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& ses
       if (device_matches && f.stream == stream) selected.push_back(f);
     }
   } else {
-    std::int64_t id = 0;
-    const auto [ptr, ec] = std::from_chars(selector.data(), selector.data() + selector.size(), id);
-    if (ec != std::errc() || ptr != selector.data() + selector.size()) {
+    // A frame id, or a range of them (first-last, inclusive).
+    std::int64_t first = 0, last = 0;
+    const char* end = selector.data() + selector.size();
+    std::from_chars_result parsed = std::from_chars(selector.data(), end, first);
+    last = first;
+    if (parsed.ec == std::errc() && parsed.ptr != end && *parsed.ptr == '-') {
+      parsed = std::from_chars(parsed.ptr + 1, end, last);
+    }
+    if (parsed.ec != std::errc() || parsed.ptr != end || last < first) {
       throw InvalidArgumentError("frame selector '" + selector +
-                                 "': give a frame id (42), a bracket (bracket:3), a device stream (rgbd:color) or all");
+                                 "': give a frame id (42), a range of frame ids (3-12), a bracket (bracket:3), a "
+                                 "device stream (rgbd:color) or all");
     }
     for (const capture::FrameRecord& f : frames) {
-      if (f.id == id) selected.push_back(f);
+      if (f.id >= first && f.id <= last) selected.push_back(f);
     }
   }
   if (selected.empty()) {
@@ -271,15 +282,6 @@ std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& ses
                                (have.empty() ? "none" : have) + "; see `relume session info`)");
   }
   return selected;
-}
-
-const sim::SimDeviceSpec* FindDeviceSpec(const rig::RigConfig* rig, const std::string& device_id) {
-  if (rig == nullptr) return nullptr;
-  const std::string id = device_id.starts_with("sim:") ? device_id.substr(4) : device_id;
-  for (const sim::SimDeviceSpec& spec : rig->devices) {
-    if (spec.id == id) return &spec;
-  }
-  return nullptr;
 }
 
 void PrepareOutputFolder(const fs::path& folder) {
@@ -330,13 +332,14 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
   // pipeline when `relume process` runs them all).
   CheckSettings(request.settings, "all");
   const capture::SessionReader session(request.session_dir);
-  std::shared_ptr<const rig::RigConfig> rig = rig::LoadSessionRig(request.session_dir);
+  std::shared_ptr<const SessionTruth> truth = request.load_truth ? request.load_truth(request.session_dir) : nullptr;
   PrepareOutputFolder(request.out_dir);
   // One writer per output folder: a second `relume process` into it is refused, not interleaved.
   const capture::FolderLock lock = capture::FolderLock::Acquire(request.out_dir, "process " + request.pipeline);
 
-  PipelineRun run(request, session, rig);
-  if (!rig) run.Decide("session", "note", "the session has no stored rig (rig/rig.yaml): no scene geometry or truth");
+  PipelineRun run(request, session, truth);
+  if (!truth)
+    run.Decide("session", "note", "no ground truth for this session (a real capture): nothing is compared with truth");
   const auto start = std::chrono::steady_clock::now();
   entry->run(run);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

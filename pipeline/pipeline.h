@@ -20,9 +20,9 @@
 
 #include "capture/session.h"
 #include "core/scene_model.h"
+#include "core/truth.h"
 #include "pipeline/knobs.h"
 #include "pipeline/stage_cache.h"
-#include "rig/rig_config.h"
 
 namespace relume::pipeline {
 
@@ -37,6 +37,12 @@ struct PipelineRequest {
   std::map<std::string, std::string> settings;  // --set key=value: the pipeline's quality knobs
   bool explain = false;                         // plan only: decide and print, run nothing expensive
   bool reuse = true;                            // false: recompute every stage (--force)
+  // Evaluation only: loads the session's ground truth (core/truth.h), which compare_truth and the
+  // floors (input=truth, true_normals, ...) use. Empty, or returning null: the session has none,
+  // as real captures do. The CLI, batch and Python set rig::LoadSessionTruth (rig/session_truth.h),
+  // which reads a simulated session's stored world; the pipelines themselves never reach the
+  // simulator.
+  std::function<std::shared_ptr<const SessionTruth>(const std::filesystem::path& session_dir)> load_truth;
 };
 
 // A planner decision, logged with its reason: "run", "reuse", "skip", "choose", "plan", "note"
@@ -52,13 +58,13 @@ struct Decision {
 class PipelineRun {
  public:
   PipelineRun(const PipelineRequest& request, const capture::SessionReader& session,
-              std::shared_ptr<const rig::RigConfig> rig);
+              std::shared_ptr<const SessionTruth> truth);
 
   const PipelineRequest& request() const { return request_; }
   const capture::SessionReader& session() const { return session_; }
-  // The rig the session was recorded with and, for simulated rigs, its world (scene, truth);
-  // null when the session did not record one (sessions older than the world record).
-  const rig::RigConfig* rig() const { return rig_.get(); }
+  // The session's ground truth, for evaluation only (PipelineRequest::load_truth); null for real
+  // captures and when the request loads none.
+  const SessionTruth* truth() const { return truth_.get(); }
   StageCache& cache() { return cache_; }
   // The session's scene model (its latest scene_model row, core/scene_model.h): the cameras,
   // geometry and lamps processing uses. Null when the session has none. Read once; IoError when
@@ -105,7 +111,7 @@ class PipelineRun {
  private:
   const PipelineRequest& request_;
   const capture::SessionReader& session_;
-  std::shared_ptr<const rig::RigConfig> rig_;
+  std::shared_ptr<const SessionTruth> truth_;
   StageCache cache_;
   bool scene_model_read_ = false;
   std::optional<SceneModel> scene_model_;
@@ -181,7 +187,7 @@ const std::vector<PipelineEntry>& Pipelines();
 // the knobs are listed (`relume process --list --pipeline NAME`).
 void CheckSettings(const std::map<std::string, std::string>& settings, const std::string& pipeline);
 
-// Frames of the session matching a selector: a frame id ("42"), a bracket ("bracket:3"), a
+// Frames of the session matching a selector: a frame id ("42"), a range of ids ("3-12"), a bracket ("bracket:3"), a
 // device's stream ("rgbd:color", "dslr:still"), or "all". InvalidArgumentError naming the
 // selector and what the session has when nothing matches.
 std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& session, const std::string& selector);
@@ -189,10 +195,6 @@ std::vector<capture::FrameRecord> SelectFrames(const capture::SessionReader& ses
 // What to do about a session without a scene model: "an older simulated session gets one with
 // `relume session add-scene-model S`; for real devices write one (docs/real-data.md)".
 std::string SceneModelAdvice(const std::filesystem::path& session_dir);
-
-// The simulated device spec (camera pose, intrinsics, sensor) of a session device
-// ("sim:dslr" or "dslr"), or null when the rig has no such simulated device.
-const sim::SimDeviceSpec* FindDeviceSpec(const rig::RigConfig* rig, const std::string& device_id);
 
 // The file that marks a folder as relume's output: `relume process` writes only into a new or
 // empty folder, one it marked, or one an older relume wrote (stages/, summary.json).

@@ -71,18 +71,15 @@ void RunRadiancePipeline(PipelineRun& run) {
                         {"utc", FormatIso8601(r.utc)},
                         {"sun_elevation_deg", r.sun_elevation_deg},
                         {"exr", std::filesystem::relative(r.exr, run.out_dir()).string()}};
-    const sim::SimDeviceSpec* spec = FindDeviceSpec(run.rig(), r.device_id);
-    if (truth && spec != nullptr && run.rig()->world) {
+    const std::optional<PinholeCamera> truth_camera =
+        run.truth() != nullptr ? run.truth()->DeviceCamera(r.device_id) : std::nullopt;
+    if (truth && truth_camera) {
       // A stage of its own, so a rerun with unchanged radiance does not render the world again.
       StageKey key;
       key.Add("stage", "radiance-truth-v1").AddKey("radiance", r.key);
-      for (const char* file : {"rig.yaml", "scene.yaml"}) {  // the stored rig (cameras) and world
-        const std::filesystem::path path = run.session().dir() / "rig" / file;
-        if (std::filesystem::exists(path)) key.AddFileContent(file, path);
-      }
-      key.Add("device", spec->id).Add("utc", FormatIso8601(r.utc));
+      key.Add("truth", run.truth()->Key()).Add("device", r.device_id).Add("utc", FormatIso8601(r.utc));
       const StageCache::Result stage = run.RunStage("radiance-truth", key, [&](const std::filesystem::path& dir) {
-        const sim::GroundTruth gt = run.rig()->world->Render(spec->camera, r.utc);
+        const GroundTruth gt = run.truth()->Render(*truth_camera, r.utc);
         const RadianceImage radiance = calibration::LoadRadianceExr(r.exr.string());
         const cv::Mat status = cv::imread((r.exr.parent_path() / "status.png").string(), cv::IMREAD_UNCHANGED);
         const TruthComparison cmp = CompareWithTruth(radiance, status, gt.radiance);

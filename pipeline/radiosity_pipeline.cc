@@ -236,26 +236,20 @@ MaterialGroups GroupByTruth(const radiosity::PatchHierarchy& h, const RadiosityS
   return g;
 }
 
-// Evaluation only: the true albedo per mesh triangle from the simulated world's object of the
-// same name (its face's albedo where the object has one per face, e.g. a ColorChecker's patches).
+// Evaluation only: the true albedo per mesh triangle from the session truth's object of the same
+// name (its face's albedo where the object has one per face, e.g. a ColorChecker's patches).
 MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityScene& rs, const SceneModel& model,
-                            const sim::Scene& scene) {
-  std::vector<int> sim_object;
+                            const SessionTruth& truth) {
   for (const SceneModelObject& model_object : model.objects) {
-    const int index = scene.ObjectIndex(model_object.name);
-    if (index < 0) {
+    if (!truth.Albedo(model_object.name, -1)) {
       throw InvalidArgumentError("compare_truth: scene model object '" + model_object.name +
                                  "' is not in the session's simulated world; --set compare_truth=false");
     }
-    sim_object.push_back(index);
   }
   return GroupByTruth(h, rs, [&](std::size_t t) -> std::optional<Rgb> {
-    const sim::SceneObject& object = scene.objects[static_cast<std::size_t>(sim_object[rs.triangle_object[t]])];
-    const auto face = static_cast<std::size_t>(rs.triangle_face[t]);
-    if (face < object.mesh.face_albedo.size() && object.mesh.face_albedo[face].allFinite()) {
-      return Rgb(object.mesh.face_albedo[face]);
-    }
-    return Rgb(object.albedo);
+    const std::optional<Eigen::Vector3d> albedo =
+        truth.Albedo(model.objects[rs.triangle_object[t]].name, rs.triangle_face[t]);
+    return Rgb(*albedo);
   });
 }
 
@@ -410,12 +404,11 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
   out.utc = bracket.front().utc;
   for (const capture::FrameRecord& f : bracket) out.frame_ids.push_back(f.id);
   out.key.Add("stage", "truth-radiance-v1")
-      .AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml")
-      .AddFileContent("rig", run.session().dir() / "rig" / "rig.yaml")
+      .Add("truth", run.truth()->Key())
       .Add("device", out.device_id)
       .Add("utc", FormatIso8601(out.utc));
   const StageCache::Result stage = run.RunStage("truth-radiance", out.key, [&](const fs::path& dir) {
-    const sim::GroundTruth truth = run.rig()->world->Render(camera, out.utc);
+    const GroundTruth truth = run.truth()->Render(camera, out.utc);
     calibration::SaveRadianceExr(truth.radiance, (dir / "radiance.exr").string());
   });
   out.exr = stage.dir / "radiance.exr";
@@ -577,7 +570,7 @@ struct RadiosityInputs {
   Knobs knobs;
   SceneModel model;
   PinholeCamera camera;
-  const sim::World* world = nullptr;  // evaluation and the truth modes only; null for real sessions
+  const SessionTruth* world = nullptr;  // evaluation and the truth modes only; null for real sessions
   // External truth (knobs.truth_dir): the true albedo per material or object name.
   std::map<std::string, Rgb> truth_albedo;
   std::string device;
@@ -615,8 +608,7 @@ RadiosityInputs ReadRadiosityInputs(PipelineRun& run) {
     }
   }
   in.camera = run.RequireCamera(in.device, "the radiosity pipeline").camera;
-  const rig::RigConfig* rig = run.rig();
-  if (rig != nullptr && rig->world) in.world = rig->world.get();
+  in.world = run.truth();
   if (in.world == nullptr) {
     if (in.knobs.input == "truth") {
       throw InvalidArgumentError(
@@ -765,7 +757,7 @@ struct AbsoluteScale {
 // truth / measured over well-exposed pixels and channels (robust to the few very bright pixels, a
 // lamp's hot spot, that dominate a least-squares scale), and the ratio's relative spread.
 void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, nlohmann::json* j) {
-  const sim::GroundTruth truth = in.world->Render(in.camera, r.utc);
+  const GroundTruth truth = in.world->Render(in.camera, r.utc);
   std::vector<double> ratios;
   for (int y = 0; y < r.radiance.height(); ++y) {
     for (int x = 0; x < r.radiance.width(); ++x) {
@@ -899,7 +891,7 @@ AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const G
   out.key.Add("stage", "radiosity-scale-v4").AddKey("radiance", bracket0.key).Add("mode", mode);
   AddKnobsToKey(out.key, knobs, "scale");
   if (knobs.input == "truth" || mode == "truth") {
-    out.key.AddFileContent("scene", run.session().dir() / "rig" / "scene.yaml");
+    out.key.Add("truth", run.truth()->Key());
   }
   if (mode == "chart") {
     out.key.AddKey("geometry", geo.key);
@@ -1217,7 +1209,7 @@ ReflectanceStage RunReflectanceStage(PipelineRun& run, const RadiosityInputs& in
   const MaterialGroups groups = !in.knobs.compare_truth ? MaterialGroups{}
                                 : !in.truth_albedo.empty()
                                     ? GroupPatchesFromTruth(*geo.hierarchy, geo.scene, in.model, in.truth_albedo)
-                                    : GroupPatches(*geo.hierarchy, geo.scene, in.model, in.world->scene());
+                                    : GroupPatches(*geo.hierarchy, geo.scene, in.model, *in.world);
   ReflectanceStage out;
   out.key.Add("stage", "radiosity-reflectance-v4").AddKey("geometry", geo.key).AddKey("scale", scale.key);
   if (!in.knobs.truth_dir.empty()) out.key.AddFileContent("truth_albedo", fs::path(in.knobs.truth_dir) / "albedo.json");
@@ -1298,14 +1290,8 @@ RadianceImage RelitPixels(const Geometry& geo, const radiosity::Lighting& lighti
 // truth's relit.exr when its relit.json names the same lamp (nullopt, with `why`, otherwise).
 std::optional<RadianceImage> RelitTruth(const RadiosityInputs& in, UtcTime utc, std::string* why) {
   if (in.knobs.truth_dir.empty()) {
-    sim::Scene scene = in.world->scene();
-    sim::Lamp lamp;
-    lamp.name = "relight";
-    lamp.position = in.knobs.light_m;
-    lamp.intensity_w_sr = Eigen::Vector3d::Constant(in.knobs.light_intensity_w_sr);
-    scene.lamps = {lamp};
-    const sim::World truth_world(scene, in.world->options());
-    return truth_world.Render(in.camera, utc).radiance;
+    return in.world->RenderWithPointLamp(in.camera, utc, in.knobs.light_m,
+                                         Eigen::Vector3d::Constant(in.knobs.light_intensity_w_sr));
   }
   const fs::path dir(in.knobs.truth_dir);
   if (!fs::exists(dir / "relit.exr") || !fs::exists(dir / "relit.json")) {
@@ -1425,7 +1411,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
     run.Decide("radiosity", "note", "the indirect-share test (skip or run radiosity) needs the radiance: not run here");
     return;
   }
-  if (in.world != nullptr && in.world->options().indirect_bounces == 0) {
+  if (in.world != nullptr && in.world->IndirectBounces() == 0) {
     run.Decide("radiosity", "note",
                "the session's world rendered direct light only (render.indirect_bounces 0): its photographs have no "
                "interreflection, so albedo from a radiosity model is biased low; compare with the skipped result");

@@ -438,9 +438,9 @@ double ChangedFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, d
 
 // The world's true normals seen from `camera` at `utc`, in the camera frame, and where they are
 // valid (diagnostic: --set true_normals=true).
-void TrueNormalsInCamera(const sim::World& world, const PinholeCamera& camera, UtcTime utc, cv::Mat* normals,
+void TrueNormalsInCamera(const SessionTruth& world, const PinholeCamera& camera, UtcTime utc, cv::Mat* normals,
                          cv::Mat* valid) {
-  const sim::GroundTruth truth = world.Render(camera, utc);
+  const GroundTruth truth = world.Render(camera, utc);
   const Eigen::Matrix3f camera_from_world = camera.world_from_camera.rotation().transpose().cast<float>();
   *normals = cv::Mat(truth.normal_in_world.size(), CV_32FC3);
   *valid = cv::Mat::zeros(normals->size(), CV_8UC1);
@@ -475,7 +475,8 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   AddKnobsToKey(g.key, k, "geometry");  // filter_depth as decided (the noise check may turn it off)
   if (previous != nullptr) g.key.AddKey("previous", previous->key);
   if (k.true_normals) {
-    g.key.Add("true_normals", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+    if (run.truth() == nullptr) throw InvalidArgumentError("--set true_normals=true needs a session with ground truth");
+    g.key.Add("true_normals", run.truth()->Key());
     g.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
   }
 
@@ -506,8 +507,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     }
     cv::Mat normals, valid;
     if (k.true_normals) {
-      if (!run.rig()->world) throw InvalidArgumentError("--set true_normals=true needs a simulated session (a world)");
-      TrueNormalsInCamera(*run.rig()->world, camera, pair.color.utc, &normals, &valid);
+      TrueNormalsInCamera(*run.truth(), camera, pair.color.utc, &normals, &valid);
       info["normals_from_frame"] = pair.color.id;
       info["normals_from_truth"] = true;
     } else if (reuse) {
@@ -571,7 +571,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
   AddKnobsToKey(f.key, k, "fit");
   f.key.Add("sample_seed", static_cast<std::int64_t>(k.samples.seed)).Add("known_albedo", known_albedo);
   if (known_albedo) {
-    f.key.Add("scene", run.rig()->yaml_text).AddFileContent("scene_file", run.rig()->scene_path);
+    f.key.Add("truth", run.truth()->Key());
     f.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
   }
   const std::string id = std::to_string(pair.color.id);
@@ -587,7 +587,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
     processing::ShFitSummary summary;
     nlohmann::json extra;
     if (known_albedo) {
-      const cv::Mat albedo = run.rig()->world->Render(camera, pair.color.utc).albedo;
+      const cv::Mat albedo = run.truth()->Render(camera, pair.color.utc).albedo;
       processing::SamplePointSelector selector(k.samples);
       const std::vector<cv::Point>& points = selector.Update(allowed);
       const processing::ShFitResult fit = processing::FitShKnownAlbedo(
@@ -772,8 +772,8 @@ nlohmann::json CompareFrame(const processing::RelightResult& relit, const Radian
 // Fitted irradiance at the true normals against the true irradiance, over the mask. With
 // `fit_scale` (unknown albedo: the light carries a per-channel scale) one least-squares scale
 // per channel is taken out first.
-nlohmann::json IrradianceError(const ShRgb& light, const sim::GroundTruth& truth,
-                               const Eigen::Matrix3d& camera_from_world, const cv::Mat& mask, bool fit_scale) {
+nlohmann::json IrradianceError(const ShRgb& light, const GroundTruth& truth, const Eigen::Matrix3d& camera_from_world,
+                               const cv::Mat& mask, bool fit_scale) {
   std::vector<Eigen::Vector3d> fitted, real;
   for (int y = 0; y < mask.rows; ++y) {
     for (int x = 0; x < mask.cols; ++x) {
@@ -809,11 +809,11 @@ nlohmann::json IrradianceError(const ShRgb& light, const sim::GroundTruth& truth
 // Mat (and says why) when the world cannot give it.
 // `dst_frame_truth` caches the destination frame's render across source frames.
 cv::Mat DestinationTruth(PipelineRun& run, const Destination& dst, const std::vector<RgbdPair>& pairs,
-                         const PinholeCamera& camera, const sim::GroundTruth& src_truth,
-                         std::optional<sim::GroundTruth>* dst_frame_truth, std::string* how) {
+                         const PinholeCamera& camera, const GroundTruth& src_truth,
+                         std::optional<GroundTruth>* dst_frame_truth, std::string* how) {
   if (dst.kind == "frame") {
-    if (!*dst_frame_truth) *dst_frame_truth = run.rig()->world->Render(camera, pairs[*dst.frame_index].color.utc);
-    const sim::GroundTruth& t = **dst_frame_truth;
+    if (!*dst_frame_truth) *dst_frame_truth = run.truth()->Render(camera, pairs[*dst.frame_index].color.utc);
+    const GroundTruth& t = **dst_frame_truth;
     double max_dz = 0.0;
     for (int y = 0; y < t.depth_m.rows; ++y) {
       for (int x = 0; x < t.depth_m.cols; ++x) {
@@ -944,7 +944,7 @@ struct TruthInputs {
   const std::vector<RgbdPair>* pairs;
   const PinholeCamera* camera;
   const Destination* dst;
-  std::optional<sim::GroundTruth>* dst_frame_truth;  // the destination frame's render, once per run
+  std::optional<GroundTruth>* dst_frame_truth;  // the destination frame's render, once per run
   bool known_albedo;
 };
 
@@ -958,8 +958,7 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
   const Destination& dst = *in.dst;
   StageKey key;
   key.Add("stage", "sh-truth-v1").AddKey("fit", fit.key).AddKey("geometry", geometry.key);
-  key.Add("known_albedo", in.known_albedo).Add("scene", run.rig()->yaml_text);
-  key.AddFileContent("scene_file", run.rig()->scene_path);
+  key.Add("known_albedo", in.known_albedo).Add("truth", run.truth()->Key());
   key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
   if (relit != nullptr) {
     key.AddKey("relit", relit->key).Add("destination", dst.kind).Add("destination_text", dst.description);
@@ -973,7 +972,7 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
       run.RunStage("truth-" + std::to_string(pair.color.id), key, [&](const fs::path& dir) {
         const PinholeCamera& camera = *in.camera;
         const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
-        const sim::GroundTruth truth = run.rig()->world->Render(camera, pair.color.utc);
+        const GroundTruth truth = run.truth()->Render(camera, pair.color.utc);
         const cv::Mat& mask = geometry.mask.get();
         nlohmann::json t = IrradianceError(fit.light, truth, camera_from_world, mask, !in.known_albedo);
         if (t["irradiance_pixels"].get<int>() == 0)
@@ -1041,7 +1040,7 @@ ShInputs ReadShInputs(PipelineRun& run, const Knobs& k) {
       }
     }
   }
-  in.has_world = run.rig() != nullptr && run.rig()->world != nullptr;
+  in.has_world = run.truth() != nullptr;
   return in;
 }
 
@@ -1263,9 +1262,8 @@ nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
 // source frame other than the destination's own) and, with compare_truth, its errors against the
 // world's truth; adds its figures to `totals`.
 nlohmann::json RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in, const FrameStages& f, std::size_t i,
-                            const Destination& dst, const ShRgb& dst_light,
-                            std::optional<sim::GroundTruth>* dst_frame_truth, const ExternalShTruth* external,
-                            FrameTotals* totals) {
+                            const Destination& dst, const ShRgb& dst_light, std::optional<GroundTruth>* dst_frame_truth,
+                            const ExternalShTruth* external, FrameTotals* totals) {
   const std::string id = std::to_string(in.pairs[i].color.id);
   nlohmann::json m = {{"color_frame", in.pairs[i].color.id},
                       {"depth_frame", in.pairs[i].depth.id},
@@ -1352,7 +1350,7 @@ void RunShPipeline(PipelineRun& run) {
   }
   nlohmann::json& frames_json = run.metrics()["frames"];
   frames_json = nlohmann::json::array();
-  std::optional<sim::GroundTruth> dst_frame_truth;
+  std::optional<GroundTruth> dst_frame_truth;
   std::optional<ExternalShTruth> external;
   if (!k.truth_dir.empty()) {
     external.emplace(k.truth_dir);

@@ -14,6 +14,7 @@
 #include "pipeline/pipeline.h"
 #include "pipeline/process.h"
 #include "python/bindings.h"
+#include "rig/session_truth.h"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -59,6 +60,7 @@ py::dict Process(const std::filesystem::path& session_dir, const std::string& pi
   }
   request.explain = explain;
   request.reuse = !force;
+  request.load_truth = rig::LoadSessionTruth;  // evaluation; null for real sessions
   pipeline::ProcessResult result;
   {
     py::gil_scoped_release release;

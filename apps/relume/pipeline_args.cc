@@ -8,7 +8,7 @@ namespace relume::app {
 
 void AddPipelineOptions(CLI::App& cmd, PipelineArgs& args) {
   cmd.add_option("--pipeline", args.pipeline, "Pipeline to run (--list names them; default: all of them)");
-  cmd.add_option("--source", args.source, "Source frames: id, bracket:N, DEVICE:STREAM or all");
+  cmd.add_option("--source", args.source, "Source frames: id, a range of ids 3-12, bracket:N, DEVICE:STREAM or all");
   cmd.add_option("--target", args.target, "Target frames: id, bracket:N, DEVICE:STREAM or all");
   cmd.add_option("--mesh", args.mesh, "Scene geometry when the session did not record it");
   cmd.add_option("--target-light", args.target_light, "Destination lighting: frame selector, SH .json or env map");

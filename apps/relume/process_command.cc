@@ -10,6 +10,7 @@
 #include "apps/relume/pipeline_args.h"
 #include "core/error.h"
 #include "pipeline/process.h"
+#include "rig/session_truth.h"
 
 namespace relume::app {
 
@@ -148,6 +149,7 @@ void Run(const ProcessArgs& args) {
                         ? std::filesystem::path(args.session) / "processed" / (all ? std::string() : request.pipeline)
                         : std::filesystem::path(args.out);
   request.explain = args.explain;
+  request.load_truth = rig::LoadSessionTruth;  // evaluation only; null for real sessions
   const pipeline::ProcessResult result = pipeline::ProcessSession(request, [&](const pipeline::PipelineReport& r) {
     if (!r.summary.is_null()) {
       Print(r.summary, r.out_dir.string(), args.verbose);

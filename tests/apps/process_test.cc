@@ -1,5 +1,7 @@
 // The `relume process` frame: content-keyed stage reuse, frame selection, and the radiance
 // pipeline end to end on a small simulated session (against the world's truth).
+#include "pipeline/process.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +13,7 @@
 #include "capture/session.h"
 #include "core/error.h"
 #include "pipeline/stage_cache.h"
+#include "rig/session_truth.h"
 #include "tests/apps/cli_runner.h"
 
 namespace relume::pipeline {
@@ -227,6 +230,55 @@ TEST(ProcessCliTest, RadiancePipelineMatchesTruthAndReusesStages) {
       testing::RunRelume("process " + session.string() + " --pipeline radiance --set merge_black_margin=two");
   EXPECT_NE(bad_knob.exit_code, 0);
   EXPECT_NE(bad_knob.output.find("merge_black_margin=two: expected an integer"), std::string::npos) << bad_knob.output;
+  fs::remove_all(dir);
+}
+
+// The bytes of the one file named `name` under `dir` ("" when there is none or more than one).
+std::string TheOneFile(const fs::path& dir, const std::string& name) {
+  std::vector<fs::path> found;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(dir)) {
+    if (e.path().filename() == name) found.push_back(e.path());
+  }
+  if (found.size() != 1) return "";
+  std::ifstream in(found.front(), std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// Issue 19: ground truth reaches the pipelines only through PipelineRequest::load_truth, and only
+// for evaluation. Through the library with no loader, a simulated session is processed as a real
+// capture would be: no comparison, a decision saying so, and the very same relit image as with
+// the truth loaded (which adds its comparison and changes nothing else).
+TEST(ProcessLibraryTest, TruthComesOnlyFromTheLoaderAndChangesNoResult) {
+  const fs::path dir = TempDir("truth_loader");
+  ASSERT_NO_FATAL_FAILURE(CaptureTinyIrmSession(dir / "session"));
+  PipelineRequest request;
+  request.session_dir = dir / "session";
+  request.pipeline = "irm";
+  request.out_dir = dir / "without";
+  const ProcessResult without = ProcessSession(request);
+  ASSERT_TRUE(without.failed.empty());
+  ASSERT_EQ(without.reports.size(), 1u);
+  const nlohmann::json& a = without.reports[0].summary;
+  EXPECT_FALSE(a["metrics"].contains("truth")) << a["metrics"].dump();
+  bool said = false;
+  for (const nlohmann::json& d : a["decisions"]) {
+    said |= d["reason"].get<std::string>().find("no ground truth for this session") != std::string::npos;
+  }
+  EXPECT_TRUE(said) << a["decisions"].dump(1);
+
+  request.out_dir = dir / "with";
+  request.load_truth = rig::LoadSessionTruth;
+  const ProcessResult with = ProcessSession(request);
+  ASSERT_TRUE(with.failed.empty());
+  const nlohmann::json& b = with.reports[0].summary;
+  ASSERT_TRUE(b["metrics"].contains("truth")) << b["metrics"].dump();
+  EXPECT_LT(b["metrics"]["truth"]["relit"]["relative_rms_lit"].get<double>(), 0.05) << b["metrics"]["truth"].dump();
+
+  const std::string relit_without = TheOneFile(dir / "without", "relit.exr");
+  ASSERT_FALSE(relit_without.empty());
+  EXPECT_TRUE(relit_without == TheOneFile(dir / "with", "relit.exr")) << "the truth changed a result";
   fs::remove_all(dir);
 }
 
