@@ -144,14 +144,22 @@ CameraPoseResult EstimateCameraPose(const std::vector<GroundControlPoint>& point
   return result;
 }
 
+SurveyFrame::SurveyFrame(const std::string& frame, const Site& site, int zone) : frame_(frame), enu_(site) {
+  if (frame != "enu" && frame != "utm" && frame != "wgs84") {
+    throw InvalidArgumentError("survey frame '" + frame + "' is not one of enu, utm, wgs84");
+  }
+  if (frame == "utm") grid_.emplace(site, zone > 0 ? std::optional<int>(zone) : std::nullopt);
+}
+
+Eigen::Vector3d SurveyFrame::ToEnu(const Eigen::Vector3d& abc) const {
+  if (frame_ == "enu") return abc;
+  if (frame_ == "utm") return enu_.EnuFromGeodetic(grid_->GeodeticFromGrid(abc));
+  return enu_.EnuFromGeodetic(Site::FromDegrees(abc.x(), abc.y(), abc.z()));
+}
+
 std::vector<GroundControlPoint> LoadGcpFile(const std::string& path, const std::string& frame, const Site& site,
                                             int zone) {
-  if (frame != "enu" && frame != "utm" && frame != "wgs84") {
-    throw InvalidArgumentError("GCP frame '" + frame + "' is not one of enu, utm, wgs84");
-  }
-  const EnuFrame enu(site);
-  std::optional<UtmGridFrame> grid;
-  if (frame == "utm") grid.emplace(site, zone > 0 ? std::optional<int>(zone) : std::nullopt);
+  const SurveyFrame survey(frame, site, zone);
   std::ifstream in = OpenInputFile(path);
   std::vector<GroundControlPoint> points;
   std::string line;
@@ -173,15 +181,8 @@ std::vector<GroundControlPoint> LoadGcpFile(const std::string& path, const std::
     GroundControlPoint p;
     p.name = cells[0];
     p.pixel = {v[0], v[1]};
-    const Eigen::Vector3d abc(v[2], v[3], v[4]);
     try {
-      if (frame == "enu") {
-        p.enu_m = abc;
-      } else if (frame == "utm") {
-        p.enu_m = enu.EnuFromGeodetic(grid->GeodeticFromGrid(abc));
-      } else {
-        p.enu_m = enu.EnuFromGeodetic(Site::FromDegrees(abc.x(), abc.y(), abc.z()));
-      }
+      p.enu_m = survey.ToEnu(Eigen::Vector3d(v[2], v[3], v[4]));
     } catch (const InvalidArgumentError& e) {
       throw ConfigError(path, number, "gcp", e.what());
     }

@@ -11,9 +11,11 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/frames.h"
 #include "core/pinhole.h"
 #include "core/site.h"
 
@@ -45,6 +47,23 @@ struct CameraPoseResult {
 // points are degenerate (all on one line) or when no pose puts them in front of the camera.
 CameraPoseResult EstimateCameraPose(const std::vector<GroundControlPoint>& points, const PinholeIntrinsics& intrinsics,
                                     const CameraPoseOptions& options = {});
+
+// Surveyed coordinates (a, b, c) to ENU at `site`, per `frame`: "enu" east, north, up (m); "utm"
+// easting, northing, ellipsoidal height (m, in `zone`, 0 = the site's); "wgs84" latitude (deg),
+// longitude (deg), ellipsoidal height (m); through geodetic coordinates (GeographicLib).
+class SurveyFrame {
+ public:
+  // InvalidArgumentError for a frame other than enu, utm, wgs84.
+  SurveyFrame(const std::string& frame, const Site& site, int zone = 0);
+  // InvalidArgumentError for coordinates outside the frame's domain.
+  Eigen::Vector3d ToEnu(const Eigen::Vector3d& abc) const;
+  const std::string& name() const { return frame_; }
+
+ private:
+  std::string frame_;
+  EnuFrame enu_;
+  std::optional<UtmGridFrame> grid_;
+};
 
 // A GCP file: CSV with a header, one point per line: `name,u,v,a,b,c` where (a, b, c) are, per
 // `frame`: "enu" east, north, up (m); "utm" easting, northing, ellipsoidal height (m, in `zone`,

@@ -16,6 +16,7 @@
 #include "calibration/colorchecker_fit.h"
 #include "calibration/image_file.h"
 #include "calibration/intrinsics.h"
+#include "calibration/markers.h"
 #include "calibration/report_plots.h"
 #include "calibration/response.h"
 #include "capture/path_policy.h"
@@ -443,15 +444,31 @@ void RunCalibrateChart(const CalibrateChartArgs& args, std::ostream& out) {
 struct CalibrateIntrinsicsArgs {
   SessionSource source;
   std::string board = "9x6";
+  std::string charuco;  // SQUARESxSQUARES: a ChArUco board instead of --board's chessboard
   double square_m = 0.025;
+  double marker_m = 0.0;  // ChArUco marker side (0: 0.75 of the square)
+  std::string dictionary = "4x4_50";
   std::string distortion = "none";
 };
 
-// A camera's intrinsics from chessboard frames of a session (calibration/intrinsics.h), stored in
-// the session's scene model: the camera's pose, when the model has one, is kept.
-void RunCalibrateIntrinsics(const CalibrateIntrinsicsArgs& args, std::ostream& out) {
-  const capture::SessionReader reader(args.source.session);
-  const std::vector<capture::FrameRecord> frames = SessionFrames(reader, args.source);
+// The intrinsics from the frames' board: a ChArUco board with --charuco, else a chessboard; `what`
+// describes the board for the scene model's record.
+calibration::IntrinsicsResult BoardIntrinsics(const CalibrateIntrinsicsArgs& args, const std::vector<cv::Mat>& images,
+                                              std::string* what) {
+  if (!args.charuco.empty()) {
+    calibration::CharucoOptions options;
+    if (std::sscanf(args.charuco.c_str(), "%dx%d", &options.squares_x, &options.squares_y) != 2) {
+      throw InvalidArgumentError("--charuco " + args.charuco + ": expected squares as COLSxROWS, e.g. 7x5");
+    }
+    options.square_m = args.square_m;
+    options.marker_m = args.marker_m > 0.0 ? args.marker_m : 0.75 * args.square_m;
+    options.dictionary = args.dictionary;
+    options.distortion = args.distortion;
+    ThrowIfInvalid(options, "--charuco/--square/--marker/--dictionary/--distortion");
+    *what = "ChArUco views (" + args.charuco + " squares of " + std::to_string(args.square_m) + " m, markers " +
+            std::to_string(options.marker_m) + " m, " + args.dictionary;
+    return calibration::CalibrateIntrinsicsCharuco(images, options);
+  }
   calibration::ChessboardOptions options;
   if (std::sscanf(args.board.c_str(), "%dx%d", &options.inner_cols, &options.inner_rows) != 2) {
     throw InvalidArgumentError("--board " + args.board + ": expected inner corners as COLSxROWS, e.g. 9x6");
@@ -459,9 +476,19 @@ void RunCalibrateIntrinsics(const CalibrateIntrinsicsArgs& args, std::ostream& o
   options.square_m = args.square_m;
   options.distortion = args.distortion;
   ThrowIfInvalid(options, "--board/--square/--distortion");
+  *what = "chessboard views (" + args.board + " inner corners, " + std::to_string(args.square_m) + " m squares";
+  return calibration::CalibrateIntrinsics(images, options);
+}
+
+// A camera's intrinsics from chessboard or ChArUco frames of a session (calibration/intrinsics.h),
+// stored in the session's scene model: the camera's pose, when the model has one, is kept.
+void RunCalibrateIntrinsics(const CalibrateIntrinsicsArgs& args, std::ostream& out) {
+  const capture::SessionReader reader(args.source.session);
+  const std::vector<capture::FrameRecord> frames = SessionFrames(reader, args.source);
   std::vector<cv::Mat> images;
   for (const capture::FrameRecord& f : frames) images.push_back(calibration::ChessboardImage(reader.LoadImage(f)));
-  const calibration::IntrinsicsResult result = calibration::CalibrateIntrinsics(images, options);
+  std::string what;
+  const calibration::IntrinsicsResult result = BoardIntrinsics(args, images, &what);
   const std::string device = frames.front().device_id;
   const std::optional<SceneModel> model = capture::LatestSceneModel(args.source.session);
   SceneModelCamera camera;
@@ -471,9 +498,8 @@ void RunCalibrateIntrinsics(const CalibrateIntrinsicsArgs& args, std::ostream& o
   camera.camera.intrinsics = result.intrinsics;
   camera.distortion = result.distortion;
   camera.reprojection_error_px = result.rms_px;
-  camera.source = "intrinsics from " + std::to_string(result.views_used.size()) + " chessboard views (" + args.board +
-                  " inner corners, " + std::to_string(args.square_m) + " m squares, --frames " + args.source.frames +
-                  ")" + (camera.has_pose ? "; pose kept from before" : "; no pose yet");
+  camera.source = "intrinsics from " + std::to_string(result.views_used.size()) + " " + what + ", --frames " +
+                  args.source.frames + ")" + (camera.has_pose ? "; pose kept from before" : "; no pose yet");
   const std::int64_t row = capture::SetSceneModelCamera(args.source.session, camera);
   out << device << ": " << result.Report() << "\n";
   for (std::size_t i = 0; i < result.views_used.size(); ++i) {
@@ -481,7 +507,9 @@ void RunCalibrateIntrinsics(const CalibrateIntrinsicsArgs& args, std::ostream& o
         << " px\n";
   }
   for (int i : result.views_without_board) {
-    out << "  frame " << frames[static_cast<std::size_t>(i)].id << ": no whole board found (not used)\n";
+    out << "  frame " << frames[static_cast<std::size_t>(i)].id
+        << (args.charuco.empty() ? ": no whole board found (not used)\n"
+                                 : ": too few board corners found (not used)\n");
   }
   out << "stored in " << args.source.session << " as scene model row " << row << "\n";
 }
@@ -490,11 +518,60 @@ struct CalibratePoseArgs {
   std::string session;
   std::string device;
   std::string gcp;
+  std::string markers;  // surveyed ArUco markers instead of --gcp
+  std::string dictionary = "4x4_50";
+  std::int64_t frame_id = 0;  // with --markers: the frame to detect them in (0: the best of the device's)
   std::string gcp_frame = "enu";
   int utm_zone = 0;
   double fov_deg = 0.0;
   double threshold_px = 3.0;
 };
+
+// The corners of surveyed markers (--markers) detected in one of the device's frames, as ground
+// control points: frame --frame, else the frame of the device that shows the most of them. `from`
+// says where they came from, for the scene model's record.
+std::vector<calibration::GroundControlPoint> MarkerPoints(const capture::SessionReader& reader,
+                                                          const std::vector<capture::FrameRecord>& frames,
+                                                          const CalibratePoseArgs& args, std::string* from,
+                                                          std::ostream& out) {
+  const std::vector<calibration::SurveyedMarker> markers =
+      calibration::LoadMarkerFile(args.markers, args.gcp_frame, reader.info().site, args.utm_zone);
+  std::vector<calibration::GroundControlPoint> best;
+  std::vector<int> best_unsurveyed;
+  std::int64_t best_id = 0;
+  int searched = 0;
+  for (const capture::FrameRecord& f : frames) {
+    if (f.device_id != args.device || f.width <= 0 || (args.frame_id != 0 && f.id != args.frame_id)) continue;
+    ++searched;
+    const std::vector<calibration::MarkerDetection> found =
+        calibration::DetectMarkers(calibration::ChessboardImage(reader.LoadImage(f)), args.dictionary);
+    std::vector<int> unsurveyed;
+    std::vector<calibration::GroundControlPoint> points = calibration::MarkerControlPoints(found, markers, &unsurveyed);
+    if (points.size() > best.size()) {
+      best = std::move(points);
+      best_unsurveyed = unsurveyed;
+      best_id = f.id;
+    }
+  }
+  if (searched == 0) {
+    throw InvalidArgumentError("frame " + std::to_string(args.frame_id) + " is not a decoded frame of device '" +
+                               args.device + "' (`relume session info` lists the frames)");
+  }
+  if (best.empty()) {
+    throw InvalidArgumentError("none of the " + std::to_string(markers.size()) + " markers of " + args.markers +
+                               " was found in " + std::to_string(searched) + " frame(s) of " + args.device +
+                               " (dictionary " + args.dictionary + "; check --dictionary and the marker ids)");
+  }
+  out << "frame " << best_id << ": " << best.size() / 4 << " of " << markers.size() << " surveyed markers found";
+  if (!best_unsurveyed.empty()) {
+    out << "; ids not in " << args.markers << ":";
+    for (int id : best_unsurveyed) out << " " << id;
+  }
+  out << "\n";
+  *from = " corners of surveyed markers (" + args.markers + ", " + args.gcp_frame + ", " + args.dictionary +
+          ") detected in frame " + std::to_string(best_id);
+  return best;
+}
 
 // A camera's pose from ground control points (calibration/camera_pose.h), stored in the
 // session's scene model (capture/scene_model_record.h). Intrinsics: the scene model's camera of
@@ -518,7 +595,9 @@ void RunCalibratePose(const CalibratePoseArgs& args, std::ostream& out) {
     camera.source = "horizontal field of view " + std::to_string(args.fov_deg) + " deg; ";
   } else if (known != nullptr) {
     camera = *known;
-    camera.source = "intrinsics from the scene model; ";
+    // Keep where the intrinsics came from ("intrinsics from 10 ChArUco views (...)"); drop the old pose's part.
+    const std::string before = known->source.substr(0, known->source.find("; "));
+    camera.source = (before.starts_with("intrinsics from") ? before : "intrinsics from the scene model") + "; ";
   } else {
     throw InvalidArgumentError("the pose needs the camera's intrinsics: the session's scene model has no camera '" +
                                args.device + "'; give --fov DEG (the lens's horizontal field of view)");
@@ -527,14 +606,16 @@ void RunCalibratePose(const CalibratePoseArgs& args, std::ostream& out) {
   calibration::CameraPoseOptions options;
   options.ransac_threshold_px = args.threshold_px;
   options.distortion = camera.distortion;
+  std::string from;
   const std::vector<calibration::GroundControlPoint> points =
-      calibration::LoadGcpFile(args.gcp, args.gcp_frame, reader.info().site, args.utm_zone);
+      args.markers.empty() ? calibration::LoadGcpFile(args.gcp, args.gcp_frame, reader.info().site, args.utm_zone)
+                           : MarkerPoints(reader, frames, args, &from, out);
+  if (args.markers.empty()) from = " ground control points in " + args.gcp + " (" + args.gcp_frame + ")";
   const calibration::CameraPoseResult pose = calibration::EstimateCameraPose(points, camera.camera.intrinsics, options);
   camera.camera.world_from_camera = pose.world_from_camera;
   camera.reprojection_error_px = pose.rms_px;
   camera.has_pose = true;
-  camera.source += "pose from " + std::to_string(pose.inliers) + " of " + std::to_string(points.size()) +
-                   " ground control points in " + args.gcp + " (" + args.gcp_frame + ")";
+  camera.source += "pose from " + std::to_string(pose.inliers) + " of " + std::to_string(points.size()) + from;
   const std::int64_t row = capture::SetSceneModelCamera(args.session, camera);
   const Eigen::Vector3d eye = pose.world_from_camera.translation();
   out << "camera " << args.device << " at (" << eye.x() << ", " << eye.y() << ", " << eye.z() << ") m ENU; residuals:\n"
@@ -542,8 +623,9 @@ void RunCalibratePose(const CalibratePoseArgs& args, std::ostream& out) {
 }
 
 void AddCalibrateCommand(CLI::App& app) {
-  CLI::App* calibrate = app.add_subcommand(
-      "calibrate", "Calibration: camera response, ColorChecker, a camera's pose from control points");
+  CLI::App* calibrate = app.add_subcommand("calibrate",
+                                           "Calibration: camera response, ColorChecker, intrinsics (chessboard, "
+                                           "ChArUco), a camera's pose (control points, markers)");
   calibrate->require_subcommand(1);
 
   auto r = std::make_shared<CalibrateResponseArgs>();
@@ -589,11 +671,16 @@ void AddCalibrateCommand(CLI::App& app) {
   CLI::App* intrinsics = calibrate->add_subcommand(
       "intrinsics", "A camera's intrinsics from chessboard frames; stored in the session's scene model");
   intrinsics->add_option("--session", in->source.session, "The session with the chessboard frames")->required();
-  intrinsics->add_option("--frames", in->source.frames, "The chessboard frames (ids, bracket:N, DEVICE:still)")
+  intrinsics
+      ->add_option("--frames", in->source.frames, "The board frames (an id, a range 3-12, bracket:N, DEVICE:still)")
       ->required();
   intrinsics->add_option("--board", in->board, "Inner corners COLSxROWS (a 10x7-square board has 9x6)")
       ->capture_default_str();
+  intrinsics->add_option("--charuco", in->charuco, "A ChArUco board of COLSxROWS squares instead of --board");
   intrinsics->add_option("--square", in->square_m, "Square size (m)")->capture_default_str();
+  intrinsics->add_option("--marker", in->marker_m, "ChArUco marker side (m; default 0.75 of --square)");
+  intrinsics->add_option("--dictionary", in->dictionary, "ChArUco markers' ArUco dictionary (4x4_50, 5x5_100, ...)")
+      ->capture_default_str();
   intrinsics
       ->add_option("--distortion", in->distortion,
                    "none (pinhole), radial (k1, k2) or full; irm and radiosity undistort frames with it")
@@ -601,11 +688,19 @@ void AddCalibrateCommand(CLI::App& app) {
   intrinsics->callback([in]() { RunCalibrateIntrinsics(*in, std::cout); });
 
   auto p = std::make_shared<CalibratePoseArgs>();
-  CLI::App* pose = calibrate->add_subcommand(
-      "pose", "A camera's pose in the site frame from ground control points; stored in the session's scene model");
+  CLI::App* pose = calibrate->add_subcommand("pose",
+                                             "A camera's pose in the site frame from ground control points or surveyed "
+                                             "ArUco markers; stored in the session's scene model");
   pose->add_option("--session", p->session, "The session (its site, and where the pose is stored)")->required();
   pose->add_option("--device", p->device, "The camera's device id (`relume session info`)")->required();
-  pose->add_option("--gcp", p->gcp, "CSV: name,u,v,a,b,c (pixels; a, b, c in --gcp-frame)")->required();
+  CLI::Option* gcp = pose->add_option("--gcp", p->gcp, "CSV: name,u,v,a,b,c (pixels; a, b, c in --gcp-frame)");
+  CLI::Option* markers = pose->add_option(
+      "--markers", p->markers,
+      "CSV of surveyed ArUco markers: id,corner,a,b,c (corners 0-3 top-left, top-right, bottom-right, bottom-left "
+      "as printed; a, b, c in --gcp-frame), detected in the device's frames");
+  gcp->excludes(markers);
+  pose->add_option("--dictionary", p->dictionary, "The markers' ArUco dictionary")->capture_default_str();
+  pose->add_option("--frame", p->frame_id, "With --markers: the frame id to detect them in (default: the best)");
   pose->add_option("--gcp-frame", p->gcp_frame,
                    "enu (m at the site), utm (easting, northing, height) or wgs84 "
                    "(lat, lon deg, ellipsoidal height)")
@@ -614,7 +709,12 @@ void AddCalibrateCommand(CLI::App& app) {
   pose->add_option("--fov", p->fov_deg, "Horizontal field of view (deg), when the scene model has no intrinsics");
   pose->add_option("--threshold", p->threshold_px, "A point further than this (px) is an outlier")
       ->capture_default_str();
-  pose->callback([p]() { RunCalibratePose(*p, std::cout); });
+  pose->callback([p]() {
+    if (p->gcp.empty() == p->markers.empty()) {
+      throw InvalidArgumentError("relume calibrate pose: give --gcp (marked pixels) or --markers (surveyed markers)");
+    }
+    RunCalibratePose(*p, std::cout);
+  });
 }
 
 }  // namespace relume::app
