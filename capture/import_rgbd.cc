@@ -414,8 +414,10 @@ RgbdImportSummary ImportRgbdStream(drivers::RgbdSensor& sensor, const RgbdStream
   place(batch.front());
   if (!batch.front().registered_to_color) {
     summary.notes.push_back(
-        "the recording does not say that depth is registered to colour: the SH pipeline needs registered depth "
-        "(if it was recorded with image registration on, import it again with --registered)");
+        "the recording does not say that depth is registered to colour: it is stored in the depth camera, and the sh "
+        "pipeline registers it into the colour camera with the stored depth-to-colour transform (the identity unless "
+        "the sensor reported one, which OpenNI2 recordings do not); if it was recorded with image registration on, "
+        "import it again with --registered");
   }
   const auto flush = [&] {
     if (batch.empty()) return;

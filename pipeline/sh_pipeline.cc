@@ -15,6 +15,7 @@
 #include "capture/import_rgbd.h"
 #include "capture/rgbd_geometry.h"
 #include "core/color.h"
+#include "core/depth_registration.h"
 #include "core/error.h"
 #include "core/input_file.h"
 #include "pipeline/radiance.h"
@@ -108,6 +109,10 @@ struct Knobs {
   // objects 0.00, the same objects over a floor 0.28 (relit 9 % off).
   double max_cast_shadow_share = 0.10;
   bool true_normals = false;  // diagnostic: the world's normals instead of the estimated ones
+  // How depth a sensor recorded unregistered is resampled into the colour camera
+  // (core/depth_registration.h): "nearest" as hardware registration does, or "interpolated"
+  // (each colour ray meets the bilinear depth surface; exact on noise-free depth).
+  std::string depth_registration = "nearest";
   // A truth made outside relume (an independent renderer): truth_dir/rgb.txt lists
   // "TIMESTAMP FILE.exr", linear renders of the colour camera at the frames' times.
   std::string truth_dir;
@@ -118,6 +123,8 @@ struct Knobs {
   void VisitKnobs(V& v) {
     v.Knob("pair_max_gap_ms", pair_max_gap_ms, "largest time gap of a depth and a colour frame paired (ms)", {"plan"});
     v.Knob("filter_depth", filter_depth, "bilateral and temporal depth filters", {"geometry"});
+    v.Knob("depth_registration", depth_registration,
+           "unregistered depth into the colour camera: nearest (as hardware) or interpolated", {"geometry"});
     v.Knob("depth_noise_skip_below_m", depth_noise_skip_below_m,
            "skip the filters when the first depth frame's noise at 1 m is below this (m; 0: always filter)", {"plan"});
     v.Knob("bilateral_radius", bilateral.radius_px, "bilateral depth filter radius (px)", {"geometry"});
@@ -180,6 +187,9 @@ Knobs ReadKnobs(PipelineRun& run) {
   }
   if (k.albedo != "auto" && k.albedo != "truth" && k.albedo != "unknown")
     throw InvalidArgumentError("--set albedo=" + k.albedo + ": expected auto, unknown or truth");
+  if (k.depth_registration != "nearest" && k.depth_registration != "interpolated")
+    throw InvalidArgumentError("--set depth_registration=" + k.depth_registration +
+                               ": expected nearest or interpolated");
   if (!(k.depth_noise_skip_below_m >= 0.0))
     throw InvalidArgumentError("--set depth_noise_skip_below_m must be >= 0 (metres at 1 m; 0 = always filter)");
   if (!(k.reuse_sigmas > 0.0) || !(k.reuse_max_changed_fraction >= 0.0 && k.reuse_max_changed_fraction <= 1.0))
@@ -226,6 +236,10 @@ std::vector<RgbdPair> PairFrames(PipelineRun& run, double max_gap_ms) {
 struct RecordedColorGeometry {
   PinholeIntrinsics intrinsics;
   std::int64_t row = 0;
+  // Depth recorded unregistered: the depth camera and where it sits, to register each frame.
+  bool registered = true;
+  PinholeIntrinsics depth_intrinsics;
+  Eigen::Isometry3d color_from_depth = Eigen::Isometry3d::Identity();
 };
 
 RecordedColorGeometry RecordedGeometry(PipelineRun& run, const RgbdPair& pair) {
@@ -240,26 +254,31 @@ RecordedColorGeometry RecordedGeometry(PipelineRun& run, const RgbdPair& pair) {
   }
   drivers::RgbdFrame geometry;
   capture::ApplyRgbdGeometryJson(best->json, &geometry);
-  if (!geometry.registered_to_color) {
-    throw InvalidArgumentError("RGB-D device " + color.device_id +
-                               " recorded depth that is not registered to colour; the SH pipeline needs registered "
-                               "depth: record with `stream: {registered: true}` in the rig");
-  }
   if (geometry.color_intrinsics.width != color.width || geometry.color_intrinsics.height != color.height) {
     throw InvalidArgumentError(
         "the recorded geometry of " + color.device_id + " is for " + std::to_string(geometry.color_intrinsics.width) +
         "x" + std::to_string(geometry.color_intrinsics.height) + " colour, but frame " + std::to_string(color.id) +
         " is " + std::to_string(color.width) + "x" + std::to_string(color.height));
   }
-  return {geometry.color_intrinsics, best->id};
+  if (!geometry.registered_to_color &&
+      (geometry.depth_intrinsics.width != pair.depth.width || geometry.depth_intrinsics.height != pair.depth.height)) {
+    throw InvalidArgumentError(
+        "the recorded geometry of " + color.device_id + " is for " + std::to_string(geometry.depth_intrinsics.width) +
+        "x" + std::to_string(geometry.depth_intrinsics.height) + " depth, but frame " + std::to_string(pair.depth.id) +
+        " is " + std::to_string(pair.depth.width) + "x" + std::to_string(pair.depth.height));
+  }
+  return {geometry.color_intrinsics, best->id, geometry.registered_to_color, geometry.depth_intrinsics,
+          geometry.color_from_depth};
 }
 
 // The colour camera: intrinsics from the recorded geometry (for the recorded size); its pose from
 // the scene model (an RGB-D device's model camera is its colour camera) when the model has one. Without
 // a pose the light is estimated in the camera frame, and its maps are drawn with "up" = image up
 // (-y) and "north" = the viewing direction (+z).
-PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* how) {
+PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* how,
+                          RecordedColorGeometry* recorded_out) {
   const RecordedColorGeometry recorded = RecordedGeometry(run, pair);
+  *recorded_out = recorded;
   PinholeCamera camera;
   camera.intrinsics = recorded.intrinsics;
   const std::string intrinsics = "colour intrinsics from the session's rgbd_geometry row " +
@@ -467,11 +486,17 @@ cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth) {
 }
 
 FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeCamera& camera,
-                       const FrameGeometry* previous) {
+                       const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
   FrameGeometry g;
   const PinholeIntrinsics& K = camera.intrinsics;
   g.key.Add("stage", "sh-geometry-v2").Add("depth", pair.depth.sha256);
   g.key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
+  if (!recorded.registered) {  // registered here, from the recorded geometry
+    const PinholeIntrinsics& D = recorded.depth_intrinsics;
+    g.key.Add("depth_fx", D.fx).Add("depth_fy", D.fy).Add("depth_cx", D.cx).Add("depth_cy", D.cy);
+    const Eigen::Matrix4d m = recorded.color_from_depth.matrix();
+    for (int i = 0; i < 12; ++i) g.key.Add("color_from_depth", m(i / 4, i % 4));
+  }
   AddKnobsToKey(g.key, k, "geometry");  // filter_depth as decided (the noise check may turn it off)
   if (previous != nullptr) g.key.AddKey("previous", previous->key);
   if (k.true_normals) {
@@ -482,7 +507,12 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
 
   const std::string id = std::to_string(pair.color.id);
   const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
-    const cv::Mat depth = run.session().LoadDepth(pair.depth);
+    cv::Mat depth = run.session().LoadDepth(pair.depth);
+    if (!recorded.registered) {
+      depth = RegisterDepthToColor(
+          depth, recorded.depth_intrinsics, K, recorded.color_from_depth,
+          k.depth_registration == "interpolated" ? Registration::kInterpolated : Registration::kNearest);
+    }
     if (depth.cols != K.width || depth.rows != K.height) {
       throw InvalidArgumentError("depth frame " + std::to_string(pair.depth.id) + " is " + std::to_string(depth.cols) +
                                  "x" + std::to_string(depth.rows) + " but its colour frame is " +
@@ -1012,7 +1042,8 @@ struct ShInputs {
   std::vector<RgbdPair> pairs;
   std::string device;
   PinholeCamera camera;
-  std::vector<bool> is_source;  // per pair: relit (--source, default all)
+  RecordedColorGeometry recorded;  // the rgbd_geometry row: intrinsics, and registration to do
+  std::vector<bool> is_source;     // per pair: relit (--source, default all)
   bool has_world = false;
   bool known_albedo = false;
 };
@@ -1029,8 +1060,18 @@ ShInputs ReadShInputs(PipelineRun& run, const Knobs& k) {
   }
   in.device = in.pairs.front().color.device_id;
   std::string how;
-  in.camera = ColorCamera(run, in.pairs.front(), &how);
+  in.camera = ColorCamera(run, in.pairs.front(), &how, &in.recorded);
   run.Decide("geometry", "choose", how);
+  if (!in.recorded.registered) {
+    const Eigen::Vector3d t = in.recorded.color_from_depth.translation();
+    run.Decide(
+        "geometry", "plan",
+        "depth of " + in.device + " was recorded unregistered (" + std::to_string(in.recorded.depth_intrinsics.width) +
+            "x" + std::to_string(in.recorded.depth_intrinsics.height) + ", the depth camera " + Number(t.norm() * 1e3) +
+            " mm from the colour camera): each frame is registered into the colour camera with the recorded "
+            "geometry (" +
+            k.depth_registration + ")");
+  }
   // Frames relit: --source (default all); the fits run on every pair (temporal filter chain).
   in.is_source.assign(in.pairs.size(), !run.request().source.has_value());
   if (run.request().source) {
@@ -1105,7 +1146,7 @@ FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
   for (std::size_t i = 0; i < in.pairs.size(); ++i) {
     const RgbdPair& pair = in.pairs[i];
     f.radiance.push_back(ColorRadiance(run, pair));
-    f.geometry.push_back(Geometry(run, k, pair, in.camera, i == 0 ? nullptr : &f.geometry.back()));
+    f.geometry.push_back(Geometry(run, k, pair, in.camera, in.recorded, i == 0 ? nullptr : &f.geometry.back()));
     f.fits.push_back(Fit(run, k, in.known_albedo, pair, in.camera, f.radiance.back(), f.geometry.back()));
     run.AddOutput(f.fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));
     run.AddOutput(f.fits.back().dir / "latlong.png",

@@ -131,7 +131,8 @@ struct OpenedDevice {
 };
 
 // The stream to record from an RGB-D sensor: the one the rig asks for; for a simulated sensor
-// the one at its rig camera's size (registered, synchronised) when offered, so a rig's
+// the one at its rig camera's size (synchronised; registered unless the sensor offers no
+// registration) when offered, so a rig's
 // `camera:` size is what gets recorded; otherwise the sensor's first stream.
 drivers::RgbdStreamConfig ChooseRgbdStream(const drivers::RgbdSensor& sensor, const rig::RigConfig& rig,
                                            const rig::RegistryDeviceSpec* spec) {
@@ -152,10 +153,13 @@ drivers::RgbdStreamConfig ChooseRgbdStream(const drivers::RgbdSensor& sensor, co
   }
   for (const sim::SimDeviceSpec& sim_spec : rig.devices) {
     if (spec || sim_spec.id != sensor.info().id) continue;
-    for (const drivers::RgbdStreamConfig& c : configs) {
-      if (c.depth_width == sim_spec.camera.intrinsics.width && c.depth_height == sim_spec.camera.intrinsics.height &&
-          c.register_depth_to_color && c.sync_depth_and_color) {
-        return c;
+    // Registered when the sensor can (a sensor configured with `registration: none` cannot).
+    for (const bool registered : {true, false}) {
+      for (const drivers::RgbdStreamConfig& c : configs) {
+        if (c.depth_width == sim_spec.camera.intrinsics.width && c.depth_height == sim_spec.camera.intrinsics.height &&
+            c.register_depth_to_color == registered && c.sync_depth_and_color) {
+          return c;
+        }
       }
     }
   }

@@ -1,6 +1,8 @@
 // The depth measurement model of a structured-light (Kinect v1-like) RGB-D sensor, as pure
 // functions: ideal depth (from a TruthSource) -> measured depth in metres with noise,
-// quantisation, holes and range limits; and registration of depth into the colour camera.
+// quantisation, holes and range limits. Registration of depth into the colour camera, which
+// the simulated sensor does as hardware would, is core/depth_registration.h (processing registers
+// unregistered recordings with the same function).
 //
 // Conventions: depth_m is CV_32FC1, metres along the camera's optical axis; NaN is a hole (no
 // measurement). Pixel centres at (u + 0.5, v + 0.5) (core/pinhole.h).
@@ -28,6 +30,7 @@
 #include <opencv2/core/mat.hpp>
 #include <string>
 
+#include "core/depth_registration.h"
 #include "core/pinhole.h"
 
 namespace relume::sim {
@@ -58,30 +61,5 @@ double DepthSigma(double depth_m, double incidence_rad, const DepthModelOptions&
 // in `seed`. Throws InvalidArgumentError on invalid options or mismatched sizes.
 cv::Mat MeasureDepth(const cv::Mat& truth_depth_m, const cv::Mat& normal_in_world, const PinholeCamera& camera,
                      const DepthModelOptions& options, std::uint64_t seed);
-
-// How depth is resampled into the colour camera.
-enum class Registration {
-  // What OpenNI2 / PrimeSense hardware registration does: each depth pixel is lifted to 3D,
-  // moved by color_from_depth, and written at the colour pixel it projects into, keeping the
-  // nearest surface (z-buffer). The stored point is up to half a pixel off the colour pixel's
-  // ray, and where the two fields of view differ (58 vs 62.5 deg) two depth pixels share a
-  // colour pixel every ~11 columns (on a sphere 1.8 m away the error against the colour
-  // camera's own depth is median 1.5 mm: depth_model_test.cc).
-  kNearest,
-  // Then, per colour pixel, the depth surface is intersected with the pixel's own ray: the
-  // point is moved into the depth image, the depth bilinearly interpolated there, and the
-  // colour ray's depth updated until it moves by less than 1e-7 m (2-3 steps). Next to an edge
-  // (a sample more than edge_jump_fraction behind the nearest one) or a hole, only the samples
-  // on the nearest surface are interpolated; where they carry under a quarter of the weight,
-  // or the steps do not converge, the nearest value stays. For ideal (noise-free) simulated
-  // sensors.
-  kInterpolated,
-};
-
-// Resamples depth into the colour camera (see Registration). Colour pixels nothing projects
-// into are holes (NaN). The result holds the colour camera's z.
-cv::Mat RegisterDepthToColor(const cv::Mat& depth_m, const PinholeIntrinsics& depth_intrinsics,
-                             const PinholeIntrinsics& color_intrinsics, const Eigen::Isometry3d& color_from_depth,
-                             Registration method = Registration::kNearest, double edge_jump_fraction = 0.05);
 
 }  // namespace relume::sim

@@ -251,9 +251,15 @@ void ParseRgbd(const YamlFile& file, const YAML::Node& node, SimRgbdOptions& rgb
   if (node["baseline_m"]) {
     rgbd.color_from_depth = Eigen::Translation3d(-file.RequireDouble(node, "baseline_m"), 0.0, 0.0);
   }
-  rgbd.registration = Choose<Registration>(
-      file, node, "registration", {{"nearest", Registration::kNearest}, {"interpolated", Registration::kInterpolated}},
-      rgbd.registration);
+  if (node["registration"] && node["registration"].IsScalar() && node["registration"].as<std::string>() == "none") {
+    // A sensor without hardware registration (Kinect v2- or Azure Kinect-like): it offers only
+    // unregistered streams, and processing registers depth from the recorded geometry.
+    std::erase_if(rgbd.configs, [](const drivers::RgbdStreamConfig& c) { return c.register_depth_to_color; });
+  } else {
+    rgbd.registration = Choose<Registration>(
+        file, node, "registration",
+        {{"nearest", Registration::kNearest}, {"interpolated", Registration::kInterpolated}}, rgbd.registration);
+  }
   rgbd.frame_jitter_s = Optional(file, node, "frame_jitter_s", rgbd.frame_jitter_s);
   if (node["queue_capacity"]) rgbd.queue_capacity = file.RequireInt(node, "queue_capacity", 1, 1000);
   rgbd.queue_full = Choose<SimRgbdOptions::QueueFull>(

@@ -73,7 +73,8 @@ class SimBackend : public drivers::Backend {
 //          disparity_step_px, depth_step_m, color_horizontal_fov_deg, baseline_m,
 //          frame_jitter_s, queue_capacity, queue_full: drop_oldest | wait,
 //          pacing: clock_sleep | follow_clock, seed, color_noise,
-//          registration: nearest | interpolated (depth_model.h)}
+//          registration: nearest | interpolated (core/depth_registration.h) | none (no
+//          hardware registration: only unregistered streams are offered)}
 //   faults: see ParseFaultPlan (faults.h)
 // Throws ConfigError naming file, line and key.
 std::vector<SimDeviceSpec> LoadSimDeviceSpecs(const std::string& path);

@@ -106,6 +106,18 @@ TEST(SimBackendTest, SingleDeviceFileLoads) {
   EXPECT_EQ(specs[0].kind, DeviceKind::kStillCamera);
 }
 
+// `registration: none`: a sensor without hardware registration offers only unregistered streams.
+TEST(SimBackendTest, ASensorWithoutRegistrationOffersOnlyUnregisteredStreams) {
+  const std::string path = WriteTemp("unregistered.yaml",
+                                     "id: k2\nkind: rgbd_sensor\ncamera: {width: 320, height: 240, horizontal_fov_deg: "
+                                     "58, position_m: [0, 0, 0], look_at_m: [1, 0, 0]}\nrgbd: {registration: none}\n");
+  const std::vector<SimDeviceSpec> specs = LoadSimDeviceSpecs(path);
+  ASSERT_EQ(specs.size(), 1u);
+  ASSERT_FALSE(specs[0].rgbd.configs.empty());
+  for (const drivers::RgbdStreamConfig& c : specs[0].rgbd.configs) EXPECT_FALSE(c.register_depth_to_color);
+  EXPECT_EQ(specs[0].rgbd.configs.size(), SimRgbdOptions().configs.size() / 2);
+}
+
 TEST(SimBackendTest, ConfigErrorsNameTheFileLineAndKey) {
   struct Case {
     std::string yaml;

@@ -355,14 +355,17 @@ TEST_F(CaptureRealDevicesTest, AnOpenNi2SessionIsRelitFromItsOwnRecordedGeometry
   EXPECT_EQ(relit, 2);  // frames 1 and 2 relit to frame 3's light
   for (const nlohmann::json& f : summary["metrics"]["frames"]) EXPECT_TRUE(f["fit"]["usable"]) << f;
 
-  // Depth not registered to colour: refused, with what to change.
+  // Depth not registered to colour: the pipeline registers it with the recorded geometry.
   const fs::path unregistered = WriteRig("unregistered.yaml", head + "false}}\n");
   r = RunRelume("capture --rig " + unregistered.string() + " --out " + (root_ / "unregistered").string() +
                 " --no-progress");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = RunRelume("process " + (root_ / "unregistered").string() + " --pipeline sh");
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_TRUE(Has(r, "record with `stream: {registered: true}`")) << r.output;
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(Has(r, "was recorded unregistered")) << r.output;
+  const nlohmann::json registered_here =
+      testing::ReadJsonFile(root_ / "unregistered" / "processed" / "sh" / "summary.json");
+  for (const nlohmann::json& f : registered_here["metrics"]["frames"]) EXPECT_TRUE(f["fit"]["usable"]) << f;
 }
 
 TEST_F(CaptureRealDevicesTest, MalformedStreamsSettingsAndFormatsNameTheirLineAndKey) {
