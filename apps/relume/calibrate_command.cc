@@ -19,7 +19,9 @@
 #include "calibration/markers.h"
 #include "calibration/report_plots.h"
 #include "calibration/response.h"
+#include "calibration/rgbd_extrinsics.h"
 #include "capture/path_policy.h"
+#include "capture/rgbd_geometry.h"
 #include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "core/error.h"
@@ -622,6 +624,104 @@ void RunCalibratePose(const CalibratePoseArgs& args, std::ostream& out) {
       << pose.Report(points) << "stored in " << args.session << " as scene model row " << row << "\n";
 }
 
+struct CalibrateRgbdArgs {
+  std::string session;
+  std::string device;
+  std::string frames;  // colour frames to use (default: all of the device's)
+  std::string charuco = "7x5";
+  double square_m = 0.04;
+  double marker_m = 0.0;
+  std::string dictionary = "4x4_50";
+  double max_gap_ms = 20.0;
+};
+
+// The device's colour frames (--frames, default all) each with the depth frame nearest in time
+// (within --max-gap-ms).
+std::vector<std::pair<capture::FrameRecord, capture::FrameRecord>> RgbdPairs(const capture::SessionReader& reader,
+                                                                             const CalibrateRgbdArgs& args) {
+  const std::vector<capture::FrameRecord> all = reader.Frames();
+  const std::vector<capture::FrameRecord> chosen =
+      args.frames.empty() ? all : pipeline::SelectFrames(reader, args.frames);
+  std::vector<std::pair<capture::FrameRecord, capture::FrameRecord>> pairs;
+  for (const capture::FrameRecord& c : chosen) {
+    if (c.device_id != args.device || c.stream != "color") continue;
+    const capture::FrameRecord* best = nullptr;
+    for (const capture::FrameRecord& d : all) {
+      if (d.device_id != c.device_id || d.stream != "depth") continue;
+      if (best == nullptr || std::chrono::abs(d.utc - c.utc) < std::chrono::abs(best->utc - c.utc)) best = &d;
+    }
+    if (best != nullptr &&
+        std::chrono::duration<double, std::milli>(std::chrono::abs(best->utc - c.utc)).count() <= args.max_gap_ms) {
+      pairs.emplace_back(c, *best);
+    }
+  }
+  if (pairs.empty()) {
+    throw InvalidArgumentError("no colour frame of '" + args.device + "'" +
+                               (args.frames.empty() ? "" : " among --frames " + args.frames) +
+                               " has a depth frame within " + std::to_string(args.max_gap_ms) +
+                               " ms (`relume session info` lists the devices and streams)");
+  }
+  return pairs;
+}
+
+// An RGB-D sensor's depth-to-colour transform from frames of a ChArUco board
+// (calibration/rgbd_extrinsics.h), stored as a new rgbd_geometry row: the recorded geometry with
+// this transform, applying to the frames the recorded row applied to, so that processing
+// registers the depth with it.
+void RunCalibrateRgbd(const CalibrateRgbdArgs& args, std::ostream& out) {
+  const capture::SessionReader reader(args.session);
+  const auto pairs = RgbdPairs(reader, args);
+  const std::vector<capture::CalibrationRecord> rows = reader.Calibrations();
+  const capture::CalibrationRecord* base = capture::RgbdGeometryAt(rows, args.device, pairs.front().second.id);
+  if (base == nullptr) {
+    throw InvalidArgumentError("the session records no geometry (rgbd_geometry row) of " + args.device +
+                               "; its intrinsics are needed first");
+  }
+  drivers::RgbdFrame geometry;
+  capture::ApplyRgbdGeometryJson(base->json, &geometry);
+  if (geometry.registered_to_color) {
+    throw InvalidArgumentError(args.device +
+                               " recorded depth registered to colour: the sensor applied its own transform, and "
+                               "relume does not use one for registered depth");
+  }
+  calibration::RgbdExtrinsicsOptions options;
+  if (std::sscanf(args.charuco.c_str(), "%dx%d", &options.board.squares_x, &options.board.squares_y) != 2) {
+    throw InvalidArgumentError("--charuco " + args.charuco + ": expected squares as COLSxROWS, e.g. 7x5");
+  }
+  options.board.square_m = args.square_m;
+  options.board.marker_m = args.marker_m > 0.0 ? args.marker_m : 0.75 * args.square_m;
+  options.board.dictionary = args.dictionary;
+  ThrowIfInvalid(options, "--charuco/--square/--marker/--dictionary");
+  std::vector<cv::Mat> colour, depth;
+  for (const auto& [c, d] : pairs) {
+    colour.push_back(calibration::ChessboardImage(reader.LoadImage(c)));
+    depth.push_back(reader.LoadDepth(d));
+  }
+  const calibration::RgbdExtrinsicsResult result = calibration::CalibrateRgbdExtrinsics(
+      colour, depth, geometry.color_intrinsics, geometry.depth_intrinsics, geometry.color_from_depth, options);
+  out << args.device << ": " << result.Report() << "\n";
+  for (std::size_t i = 0; i < result.views_used.size(); ++i) {
+    const auto& pair = pairs[static_cast<std::size_t>(result.views_used[i])];
+    out << "  colour frame " << pair.first.id << " + depth " << pair.second.id << ": plane RMS "
+        << result.view_plane_rms_m[i] * 1e3 << " mm, normal " << result.view_normal_deg[i] << " deg, distance "
+        << result.view_distance_m[i] * 1e3 << " mm\n";
+  }
+  for (int i : result.views_without_board) {
+    out << "  colour frame " << pairs[static_cast<std::size_t>(i)].first.id << ": no usable board (not used)\n";
+  }
+  geometry.color_from_depth = result.color_from_depth;
+  capture::CalibrationRecord record;
+  record.created_utc =
+      UtcTime(std::chrono::duration_cast<Nanoseconds>(std::chrono::system_clock::now().time_since_epoch()));
+  record.kind = capture::kRgbdGeometryKind;
+  record.device_id = args.device;
+  record.json = capture::RgbdGeometryToJson(geometry);
+  record.source_frame_ids = base->source_frame_ids;  // applies where the recorded row did
+  const std::int64_t id = capture::SessionWriter::Append(args.session)->AddCalibration(record);
+  out << "stored in " << args.session << " as calibration " << id << " (rgbd_geometry of " << args.device
+      << "; the sh pipeline registers depth with it)\n";
+}
+
 void AddCalibrateCommand(CLI::App& app) {
   CLI::App* calibrate = app.add_subcommand("calibrate",
                                            "Calibration: camera response, ColorChecker, intrinsics (chessboard, "
@@ -686,6 +786,20 @@ void AddCalibrateCommand(CLI::App& app) {
                    "none (pinhole), radial (k1, k2) or full; irm and radiosity undistort frames with it")
       ->capture_default_str();
   intrinsics->callback([in]() { RunCalibrateIntrinsics(*in, std::cout); });
+
+  auto g = std::make_shared<CalibrateRgbdArgs>();
+  CLI::App* rgbd = calibrate->add_subcommand(
+      "rgbd", "An RGB-D sensor's depth-to-colour transform from frames of a ChArUco board; stored in the session");
+  rgbd->add_option("--session", g->session, "The session with the board frames")->required();
+  rgbd->add_option("--device", g->device, "The RGB-D device id (`relume session info`)")->required();
+  rgbd->add_option("--frames", g->frames, "Colour frames to use (an id, a range 3-12, DEVICE:color; default all)");
+  rgbd->add_option("--charuco", g->charuco, "The ChArUco board's squares COLSxROWS")->capture_default_str();
+  rgbd->add_option("--square", g->square_m, "Square size (m)")->capture_default_str();
+  rgbd->add_option("--marker", g->marker_m, "Marker side (m; default 0.75 of --square)");
+  rgbd->add_option("--dictionary", g->dictionary, "The markers' ArUco dictionary")->capture_default_str();
+  rgbd->add_option("--max-gap-ms", g->max_gap_ms, "Largest time gap of a colour and a depth frame paired (ms)")
+      ->capture_default_str();
+  rgbd->callback([g]() { RunCalibrateRgbd(*g, std::cout); });
 
   auto p = std::make_shared<CalibratePoseArgs>();
   CLI::App* pose = calibrate->add_subcommand("pose",
