@@ -20,7 +20,9 @@ cv::Mat CameraMatrix(const PinholeIntrinsics& k) {
   return (cv::Mat_<double>(3, 3) << k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0);
 }
 
-bool ParseNumber(const std::string& text, double* value) {
+}  // namespace
+
+bool ParseCsvNumber(const std::string& text, double* value) {
   std::size_t begin = text.find_first_not_of(" \t");
   std::size_t end = text.find_last_not_of(" \t\r");
   if (begin == std::string::npos) return false;
@@ -29,8 +31,6 @@ bool ParseNumber(const std::string& text, double* value) {
   const auto result = std::from_chars(first, last, *value);
   return result.ec == std::errc() && result.ptr == last && std::isfinite(*value);
 }
-
-}  // namespace
 
 bool CameraPoseOptions::IsValid(std::string* why) const {
   const auto fail = [why](const std::string& reason) {
@@ -172,8 +172,9 @@ std::vector<GroundControlPoint> LoadGcpFile(const std::string& path, const std::
     std::string cell;
     while (std::getline(row, cell, ',')) cells.push_back(cell);
     double v[5];
-    const bool numeric = cells.size() == 6 && ParseNumber(cells[1], &v[0]) && ParseNumber(cells[2], &v[1]) &&
-                         ParseNumber(cells[3], &v[2]) && ParseNumber(cells[4], &v[3]) && ParseNumber(cells[5], &v[4]);
+    const bool numeric = cells.size() == 6 && ParseCsvNumber(cells[1], &v[0]) && ParseCsvNumber(cells[2], &v[1]) &&
+                         ParseCsvNumber(cells[3], &v[2]) && ParseCsvNumber(cells[4], &v[3]) &&
+                         ParseCsvNumber(cells[5], &v[4]);
     if (!numeric) {
       if (points.empty() && number == 1) continue;  // the header
       throw ConfigError(path, number, "gcp", "expected name,u,v,a,b,c with numbers (a, b, c in " + frame + ")");

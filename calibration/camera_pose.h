@@ -65,6 +65,10 @@ class SurveyFrame {
   std::optional<UtmGridFrame> grid_;
 };
 
+// A finite number filling one CSV cell (spaces around it allowed), for the survey files here and
+// in markers.h.
+bool ParseCsvNumber(const std::string& text, double* value);
+
 // A GCP file: CSV with a header, one point per line: `name,u,v,a,b,c` where (a, b, c) are, per
 // `frame`: "enu" east, north, up (m); "utm" easting, northing, ellipsoidal height (m, in `zone`,
 // 0 = the site's); "wgs84" latitude (deg), longitude (deg), ellipsoidal height (m). Converted to

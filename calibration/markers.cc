@@ -1,5 +1,6 @@
 #include "calibration/markers.h"
 
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <opencv2/aruco.hpp>
@@ -48,26 +49,6 @@ cv::Mat Grey(const cv::Mat& image) {
   cv::Mat grey;
   cv::cvtColor(image, grey, image.channels() == 4 ? cv::COLOR_RGBA2GRAY : cv::COLOR_RGB2GRAY);
   return grey;
-}
-
-bool ParseInt(const std::string& text, int* out) {
-  std::size_t used = 0;
-  try {
-    *out = std::stoi(text, &used);
-  } catch (const std::exception&) {
-    return false;
-  }
-  return text.find_first_not_of(" \t\r", used) == std::string::npos;
-}
-
-bool ParseDouble(const std::string& text, double* out) {
-  std::size_t used = 0;
-  try {
-    *out = std::stod(text, &used);
-  } catch (const std::exception&) {
-    return false;
-  }
-  return text.find_first_not_of(" \t\r", used) == std::string::npos;
 }
 
 }  // namespace
@@ -139,10 +120,13 @@ std::vector<SurveyedMarker> LoadMarkerFile(const std::string& path, const std::s
     std::stringstream row(line);
     std::string cell;
     while (std::getline(row, cell, ',')) cells.push_back(cell);
-    int id = 0, corner = 0;
-    double v[3];
-    const bool numeric = cells.size() == 5 && ParseInt(cells[0], &id) && ParseInt(cells[1], &corner) &&
-                         ParseDouble(cells[2], &v[0]) && ParseDouble(cells[3], &v[1]) && ParseDouble(cells[4], &v[2]);
+    double n[5];
+    bool numeric = cells.size() == 5;
+    for (std::size_t c = 0; numeric && c < 5; ++c) numeric = ParseCsvNumber(cells[c], &n[c]);
+    numeric = numeric && n[0] == std::floor(n[0]) && n[1] == std::floor(n[1]) && std::abs(n[0]) < 1e9;
+    const int id = numeric ? static_cast<int>(n[0]) : 0;
+    const int corner = numeric && std::abs(n[1]) < 1e9 ? static_cast<int>(n[1]) : -1;
+    const double* v = n + 2;
     if (!numeric) {
       if (!any && number == 1) continue;  // the header
       throw ConfigError(path, number, "marker", "expected id,corner,a,b,c with numbers (a, b, c in " + frame + ")");

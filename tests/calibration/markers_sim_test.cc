@@ -23,6 +23,7 @@
 #include "sim/devices/depth_model.h"
 #include "sim/world/world.h"
 #include "tests/apps/cli_runner.h"
+#include "tests/calibration/eight_bit.h"
 
 namespace relume::calibration {
 namespace {
@@ -69,21 +70,7 @@ void AddPlane(sim::Scene* scene, const std::string& name, const Eigen::Vector3d&
   scene->objects.push_back(plane);
 }
 
-cv::Mat ToEightBit(const RadianceImage& radiance) {
-  double peak = 0.0;
-  cv::minMaxLoc(radiance.pixels.reshape(1), nullptr, &peak);
-  cv::Mat out(radiance.pixels.size(), CV_8UC3);
-  for (int y = 0; y < out.rows; ++y) {
-    for (int x = 0; x < out.cols; ++x) {
-      const cv::Vec3f v = radiance.pixels.at<cv::Vec3f>(y, x);
-      for (int c = 0; c < 3; ++c) {
-        out.at<cv::Vec3b>(y, x)[c] =
-            cv::saturate_cast<std::uint8_t>(255.0 * std::pow(std::max(0.0, v[c] / peak), 1.0 / 2.2));
-      }
-    }
-  }
-  return out;
-}
+using testing::ToEightBit;
 
 PinholeIntrinsics TrueIntrinsics() {
   return PinholeIntrinsics::FromHorizontalFov(640, 480, 60.0 * std::numbers::pi / 180.0);
