@@ -70,4 +70,13 @@ cv::Mat Undistorter::ApplyNearest(const cv::Mat& labels, int fill) const {
   return out;
 }
 
+cv::Mat Undistorter::ApplyDepth(const cv::Mat& depth_m) const {
+  CheckSize(depth_m.cols, depth_m.rows, "depth image");
+  if (depth_m.type() != CV_32FC1) throw InvalidArgumentError("Undistorter::ApplyDepth takes CV_32FC1 metres");
+  cv::Mat out;
+  cv::remap(depth_m, out, map_x_, map_y_, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+            cv::Scalar::all(std::numeric_limits<double>::quiet_NaN()));
+  return out;
+}
+
 }  // namespace relume::calibration

@@ -36,6 +36,9 @@ class Undistorter {
   RadianceImage Apply(const RadianceImage& radiance) const;
   // CV_8UC1 labels, nearest neighbour.
   cv::Mat ApplyNearest(const cv::Mat& labels, int fill) const;
+  // CV_32FC1 depth (metres) registered to the distorted image, nearest neighbour (depth does not
+  // interpolate across silhouettes); NaN where the source lies outside.
+  cv::Mat ApplyDepth(const cv::Mat& depth_m) const;
 
  private:
   void CheckSize(int width, int height, const char* what) const;

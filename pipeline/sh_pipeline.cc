@@ -240,7 +240,20 @@ struct RecordedColorGeometry {
   bool registered = true;
   PinholeIntrinsics depth_intrinsics;
   Eigen::Isometry3d color_from_depth = Eigen::Isometry3d::Identity();
+  // The colour lens's distortion from the scene model (empty: none). Colour is undistorted onto
+  // `intrinsics` (then the model's pinhole camera), registered depth with it.
+  std::vector<double> distortion;
 };
+
+std::string Number(double value);
+
+// The stage key's part for undistortion (nothing without distortion).
+void AddLensToKey(StageKey& key, const RecordedColorGeometry& recorded) {
+  if (recorded.distortion.empty()) return;
+  const PinholeIntrinsics& k = recorded.intrinsics;
+  key.Add("undistort", "v1").Add("lens_fx", k.fx).Add("lens_fy", k.fy).Add("lens_cx", k.cx).Add("lens_cy", k.cy);
+  for (const double c : recorded.distortion) key.Add("distortion", c);
+}
 
 RecordedColorGeometry RecordedGeometry(PipelineRun& run, const RgbdPair& pair) {
   const capture::FrameRecord& color = pair.color;
@@ -268,7 +281,7 @@ RecordedColorGeometry RecordedGeometry(PipelineRun& run, const RgbdPair& pair) {
         " is " + std::to_string(pair.depth.width) + "x" + std::to_string(pair.depth.height));
   }
   return {geometry.color_intrinsics, best->id, geometry.registered_to_color, geometry.depth_intrinsics,
-          geometry.color_from_depth};
+          geometry.color_from_depth, {}};
 }
 
 // The colour camera: intrinsics from the recorded geometry (for the recorded size); its pose from
@@ -277,20 +290,33 @@ RecordedColorGeometry RecordedGeometry(PipelineRun& run, const RgbdPair& pair) {
 // (-y) and "north" = the viewing direction (+z).
 PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* how,
                           RecordedColorGeometry* recorded_out) {
-  const RecordedColorGeometry recorded = RecordedGeometry(run, pair);
-  *recorded_out = recorded;
+  RecordedColorGeometry recorded = RecordedGeometry(run, pair);
   PinholeCamera camera;
   camera.intrinsics = recorded.intrinsics;
-  const std::string intrinsics = "colour intrinsics from the session's rgbd_geometry row " +
-                                 std::to_string(recorded.row) + " (fx " + std::to_string(camera.intrinsics.fx) + " px)";
+  std::string intrinsics = "colour intrinsics from the session's rgbd_geometry row " + std::to_string(recorded.row) +
+                           " (fx " + std::to_string(camera.intrinsics.fx) + " px)";
   const SceneModel* model = run.scene_model();
   const SceneModelCamera* lens = model != nullptr ? model->FindCamera(pair.color.device_id) : nullptr;
   if (lens != nullptr && calibration::HasDistortion(lens->distortion)) {
-    throw InvalidArgumentError("the sh pipeline: camera " + pair.color.device_id +
-                               " has lens distortion in the scene model, and its depth is registered to the distorted "
-                               "colour image; undistorting RGB-D frames is not built (undistort colour and depth "
-                               "before import, and store the camera without distortion)");
+    // The calibrated camera (relume calibrate intrinsics) replaces the recorded intrinsics: colour
+    // is undistorted onto it, and depth registered to the distorted image with it.
+    const PinholeIntrinsics& k = lens->camera.intrinsics;
+    if (k.width != pair.color.width || k.height != pair.color.height) {
+      throw InvalidArgumentError("the scene model's camera " + pair.color.device_id + " (with lens distortion) is " +
+                                 std::to_string(k.width) + "x" + std::to_string(k.height) + ", its colour frames " +
+                                 std::to_string(pair.color.width) + "x" + std::to_string(pair.color.height) +
+                                 ": calibrate the intrinsics at the recorded size");
+    }
+    recorded.intrinsics = k;
+    recorded.distortion = lens->distortion;
+    camera.intrinsics = k;
+    std::string coefficients;
+    for (const double c : lens->distortion) coefficients += (coefficients.empty() ? "" : ", ") + Number(c);
+    intrinsics = "colour intrinsics and lens distortion (" + coefficients +
+                 ") from the scene model: colour undistorted onto its pinhole camera, " +
+                 (recorded.registered ? "registered depth with it" : "depth registered into it");
   }
+  *recorded_out = recorded;
   if (lens != nullptr && lens->has_pose) {
     const SceneModelCamera& device = run.RequireCamera(pair.color.device_id, "the sh pipeline");
     camera.world_from_camera = device.camera.world_from_camera;
@@ -377,12 +403,14 @@ bool HasResponse(const capture::SessionReader& session, const std::string& devic
 
 // Colour without a recorded response: the sRGB transfer curve inverted,
 // divided by exposure time and ISO / 100 where the frame records them (relative units).
-FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f) {
+FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f,
+                                const RecordedColorGeometry& recorded) {
   FrameRadiance out;
   const double t =
       std::isfinite(f.exposure.exposure_time_s) && f.exposure.exposure_time_s > 0.0 ? f.exposure.exposure_time_s : 1.0;
   const double iso = std::isfinite(f.exposure.iso) && f.exposure.iso > 0.0 ? f.exposure.iso : 100.0;
   out.key.Add("stage", "sh-color-radiance-srgb-v1").Add("frame", f.sha256).Add("t", t).Add("iso", iso);
+  AddLensToKey(out.key, recorded);
   const StageCache::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
     const CameraImage image = run.session().LoadImage(f);
     if (image.pixels.channels() != 3 || (image.pixels.depth() != CV_8U && image.pixels.depth() != CV_16U)) {
@@ -404,6 +432,9 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f)
         }
       }
     }
+    if (!recorded.distortion.empty()) {
+      radiance = calibration::Undistorter(recorded.intrinsics, recorded.distortion).Apply(radiance);
+    }
     calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
   });
   out.radiance = LazyExr(stage.dir / "radiance.exr");
@@ -413,13 +444,14 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f)
 // A colour frame's radiance: through the session's recorded response (a calibration, or the
 // factory response capture writes for a simulated sensor, rig/factory_response.h), else the
 // sRGB curve.
-FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair) {
+FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const RecordedColorGeometry& recorded) {
   if (HasResponse(run.session(), pair.color.device_id)) {
-    // Read only when a stage that needs it runs (a rerun reads no image).
+    // Read only when a stage that needs it runs (a rerun reads no image). It undistorts with
+    // the scene model's camera itself (pipeline/radiance.h).
     const BracketRadiance b = LinearRadiance(run, {pair.color}, /*load=*/false);
     return {LazyExr(b.exr), b.key};
   }
-  return SrgbColorRadiance(run, pair.color);
+  return SrgbColorRadiance(run, pair.color, recorded);
 }
 
 // ---- geometry: depth filter + normals -----------------------------------------------------
@@ -491,6 +523,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   const PinholeIntrinsics& K = camera.intrinsics;
   g.key.Add("stage", "sh-geometry-v2").Add("depth", pair.depth.sha256);
   g.key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
+  AddLensToKey(g.key, recorded);
   if (!recorded.registered) {  // registered here, from the recorded geometry
     const PinholeIntrinsics& D = recorded.depth_intrinsics;
     g.key.Add("depth_fx", D.fx).Add("depth_fy", D.fy).Add("depth_cx", D.cx).Add("depth_cy", D.cy);
@@ -508,7 +541,9 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   const std::string id = std::to_string(pair.color.id);
   const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
     cv::Mat depth = run.session().LoadDepth(pair.depth);
-    if (!recorded.registered) {
+    if (recorded.registered && !recorded.distortion.empty()) {
+      depth = calibration::Undistorter(recorded.intrinsics, recorded.distortion).ApplyDepth(depth);
+    } else if (!recorded.registered) {
       depth = RegisterDepthToColor(
           depth, recorded.depth_intrinsics, K, recorded.color_from_depth,
           k.depth_registration == "interpolated" ? Registration::kInterpolated : Registration::kNearest);
@@ -1145,7 +1180,7 @@ FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
   FrameStages f;
   for (std::size_t i = 0; i < in.pairs.size(); ++i) {
     const RgbdPair& pair = in.pairs[i];
-    f.radiance.push_back(ColorRadiance(run, pair));
+    f.radiance.push_back(ColorRadiance(run, pair, in.recorded));
     f.geometry.push_back(Geometry(run, k, pair, in.camera, in.recorded, i == 0 ? nullptr : &f.geometry.back()));
     f.fits.push_back(Fit(run, k, in.known_albedo, pair, in.camera, f.radiance.back(), f.geometry.back()));
     run.AddOutput(f.fits.back().dir / "light.json", "SH light of frame " + std::to_string(pair.color.id));

@@ -17,7 +17,8 @@ std::vector<cv::Point2d> NormalisedPointsThroughLens(const PinholeIntrinsics& k,
   return normalised;
 }
 
-cv::Mat ThroughLens(const cv::Mat& pinhole, const PinholeIntrinsics& k, const std::vector<double>& d) {
+cv::Mat ThroughLens(const cv::Mat& pinhole, const PinholeIntrinsics& k, const std::vector<double>& d,
+                    int interpolation) {
   const std::vector<cv::Point2d> normalised = NormalisedPointsThroughLens(k, d);
   cv::Mat map_x(k.height, k.width, CV_32FC1), map_y(k.height, k.width, CV_32FC1);
   for (int v = 0; v < k.height; ++v) {
@@ -28,7 +29,7 @@ cv::Mat ThroughLens(const cv::Mat& pinhole, const PinholeIntrinsics& k, const st
     }
   }
   cv::Mat out;
-  cv::remap(pinhole, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(pinhole, out, map_x, map_y, interpolation, cv::BORDER_REPLICATE);
   return out;
 }
 

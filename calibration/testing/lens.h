@@ -4,6 +4,7 @@
 #pragma once
 
 #include <opencv2/core/mat.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "core/pinhole.h"
@@ -17,6 +18,8 @@ std::vector<cv::Point2d> NormalisedPointsThroughLens(const PinholeIntrinsics& k,
 // What the lens records of a pinhole frame (any cv::Mat type remap takes): each recorded pixel
 // samples the pinhole frame bilinearly where the lens bent it from; beyond the pinhole frame's
 // edge (a barrel lens sees more) the edge pixels are repeated.
-cv::Mat ThroughLens(const cv::Mat& pinhole, const PinholeIntrinsics& k, const std::vector<double>& d);
+// `interpolation`: cv::INTER_NEAREST for depth, which must not blend across silhouettes.
+cv::Mat ThroughLens(const cv::Mat& pinhole, const PinholeIntrinsics& k, const std::vector<double>& d,
+                    int interpolation = cv::INTER_LINEAR);
 
 }  // namespace relume::calibration::testing
