@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <regex>
 #include <set>
 #include <sstream>
 #include <string>
@@ -22,14 +21,28 @@ namespace {
 namespace fs = std::filesystem;
 
 bool IsLibrarySource(const std::string& relative) {
-  static const std::regex kExcluded(R"((_test|_benchmark|_fuzzer)\.cc$|/testing/|/testing_)");
   const std::string ext = fs::path(relative).extension().string();
-  return (ext == ".h" || ext == ".cc") && !std::regex_search(relative, kExcluded);
+  if (ext != ".h" && ext != ".cc") return false;
+  for (const char* suffix : {"_test.cc", "_benchmark.cc", "_fuzzer.cc"}) {
+    if (relative.ends_with(suffix)) return false;
+  }
+  return relative.find("/testing/") == std::string::npos && relative.find("/testing_") == std::string::npos;
+}
+
+// The file named by a line `#include "FILE"` (spaces allowed around # and include), or "".
+std::string QuotedInclude(const std::string& line) {
+  std::size_t at = line.find_first_not_of(" \t");
+  if (at == std::string::npos || line[at] != '#') return "";
+  at = line.find_first_not_of(" \t", at + 1);
+  if (at == std::string::npos || line.compare(at, 7, "include") != 0) return "";
+  at = line.find_first_not_of(" \t", at + 7);
+  if (at == std::string::npos || line[at] != '"') return "";
+  const std::size_t end = line.find('"', at + 1);
+  return end == std::string::npos ? "" : line.substr(at + 1, end - at - 1);
 }
 
 // For every file reached from `layer`'s library sources, the chain of includes that first reached it.
 std::map<std::string, std::vector<std::string>> Reached(const fs::path& root, const std::string& layer) {
-  static const std::regex kInclude(R"re(^\s*#\s*include\s*"([^"]+)")re");
   std::map<std::string, std::vector<std::string>> chain;
   std::vector<std::string> todo;
   for (const fs::directory_entry& e : fs::recursive_directory_iterator(root / layer)) {
@@ -44,11 +57,9 @@ std::map<std::string, std::vector<std::string>> Reached(const fs::path& root, co
     todo.pop_back();
     std::ifstream in(root / file);
     std::string line;
-    std::smatch m;
     while (std::getline(in, line)) {
-      if (!std::regex_search(line, m, kInclude)) continue;
-      const std::string header = m[1].str();
-      if (chain.contains(header) || !fs::exists(root / header)) continue;  // system or generated
+      const std::string header = QuotedInclude(line);
+      if (header.empty() || chain.contains(header) || !fs::exists(root / header)) continue;  // system or generated
       chain[header] = chain[file];
       chain[header].push_back(header);
       todo.push_back(header);
