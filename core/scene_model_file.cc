@@ -148,8 +148,21 @@ int AddMaterial(SceneModel* model, const std::string& name) {
   return static_cast<int>(model->materials.size()) - 1;
 }
 
+// The mesh's triangles and vertices (+ offset, through `frame` into ENU), its faces' materials:
+// `own`, or one per OBJ usemtl group.
+void FillMeshObject(const MeshData& mesh, const FileFrame& frame, const Eigen::Vector3d& offset, int own,
+                    SceneModel* model, SceneModelObject* object) {
+  for (const Eigen::Vector3d& v : mesh.vertices) object->vertices.push_back(frame.Point(v + offset));
+  object->triangles = mesh.triangles;
+  object->face_material.assign(object->triangles.size(), own);
+  for (std::size_t f = 0; f < mesh.face_material.size() && f < object->triangles.size(); ++f) {
+    if (!mesh.face_material[f].empty())
+      object->face_material[f] = AddMaterial(model, object->name + "/" + mesh.face_material[f]);
+  }
+}
+
 SceneModelObject ReadObject(const YamlFile& file, const YAML::Node& node, const FileFrame& frame, SceneModel* model) {
-  file.RejectUnknownKeys(node, {"name", "kind", "mesh", "center_m", "radius_m", "frame"});
+  file.RejectUnknownKeys(node, {"name", "kind", "mesh", "offset", "center_m", "radius_m", "frame"});
   SceneModelObject object;
   object.name = file.RequireString(node, "name");
   try {
@@ -170,13 +183,8 @@ SceneModelObject ReadObject(const YamlFile& file, const YAML::Node& node, const 
   const MeshData mesh = LoadMesh(mesh_path.string());
   std::string why;
   if (!mesh.IsValid(&why)) file.Fail(node["mesh"], "mesh", mesh_path.string() + ": " + why);
-  for (const Eigen::Vector3d& v : mesh.vertices) object.vertices.push_back(frame.Point(v));
-  object.triangles = mesh.triangles;
-  object.face_material.assign(object.triangles.size(), own);
-  for (std::size_t f = 0; f < mesh.face_material.size() && f < object.triangles.size(); ++f) {
-    if (!mesh.face_material[f].empty())
-      object.face_material[f] = AddMaterial(model, object.name + "/" + mesh.face_material[f]);
-  }
+  const Eigen::Vector3d offset = node["offset"] ? RequireVec3(file, node, "offset") : Eigen::Vector3d::Zero();
+  FillMeshObject(mesh, frame, offset, own, model, &object);
   return object;
 }
 
@@ -277,6 +285,36 @@ SceneModel LoadSceneModelFile(const std::string& path, const Site& session_site)
   std::string why;
   if (!model.IsValid(&why)) file.Fail(root, "scene model", why);
   return model;
+}
+
+bool MeshPlacement::IsValid(std::string* why) const {
+  const auto fail = [why](const std::string& reason) {
+    if (why != nullptr) *why = reason;
+    return false;
+  };
+  if (frame != "enu" && frame != "utm") return fail("frame '" + frame + "' is not enu or utm");
+  if (utm_zone < 0 || utm_zone > 60)
+    return fail("UTM zone " + std::to_string(utm_zone) + " is not 1..60 (0: the site's)");
+  if (!offset.allFinite()) return fail("the offset must be finite");
+  return true;
+}
+
+void AddMeshObject(SceneModel* model, const std::string& name, SceneModelObject::Kind kind,
+                   const std::string& mesh_path, const MeshPlacement& placement) {
+  ThrowIfInvalid(placement, "mesh placement");
+  if (name.empty()) throw InvalidArgumentError("the mesh object needs a name");
+  if (kind == SceneModelObject::Kind::kSphere) throw InvalidArgumentError("a mesh object is a surface or a solid");
+  const MeshData mesh = LoadMesh(mesh_path);
+  std::string why;
+  if (!mesh.IsValid(&why)) throw InvalidArgumentError(mesh_path + ": " + why);
+  const FileFrame frame(model->site, placement.frame == "utm",
+                        placement.utm_zone > 0 ? std::optional<int>(placement.utm_zone) : std::nullopt);
+  std::erase_if(model->objects, [&](const SceneModelObject& o) { return o.name == name; });
+  SceneModelObject object;
+  object.name = name;
+  object.kind = kind;
+  FillMeshObject(mesh, frame, placement.offset, AddMaterial(model, name), model, &object);
+  model->objects.push_back(std::move(object));
 }
 
 }  // namespace relume

@@ -12,14 +12,17 @@
 //     - device: gphoto2:canon-eos   # the session's device id (`relume session info`)
 //       intrinsics: {width: 6000, height: 4000, fx: 5000, fy: 5000, cx: 3000, cy: 2000}
 //       # or: {width: 6000, height: 4000, horizontal_fov_deg: 62}
-//       distortion: [k1, k2, p1, p2, k3]   # optional (OpenCV): irm and radiosity undistort the
-//                                          #   frames onto the pinhole camera; sh refuses it
+//       distortion: [k1, k2, p1, p2, k3]   # optional (OpenCV): the pipelines undistort the
+//                                          #   frames onto the pinhole camera (sh: with the depth)
 //       position_m: [12.0, -30.0, 1.6]
 //       look_at_m: [0.0, 0.0, 5.0]         # or world_from_camera: [16 numbers, row-major]
 //       up: [0, 0, 1]                      # optional, with look_at_m
 //       reprojection_error_px: 0.4         # optional: from the calibration that gave it
 //   objects:
 //     - {name: building, kind: solid, mesh: building.obj}   # OBJ/PLY, relative to this file
+//     - {name: site, kind: surface, mesh: scan.ply, frame: utm, offset: [739000, 4206000, 0]}
+//                                          # offset: added to the file's vertices (a photogrammetry
+//                                          #   export's georeferencing shift), in the entry's frame
 //     - {name: ground, kind: surface, mesh: ground.ply}
 //     - {name: dome, kind: sphere, center_m: [0, 0, 10], radius_m: 2}
 //   known_albedo:                          # optional: materials whose reflectance is known
@@ -41,6 +44,7 @@
 // world_from_camera given in UTM is rotated by the meridian convergence at the camera.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 
 #include "core/scene_model.h"
@@ -53,5 +57,22 @@ namespace relume {
 // gives none; a file whose site is more than 1 m from it is refused (the session's frames carry
 // the sun for its own site).
 SceneModel LoadSceneModelFile(const std::string& path, const Site& session_site);
+
+// Where a mesh file's vertices are: `frame` "enu" (metres at the model's site) or "utm"
+// (easting, northing, ellipsoidal height in `utm_zone`, 0 = the site's), after `offset` is added.
+struct MeshPlacement {
+  std::string frame = "enu";
+  int utm_zone = 0;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  bool IsValid(std::string* why) const;
+};
+
+// Adds the mesh file `mesh_path` (OBJ/PLY) to `model` as object `name` of `kind` (surface or
+// solid), its vertices converted to ENU at model->site as the scene file's meshes are; one
+// material named after the object and one per OBJ `usemtl` group. An object of the same name is
+// replaced. Throws InvalidArgumentError for a bad placement or kind, ConfigError/IoError for the
+// file.
+void AddMeshObject(SceneModel* model, const std::string& name, SceneModelObject::Kind kind,
+                   const std::string& mesh_path, const MeshPlacement& placement);
 
 }  // namespace relume

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -101,6 +102,59 @@ TEST_F(SceneModelFileTest, UtmPositionsGoThroughGeodeticCoordinates) {
   const double bearing_deg = std::atan2(ground.vertices[1].x(), ground.vertices[1].y()) * 180.0 / std::numbers::pi;
   EXPECT_GT(std::abs(bearing_deg - 90.0), 0.1);
   EXPECT_LT(std::abs(bearing_deg - 90.0), 3.0);
+}
+
+// A photogrammetry export: vertices relative to a georeferencing shift given as `offset` (scene
+// file) or MeshPlacement (session add-scene-model --mesh): the same ENU vertices as a mesh written
+// in full UTM coordinates.
+TEST_F(SceneModelFileTest, AMeshWithAGeoreferencingOffsetLandsWhereItsFullCoordinatesDo) {
+  const UtmGridFrame grid(site_);
+  const Eigen::Vector3d origin = grid.GridFromGeodetic(site_);
+  const Eigen::Vector3d shift(std::floor(origin.x()) - 20.0, std::floor(origin.y()) + 35.0, 100.0);
+  std::ofstream full(dir_ / "full.obj"), local(dir_ / "local.obj");
+  full << std::setprecision(17);
+  local << std::setprecision(17);
+  const Eigen::Vector3d corners[3] = {origin, origin + Eigen::Vector3d(40, 0, 2), origin + Eigen::Vector3d(0, 30, 1)};
+  for (const Eigen::Vector3d& c : corners) {
+    full << "v " << c.x() << " " << c.y() << " " << c.z() << "\n";
+    const Eigen::Vector3d l = c - shift;
+    local << "v " << l.x() << " " << l.y() << " " << l.z() << "\n";
+  }
+  full << "f 1 2 3\n";
+  local << "usemtl stone\nf 1 2 3\n";
+  full.close();
+  local.close();
+  char text[512];
+  std::snprintf(text, sizeof(text),
+                "frame: utm\nobjects:\n  - {name: full, kind: surface, mesh: full.obj}\n"
+                "  - {name: local, kind: surface, mesh: local.obj, offset: [%.3f, %.3f, %.3f]}\n",
+                shift.x(), shift.y(), shift.z());
+  const SceneModel model = LoadSceneModelFile(Write(text), site_);
+  ASSERT_EQ(model.objects.size(), 2u);
+  for (std::size_t v = 0; v < 3; ++v) {
+    EXPECT_LT((model.objects[0].vertices[v] - model.objects[1].vertices[v]).norm(), 1e-6) << v;
+  }
+
+  // The same through AddMeshObject, into a model that has the site only; then replaced by name.
+  SceneModel added;
+  added.site = site_;
+  MeshPlacement placement;
+  placement.frame = "utm";
+  placement.offset = shift;
+  AddMeshObject(&added, "scan", SceneModelObject::Kind::kSurface, (dir_ / "local.obj").string(), placement);
+  ASSERT_EQ(added.objects.size(), 1u);
+  for (std::size_t v = 0; v < 3; ++v) {
+    EXPECT_LT((added.objects[0].vertices[v] - model.objects[0].vertices[v]).norm(), 1e-6) << v;
+  }
+  EXPECT_EQ(added.materials[static_cast<std::size_t>(added.objects[0].face_material[0])].name, "scan/stone");
+  std::string why;
+  EXPECT_TRUE(added.IsValid(&why)) << why;
+  AddMeshObject(&added, "scan", SceneModelObject::Kind::kSolid, (dir_ / "full.obj").string(), {"utm", 0, {}});
+  ASSERT_EQ(added.objects.size(), 1u);
+  EXPECT_EQ(added.objects[0].kind, SceneModelObject::Kind::kSolid);
+  EXPECT_THROW(
+      AddMeshObject(&added, "x", SceneModelObject::Kind::kSurface, (dir_ / "full.obj").string(), {"gps", 0, {}}),
+      InvalidArgumentError);
 }
 
 TEST_F(SceneModelFileTest, MistakesNameTheKey) {

@@ -715,7 +715,20 @@ void RunCalibrateRgbd(const CalibrateRgbdArgs& args, std::ostream& out) {
       UtcTime(std::chrono::duration_cast<Nanoseconds>(std::chrono::system_clock::now().time_since_epoch()));
   record.kind = capture::kRgbdGeometryKind;
   record.device_id = args.device;
-  record.json = capture::RgbdGeometryToJson(geometry);
+  // The geometry, and where its transform came from with the residuals (ignored by readers of
+  // the geometry, shown to people who look at the row).
+  nlohmann::json row = nlohmann::json::parse(capture::RgbdGeometryToJson(geometry));
+  std::vector<std::int64_t> used_frames;
+  for (int i : result.views_used) used_frames.push_back(pairs[static_cast<std::size_t>(i)].first.id);
+  row["calibration"] = {
+      {"method", "ChArUco plane-to-plane (calibration/rgbd_extrinsics.h)"},
+      {"board", args.charuco + " squares of " + std::to_string(args.square_m) + " m, " + args.dictionary},
+      {"colour_frames", used_frames},
+      {"plane_rms_m", result.view_plane_rms_m},
+      {"normal_residual_deg", result.view_normal_deg},
+      {"distance_residual_m", result.view_distance_m},
+      {"normal_spread_deg", result.normal_spread_deg}};
+  record.json = row.dump();
   record.source_frame_ids = base->source_frame_ids;  // applies where the recorded row did
   const std::int64_t id = capture::SessionWriter::Append(args.session)->AddCalibration(record);
   out << "stored in " << args.session << " as calibration " << id << " (rgbd_geometry of " << args.device

@@ -105,6 +105,45 @@ void RunImport(const ImportArgs& a) {
   std::cout << capture::ImportStills(options, a.out).Report();
 }
 
+struct MeshArgs {
+  std::string path;
+  std::string name;
+  std::string kind = "solid";
+  MeshPlacement placement;
+  std::vector<double> offset;
+};
+
+// `session add-scene-model`: a scene file (--from) and/or a mesh (--mesh) on top of the latest
+// model, or, with neither, the model of the simulated rig the session stored.
+void RunAddSceneModel(const std::string& dir, const std::string& from, MeshArgs mesh) {
+  std::int64_t row = 0;
+  if (from.empty() && mesh.path.empty()) {
+    row = rig::AddSceneModelFromStoredRig(dir);
+  } else {
+    const Site site = capture::SessionReader(dir).info().site;
+    SceneModel model;
+    if (!from.empty()) {
+      model = LoadSceneModelFile(from, site);
+    } else if (std::optional<SceneModel> latest = capture::LatestSceneModel(dir)) {
+      model = *latest;
+    } else {
+      model.site = site;
+      model.source = "relume session add-scene-model --mesh";
+    }
+    if (!mesh.path.empty()) {
+      if (mesh.offset.size() != 0 && mesh.offset.size() != 3) {
+        throw InvalidArgumentError("--offset takes three numbers a,b,c");
+      }
+      if (mesh.offset.size() == 3) mesh.placement.offset = {mesh.offset[0], mesh.offset[1], mesh.offset[2]};
+      const std::string name = mesh.name.empty() ? std::filesystem::path(mesh.path).stem().string() : mesh.name;
+      AddMeshObject(&model, name, SceneModelObjectKindFromString(mesh.kind), mesh.path, mesh.placement);
+    }
+    row = capture::StoreSceneModel(dir, model);
+    std::cout << capture::DescribeSceneModel(model) << "\n";
+  }
+  std::cout << "scene model stored as calibration row " << row << " of " << dir << "\n";
+}
+
 void AddImportCommand(CLI::App& session) {
   CLI::App* import = session.add_subcommand(
       "import",
@@ -192,17 +231,21 @@ void AddSessionCommand(CLI::App& app) {
   add_model->add_option("DIR", *dir, "Session folder")->required();
   auto from = std::make_shared<std::string>();
   add_model->add_option("--from", *from, "Scene model YAML (core/scene_model_file.h, docs/real-data.md)");
-  add_model->callback([dir, from]() {
-    std::int64_t row = 0;
-    if (from->empty()) {
-      row = rig::AddSceneModelFromStoredRig(*dir);
-    } else {
-      const SceneModel model = LoadSceneModelFile(*from, capture::SessionReader(*dir).info().site);
-      row = capture::StoreSceneModel(*dir, model);
-      std::cout << capture::DescribeSceneModel(model) << "\n";
-    }
-    std::cout << "scene model stored as calibration row " << row << " of " << *dir << "\n";
-  });
+  auto mesh = std::make_shared<MeshArgs>();
+  add_model->add_option("--mesh", mesh->path,
+                        "A mesh (OBJ/PLY, e.g. a photogrammetry export) added to the session's latest scene model "
+                        "(or to --from's)");
+  add_model->add_option("--name", mesh->name, "With --mesh: the object's name (default: the file's stem)");
+  add_model->add_option("--kind", mesh->kind, "With --mesh: solid (closed) or surface")->capture_default_str();
+  add_model->add_option("--mesh-frame", mesh->placement.frame, "With --mesh: enu or utm")->capture_default_str();
+  add_model->add_option("--utm-zone", mesh->placement.utm_zone, "With --mesh-frame utm: the zone (0: the site's)")
+      ->capture_default_str();
+  add_model
+      ->add_option("--offset", mesh->offset,
+                   "With --mesh: a,b,c added to every vertex (the export's georeferencing shift)")
+      ->delimiter(',')
+      ->expected(3);
+  add_model->callback([dir, from, mesh]() { RunAddSceneModel(*dir, *from, *mesh); });
 }
 
 }  // namespace relume::app

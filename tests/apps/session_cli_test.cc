@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "capture/scene_model_record.h"
 #include "capture/session.h"
 #include "tests/apps/cli_runner.h"
 
@@ -54,6 +55,52 @@ TEST(SessionCliTest, VerifyRecoverInfo) {
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("relume: error: /nonexistent/session: no session here"), std::string::npos)
       << missing.output;
+}
+
+// `session add-scene-model --mesh`: a photogrammetry export with a UTM georeferencing shift joins
+// the session's scene model (AddMeshObject, tested in core/scene_model_file_test.cc); a second
+// mesh joins the first; bad flags are named.
+TEST(SessionCliTest, AddSceneModelTakesAMeshWithItsGeoreferencingOffset) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("session_cli_mesh_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  {
+    capture::SessionInfo info;
+    info.name = "mesh";
+    info.site = Site::FromDegrees(37.9715, 23.7267, 110.0);
+    info.created_utc = ParseIso8601("2026-06-21T06:00:00Z").utc;
+    auto writer = capture::SessionWriter::Create(dir / "session", info);
+  }
+  // Vertices relative to (739000, 4206000, 100) in UTM zone 34, about 500 m from the site.
+  std::ofstream(dir / "scan.obj") << "v 0 0 0\nv 10 0 0\nv 0 10 1\nf 1 2 3\n";
+  std::ofstream(dir / "wall.ply") << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                     "end_header\n0 0 0\n1 0 0\n0 0 1\n3 0 1 2\n";
+  const std::string session = (dir / "session").string();
+  testing::CliResult r =
+      testing::RunRelume("session add-scene-model " + session + " --mesh " + (dir / "scan.obj").string() +
+                         " --kind surface --mesh-frame utm --offset 739000,4206000,100");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = testing::RunRelume("session add-scene-model " + session + " --mesh " + (dir / "wall.ply").string() +
+                         " --name wall");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("2 objects"), std::string::npos) << r.output;
+  const std::optional<SceneModel> model = capture::LatestSceneModel(dir / "session");
+  ASSERT_TRUE(model);
+  ASSERT_EQ(model->objects.size(), 2u);
+  EXPECT_EQ(model->objects[0].name, "scan");
+  EXPECT_EQ(model->objects[0].kind, SceneModelObject::Kind::kSurface);
+  const double distance = model->objects[0].vertices[0].norm();
+  EXPECT_GT(distance, 100.0) << "the offset moved the scan from the site's origin";
+  EXPECT_LT(distance, 2000.0);
+  EXPECT_EQ(model->objects[1].name, "wall");
+  r = testing::RunRelume("session add-scene-model " + session + " --mesh " + (dir / "scan.obj").string() +
+                         " --offset 1,2");
+  EXPECT_NE(r.exit_code, 0);
+  r = testing::RunRelume("session add-scene-model " + session + " --mesh " + (dir / "scan.obj").string() +
+                         " --mesh-frame gps");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("frame 'gps' is not enu or utm"), std::string::npos) << r.output;
+  fs::remove_all(dir);
 }
 
 // `relume session import`'s flags reach the library and its errors reach the user (the import

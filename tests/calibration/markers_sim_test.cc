@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <opencv2/core.hpp>
 
@@ -335,6 +336,9 @@ TEST(MarkersSimTest, TheCliStoresAnRgbdSensorsTransformAsItsGeometry) {
   EXPECT_LT(rotation_error, 0.2) << r.output;
   EXPECT_FALSE(geometry.registered_to_color);
   EXPECT_EQ(geometry.depth_intrinsics.width, 640);
+  // The row keeps the residuals of the calibration that gave it.
+  const nlohmann::json stored = nlohmann::json::parse(row->json);
+  EXPECT_EQ(stored["calibration"]["plane_rms_m"].size(), 12u) << stored.dump();
   fs::remove_all(dir);
 }
 
