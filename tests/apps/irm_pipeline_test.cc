@@ -34,6 +34,7 @@
 #include "rig/rig_config.h"
 #include "rig/scene_model_from_rig.h"
 #include "tests/apps/cli_runner.h"
+#include "tests/apps/lens_copy.h"
 
 namespace relume::pipeline {
 namespace {
@@ -613,16 +614,7 @@ void CopyThroughLens(const fs::path& from, const fs::path& to, const std::vector
   const capture::SessionReader in(from);
   const std::unique_ptr<capture::SessionWriter> out = capture::SessionWriter::Create(to, in.info());
   for (const drivers::DeviceInfo& device : in.Devices()) out->AddDevice(device);
-  const std::vector<capture::CalibrationRecord> rows = in.Calibrations();
-  const capture::CalibrationRecord* row = capture::LatestSceneModelRow(rows);
-  ASSERT_NE(row, nullptr);
-  SceneModel model = capture::SceneModelFromJson(row->json, "scene model");
-  ASSERT_EQ(model.cameras.size(), 1u);
-  const PinholeIntrinsics k = model.cameras.front().camera.intrinsics;
-  model.cameras.front().distortion = model_distortion;
-  capture::CalibrationRecord scene = *row;
-  scene.json = capture::SceneModelToJson(model);
-  out->AddCalibration(scene);
+  const PinholeIntrinsics k = testing::CopySceneModelWithDistortion(in, *out, model_distortion);
   std::map<std::int64_t, std::int64_t> brackets;
   for (const capture::BracketRecord& b : in.Brackets())
     brackets[b.id] = out->BeginBracket(b.device_id, b.started_utc, b.planned_count);

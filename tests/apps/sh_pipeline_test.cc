@@ -20,6 +20,7 @@
 #include "capture/session.h"
 #include "core/image.h"
 #include "tests/apps/cli_runner.h"
+#include "tests/apps/lens_copy.h"
 
 namespace relume::pipeline {
 namespace {
@@ -242,16 +243,8 @@ void CopyRgbdThroughLens(const fs::path& from, const fs::path& to, const std::ve
   options.depth_units = capture::DepthUnits::kMetres;
   const std::unique_ptr<capture::SessionWriter> out = capture::SessionWriter::Create(to, in.info(), options);
   for (const drivers::DeviceInfo& device : in.Devices()) out->AddDevice(device);
+  const PinholeIntrinsics k = testing::CopySceneModelWithDistortion(in, *out, model_distortion);
   const std::vector<capture::CalibrationRecord> rows = in.Calibrations();
-  const capture::CalibrationRecord* row = capture::LatestSceneModelRow(rows);
-  ASSERT_NE(row, nullptr);
-  SceneModel model = capture::SceneModelFromJson(row->json, "scene model");
-  ASSERT_EQ(model.cameras.size(), 1u);
-  const PinholeIntrinsics k = model.cameras.front().camera.intrinsics;
-  model.cameras.front().distortion = model_distortion;
-  capture::CalibrationRecord scene = *row;
-  scene.json = capture::SceneModelToJson(model);
-  out->AddCalibration(scene);
   for (const capture::CalibrationRecord& r : rows) {
     if (r.kind == "response") {
       capture::CalibrationRecord copy = r;
