@@ -735,6 +735,23 @@ void RunCalibrateRgbd(const CalibrateRgbdArgs& args, std::ostream& out) {
       << "; the sh pipeline registers depth with it)\n";
 }
 
+// `relume calibrate rgbd`.
+void AddCalibrateRgbd(CLI::App* calibrate) {
+  auto g = std::make_shared<CalibrateRgbdArgs>();
+  CLI::App* rgbd = calibrate->add_subcommand(
+      "rgbd", "An RGB-D sensor's depth-to-colour transform from frames of a ChArUco board; stored in the session");
+  rgbd->add_option("--session", g->session, "The session with the board frames")->required();
+  rgbd->add_option("--device", g->device, "The RGB-D device id (`relume session info`)")->required();
+  rgbd->add_option("--frames", g->frames, "Colour frames to use (an id, a range 3-12, DEVICE:color; default all)");
+  rgbd->add_option("--charuco", g->charuco, "The ChArUco board's squares COLSxROWS")->capture_default_str();
+  rgbd->add_option("--square", g->square_m, "Square size (m)")->capture_default_str();
+  rgbd->add_option("--marker", g->marker_m, "Marker side (m; default 0.75 of --square)");
+  rgbd->add_option("--dictionary", g->dictionary, "The markers' ArUco dictionary")->capture_default_str();
+  rgbd->add_option("--max-gap-ms", g->max_gap_ms, "Largest time gap of a colour and a depth frame paired (ms)")
+      ->capture_default_str();
+  rgbd->callback([g]() { RunCalibrateRgbd(*g, std::cout); });
+}
+
 void AddCalibrateCommand(CLI::App& app) {
   CLI::App* calibrate = app.add_subcommand("calibrate",
                                            "Calibration: camera response, ColorChecker, intrinsics (chessboard, "
@@ -800,19 +817,7 @@ void AddCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   intrinsics->callback([in]() { RunCalibrateIntrinsics(*in, std::cout); });
 
-  auto g = std::make_shared<CalibrateRgbdArgs>();
-  CLI::App* rgbd = calibrate->add_subcommand(
-      "rgbd", "An RGB-D sensor's depth-to-colour transform from frames of a ChArUco board; stored in the session");
-  rgbd->add_option("--session", g->session, "The session with the board frames")->required();
-  rgbd->add_option("--device", g->device, "The RGB-D device id (`relume session info`)")->required();
-  rgbd->add_option("--frames", g->frames, "Colour frames to use (an id, a range 3-12, DEVICE:color; default all)");
-  rgbd->add_option("--charuco", g->charuco, "The ChArUco board's squares COLSxROWS")->capture_default_str();
-  rgbd->add_option("--square", g->square_m, "Square size (m)")->capture_default_str();
-  rgbd->add_option("--marker", g->marker_m, "Marker side (m; default 0.75 of --square)");
-  rgbd->add_option("--dictionary", g->dictionary, "The markers' ArUco dictionary")->capture_default_str();
-  rgbd->add_option("--max-gap-ms", g->max_gap_ms, "Largest time gap of a colour and a depth frame paired (ms)")
-      ->capture_default_str();
-  rgbd->callback([g]() { RunCalibrateRgbd(*g, std::cout); });
+  AddCalibrateRgbd(calibrate);
 
   auto p = std::make_shared<CalibratePoseArgs>();
   CLI::App* pose = calibrate->add_subcommand("pose",
