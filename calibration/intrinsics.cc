@@ -49,12 +49,6 @@ cv::Mat BoardGrey(const cv::Mat& image, const cv::Size& size, int index, const c
   return grey;
 }
 
-cv::Ptr<cv::aruco::CharucoBoard> MakeBoard(const CharucoOptions& options) {
-  return cv::aruco::CharucoBoard::create(options.squares_x, options.squares_y, static_cast<float>(options.square_m),
-                                         static_cast<float>(options.marker_m),
-                                         cv::aruco::getPredefinedDictionary(ArucoDictionaryId(options.dictionary)));
-}
-
 }  // namespace
 
 cv::Mat ChessboardImage(const CameraImage& frame) {
@@ -186,19 +180,25 @@ bool CharucoOptions::IsValid(std::string* why) const {
   return true;
 }
 
+cv::Ptr<cv::aruco::CharucoBoard> MakeCharucoBoard(const CharucoOptions& options) {
+  return cv::aruco::CharucoBoard::create(options.squares_x, options.squares_y, static_cast<float>(options.square_m),
+                                         static_cast<float>(options.marker_m),
+                                         cv::aruco::getPredefinedDictionary(ArucoDictionaryId(options.dictionary)));
+}
+
 cv::Mat DrawCharucoBoard(const CharucoOptions& options, int pixels_per_square) {
   ThrowIfInvalid(options, "ChArUco board");
   if (pixels_per_square < 8) throw InvalidArgumentError("DrawCharucoBoard: give at least 8 pixels per square");
   cv::Mat image;
-  MakeBoard(options)->draw(cv::Size(options.squares_x * pixels_per_square, options.squares_y * pixels_per_square),
-                           image, 0, 1);
+  MakeCharucoBoard(options)->draw(
+      cv::Size(options.squares_x * pixels_per_square, options.squares_y * pixels_per_square), image, 0, 1);
   return image;
 }
 
 IntrinsicsResult CalibrateIntrinsicsCharuco(const std::vector<cv::Mat>& images, const CharucoOptions& options) {
   ThrowIfInvalid(options, "ChArUco options");
   if (images.empty()) throw InvalidArgumentError("no images of the ChArUco board");
-  const cv::Ptr<cv::aruco::CharucoBoard> board = MakeBoard(options);
+  const cv::Ptr<cv::aruco::CharucoBoard> board = MakeCharucoBoard(options);
   cv::Ptr<cv::aruco::DetectorParameters> params = cv::aruco::DetectorParameters::create();
   IntrinsicsResult result;
   const cv::Size size = images.front().size();

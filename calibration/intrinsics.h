@@ -18,6 +18,10 @@
 #include "core/image.h"
 #include "core/pinhole.h"
 
+namespace cv::aruco {
+class CharucoBoard;
+}  // namespace cv::aruco
+
 namespace relume::calibration {
 
 struct ChessboardOptions {
@@ -59,6 +63,10 @@ struct CharucoOptions {
 // The board as an 8-bit grey image to print, `pixels_per_square` per square, no margin: pixel
 // (u, v) covers [u, u+1) x [v, v+1) of the board, (0, 0) its top-left as printed.
 cv::Mat DrawCharucoBoard(const CharucoOptions& options, int pixels_per_square);
+
+// OpenCV's board for `options` (geometry and dictionary): what DrawCharucoBoard draws and what
+// the ChArUco calibrations (here and rgbd_extrinsics.h) detect.
+cv::Ptr<cv::aruco::CharucoBoard> MakeCharucoBoard(const CharucoOptions& options);
 
 // `images`: 8-bit grey or RGB. Throws InvalidArgumentError when fewer than min_views images show
 // at least min_corners_per_view identified corners (naming how many did), or the images differ

@@ -176,10 +176,7 @@ RgbdExtrinsicsResult CalibrateRgbdExtrinsics(const std::vector<cv::Mat>& colour,
     throw InvalidArgumentError("RGB-D extrinsics: " + std::to_string(colour.size()) + " colour frames but " +
                                std::to_string(depth.size()) + " depth frames; give them in pairs");
   }
-  const cv::Ptr<cv::aruco::CharucoBoard> board = cv::aruco::CharucoBoard::create(
-      options.board.squares_x, options.board.squares_y, static_cast<float>(options.board.square_m),
-      static_cast<float>(options.board.marker_m),
-      cv::aruco::getPredefinedDictionary(ArucoDictionaryId(options.board.dictionary)));
+  const cv::Ptr<cv::aruco::CharucoBoard> board = MakeCharucoBoard(options.board);
   RgbdExtrinsicsResult result;
   std::vector<ColourView> views;
   std::vector<int> view_index;
