@@ -19,10 +19,15 @@
 #include <vector>
 
 #include "capture/session.h"
+#include "core/pinhole.h"
 #include "core/scene_model.h"
 #include "core/truth.h"
 #include "pipeline/knobs.h"
 #include "pipeline/stage_cache.h"
+
+namespace relume::calibration {
+class Undistorter;
+}  // namespace relume::calibration
 
 namespace relume::pipeline {
 
@@ -77,6 +82,10 @@ class PipelineRun {
   // no camera for the device; `purpose` says what needs it ("the irm pipeline's source view").
   const SceneModelCamera& RequireCamera(const std::string& device_id, const std::string& purpose);
   const std::filesystem::path& out_dir() const { return request_.out_dir; }
+  // The undistortion maps of a lens (calibration/undistort.h), built on first use and kept for
+  // the run: every frame of a camera shares them. Throws as Undistorter's constructor does.
+  const calibration::Undistorter& LensUndistorter(const PinholeIntrinsics& intrinsics,
+                                                  const std::vector<double>& distortion);
 
   // --set keys no ReadKnobs call used (noted in the summary).
   std::vector<std::string> UnusedSettings() const;
@@ -122,6 +131,7 @@ class PipelineRun {
   nlohmann::json knobs_json_ = nlohmann::json::object();
   std::vector<std::pair<std::string, std::string>> outputs_;
   std::map<std::string, bool> settings_read_;
+  std::map<std::string, std::shared_ptr<const calibration::Undistorter>> undistorters_;
   std::chrono::steady_clock::time_point progress_start_;
   std::string progress_stage_;
 };

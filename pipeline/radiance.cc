@@ -251,7 +251,7 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
   const StageCache::Result stage = run.RunStage("radiance", key, [&](const fs::path& dir) {
     LinearisedBracket linear = LineariseBracket(session, bracket, response, profile, merge, response_options);
     if (undistort) {
-      const calibration::Undistorter undistorter(lens->camera.intrinsics, lens->distortion);
+      const calibration::Undistorter& undistorter = run.LensUndistorter(lens->camera.intrinsics, lens->distortion);
       linear.radiance = undistorter.Apply(linear.radiance);
       linear.status = undistorter.ApplyNearest(linear.status, calibration::kHdrNoSample);
     }
