@@ -117,14 +117,15 @@ struct Knobs {
   // "TIMESTAMP FILE.exr", linear renders of the colour camera at the frames' times.
   std::string truth_dir;
 
-  // Stage tags: "geometry" (depth filters + normals), "fit", "relight"; "plan": decides which
+  // Stage tags: "geometry" (depth filters + normals), "registration" (the geometry stage of depth
+  // recorded unregistered only), "fit", "relight"; "plan": decides which
   // frames and filters run, and the keys follow from that; "report": the summary only.
   template <typename V>
   void VisitKnobs(V& v) {
     v.Knob("pair_max_gap_ms", pair_max_gap_ms, "largest time gap of a depth and a colour frame paired (ms)", {"plan"});
     v.Knob("filter_depth", filter_depth, "bilateral and temporal depth filters", {"geometry"});
     v.Knob("depth_registration", depth_registration,
-           "unregistered depth into the colour camera: nearest (as hardware) or interpolated", {"geometry"});
+           "unregistered depth into the colour camera: nearest (as hardware) or interpolated", {"registration"});
     v.Knob("depth_noise_skip_below_m", depth_noise_skip_below_m,
            "skip the filters when the first depth frame's noise at 1 m is below this (m; 0: always filter)", {"plan"});
     v.Knob("bilateral_radius", bilateral.radius_px, "bilateral depth filter radius (px)", {"geometry"});
@@ -433,7 +434,7 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f,
       }
     }
     if (!recorded.distortion.empty()) {
-      radiance = calibration::Undistorter(recorded.intrinsics, recorded.distortion).Apply(radiance);
+      radiance = run.LensUndistorter(recorded.intrinsics, recorded.distortion).Apply(radiance);
     }
     calibration::SaveRadianceExr(radiance, (dir / "radiance.exr").string());
   });
@@ -529,6 +530,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     g.key.Add("depth_fx", D.fx).Add("depth_fy", D.fy).Add("depth_cx", D.cx).Add("depth_cy", D.cy);
     const Eigen::Matrix4d m = recorded.color_from_depth.matrix();
     for (int i = 0; i < 12; ++i) g.key.Add("color_from_depth", m(i / 4, i % 4));
+    AddKnobsToKey(g.key, k, "registration");  // only depth registered here depends on how
   }
   AddKnobsToKey(g.key, k, "geometry");  // filter_depth as decided (the noise check may turn it off)
   if (previous != nullptr) g.key.AddKey("previous", previous->key);
@@ -542,7 +544,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
     cv::Mat depth = run.session().LoadDepth(pair.depth);
     if (recorded.registered && !recorded.distortion.empty()) {
-      depth = calibration::Undistorter(recorded.intrinsics, recorded.distortion).ApplyDepth(depth);
+      depth = run.LensUndistorter(recorded.intrinsics, recorded.distortion).ApplyDepth(depth);
     } else if (!recorded.registered) {
       depth = RegisterDepthToColor(
           depth, recorded.depth_intrinsics, K, recorded.color_from_depth,
@@ -1491,7 +1493,7 @@ PipelineEntry ShPipelineEntry() {
           WithRadianceKnobs(DescribeKnobs<Knobs>()),
           ShHeadline,
           ShFigures,
-          {"radiance", "geometry", "fit", "relight"}};
+          {"radiance", "geometry", "registration", "fit", "relight"}};
 }
 
 }  // namespace relume::pipeline
