@@ -813,7 +813,7 @@ void AddCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   intrinsics
       ->add_option("--distortion", in->distortion,
-                   "none (pinhole), radial (k1, k2) or full; irm and radiosity undistort frames with it")
+                   "none (pinhole), radial (k1, k2) or full; irm, radiosity and sh undistort frames with it")
       ->capture_default_str();
   intrinsics->callback([in]() { RunCalibrateIntrinsics(*in, std::cout); });
 

@@ -44,17 +44,17 @@ std::string QuotedInclude(const std::string& line) {
 // For every file reached from `layer`'s library sources, the chain of includes that first reached it.
 std::map<std::string, std::vector<std::string>> Reached(const fs::path& root, const std::string& layer) {
   std::map<std::string, std::vector<std::string>> chain;
-  std::vector<std::string> todo;
+  std::vector<std::string> pending;
   for (const fs::directory_entry& e : fs::recursive_directory_iterator(root / layer)) {
     const std::string relative = fs::relative(e.path(), root).generic_string();
     if (e.is_regular_file() && IsLibrarySource(relative) && !chain.contains(relative)) {
       chain[relative] = {relative};
-      todo.push_back(relative);
+      pending.push_back(relative);
     }
   }
-  while (!todo.empty()) {
-    const std::string file = todo.back();
-    todo.pop_back();
+  while (!pending.empty()) {
+    const std::string file = pending.back();
+    pending.pop_back();
     std::ifstream in(root / file);
     std::string line;
     while (std::getline(in, line)) {
@@ -62,7 +62,7 @@ std::map<std::string, std::vector<std::string>> Reached(const fs::path& root, co
       if (header.empty() || chain.contains(header) || !fs::exists(root / header)) continue;  // system or generated
       chain[header] = chain[file];
       chain[header].push_back(header);
-      todo.push_back(header);
+      pending.push_back(header);
     }
   }
   return chain;
