@@ -245,7 +245,7 @@ RenderedRoom DrawAndRender(std::uint64_t seed, bool quick, bool chart) {
   rs::HierarchyOptions hierarchy_options;
   hierarchy_options.max_patch_edge_m = quick ? 0.8 : 0.35;
   r.hierarchy = std::make_unique<rs::PatchHierarchy>(r.room.mesh, hierarchy_options);
-  r.caster = std::make_unique<RayCaster>(rs::ToTriangleMesh(r.room.mesh));
+  r.caster = std::make_unique<RayCaster>(r.room.mesh.geometry);
   SceneRandom noise(seed ^ 0x6e6f697365ULL);
   r.photos = Render(r.room, *r.hierarchy, *r.caster, quick, noise);
   return r;

@@ -20,6 +20,10 @@ bool TriangleMesh::IsValid(std::string* why) const {
   if (!normals.empty() && normals.size() != positions.size()) return fail("normals must be per vertex");
   if (!albedo.empty() && albedo.size() != positions.size()) return fail("albedo must be per vertex");
   if (!part.empty() && part.size() != positions.size()) return fail("parts must be per vertex");
+  if (!material.empty() && material.size() != triangles.size()) return fail("material ids must be per triangle");
+  for (const int m : material) {
+    if (m < 0) return fail("a triangle's material id is negative");
+  }
   return true;
 }
 
@@ -42,14 +46,20 @@ void TriangleMesh::Append(const TriangleMesh& other) {
   const bool keep_normals = !normals.empty() || positions.empty();
   const bool keep_albedo = !albedo.empty() || positions.empty();
   const bool keep_part = !part.empty() || positions.empty();
+  const bool keep_material = !material.empty() || triangles.empty();
+  const std::size_t triangles_before = triangles.size();
   positions.insert(positions.end(), other.positions.begin(), other.positions.end());
   for (const Eigen::Vector3i& t : other.triangles) triangles.push_back(t + Eigen::Vector3i::Constant(offset));
   if (keep_normals && !other.normals.empty()) normals.insert(normals.end(), other.normals.begin(), other.normals.end());
   if (keep_albedo && !other.albedo.empty()) albedo.insert(albedo.end(), other.albedo.begin(), other.albedo.end());
   if (keep_part && !other.part.empty()) part.insert(part.end(), other.part.begin(), other.part.end());
+  if (keep_material && !other.material.empty() && material.size() == triangles_before) {
+    material.insert(material.end(), other.material.begin(), other.material.end());
+  }
   if (normals.size() != positions.size()) normals.clear();
   if (albedo.size() != positions.size()) albedo.clear();
   if (part.size() != positions.size()) part.clear();
+  if (material.size() != triangles.size()) material.clear();
 }
 
 TriangleMesh MakeQuad(const Eigen::Vector3f& origin, const Eigen::Vector3f& edge_u, const Eigen::Vector3f& edge_v,

@@ -20,14 +20,19 @@ struct TriangleMesh {
   // piece of a mesh file) the vertex belongs to, for guesses about surfaces no photograph shows
   // (processing/irm: a hidden face takes its own object's reflectance, not the ground's).
   std::vector<int> part;
+  // Per triangle, optional: a material id, the index into a material table the mesh's owner
+  // keeps (radiosity::Mesh::materials: albedo and emission; a scene model's materials).
+  std::vector<int> material;
 
   std::size_t vertex_count() const { return positions.size(); }
   std::size_t triangle_count() const { return triangles.size(); }
-  // False (with the reason) for out-of-range indices, NaN positions or size mismatches.
+  // False (with the reason) for out-of-range indices, NaN positions, size mismatches or a
+  // negative material id (the table's size is its owner's to check).
   bool IsValid(std::string* why) const;
   // Area-weighted vertex normals from the triangles' winding.
   void ComputeVertexNormals();
-  // Appends another mesh (indices shifted).
+  // Appends another mesh (vertex indices shifted, material ids kept: both meshes' ids must refer
+  // to one table). An optional attribute stays only when both meshes have it.
   void Append(const TriangleMesh& other);
 };
 

@@ -22,6 +22,10 @@ namespace relume {
 
 // Triangles with the colours and material names a file gave. Colour sources, first found wins:
 // per-vertex (interpolated), per-face, the owner's (a scene object's albedo).
+// Not a TriangleMesh (core/mesh.h), which the simulator and processing build from it once it is
+// placed: a file's coordinates may be georeferenced (float steps are 3 cm at a UTM easting of
+// 500 km, 50 cm at a northing of 5000 km), so they stay double until placement subtracts the
+// offset (core/scene_model_file.h MeshPlacement).
 struct MeshData {
   std::vector<Eigen::Vector3d> vertices;
   std::vector<Eigen::Vector3i> triangles;      // vertex indices

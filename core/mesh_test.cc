@@ -37,5 +37,37 @@ TEST(MeshTest, ValidationCatchesBadIndices) {
   EXPECT_FALSE(mesh.IsValid(&why));
 }
 
+TEST(MeshTest, MaterialIdsArePerTriangleAndSurviveAppend) {
+  TriangleMesh a = MakeQuad({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 1);  // two triangles
+  std::string why;
+  a.material = {0};
+  EXPECT_FALSE(a.IsValid(&why));
+  EXPECT_NE(why.find("per triangle"), std::string::npos) << why;
+  a.material = {0, -1};
+  EXPECT_FALSE(a.IsValid(&why));
+  EXPECT_NE(why.find("negative"), std::string::npos) << why;
+  a.material = {0, 0};
+  ASSERT_TRUE(a.IsValid(&why)) << why;
+
+  TriangleMesh b = MakeQuad({0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 2);  // eight triangles
+  b.material.assign(b.triangle_count(), 3);
+  TriangleMesh both;
+  both.Append(a);
+  both.Append(b);
+  ASSERT_EQ(both.material.size(), 10u);
+  EXPECT_EQ(both.material[1], 0);
+  EXPECT_EQ(both.material[2], 3);
+  EXPECT_EQ(both.triangles[2], b.triangles[0] + Eigen::Vector3i::Constant(4));
+  EXPECT_TRUE(both.IsValid(&why)) << why;
+
+  // A mesh without ids appended: the ids no longer cover every triangle, so none are kept.
+  both.Append(MakeQuad({0, 0, 2}, {1, 0, 0}, {0, 1, 0}, 1));
+  EXPECT_TRUE(both.material.empty());
+  TriangleMesh none = MakeQuad({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 1);
+  none.Append(b);
+  EXPECT_TRUE(none.material.empty());
+  EXPECT_TRUE(none.IsValid(&why)) << why;
+}
+
 }  // namespace
 }  // namespace relume

@@ -218,7 +218,7 @@ MaterialGroups GroupByTruth(const radiosity::PatchHierarchy& h, const RadiosityS
   for (std::size_t t = 0; t < rs.triangle_object.size(); ++t) {
     const std::optional<Rgb> truth = truth_of(t);
     if (!truth) continue;
-    const std::string& name = rs.mesh.materials[rs.mesh.triangle_material[t]].name;
+    const std::string& name = rs.mesh.MaterialOf(static_cast<int>(t)).name;
     int found = -1;
     for (size_t i = 0; i < g.truth.size(); ++i) {
       if ((g.truth[i] - *truth).cwiseAbs().maxCoeff() < 1e-9) found = static_cast<int>(i);
@@ -259,7 +259,7 @@ MaterialGroups GroupPatches(const radiosity::PatchHierarchy& h, const RadiosityS
 MaterialGroups GroupPatchesFromTruth(const radiosity::PatchHierarchy& h, const RadiosityScene& rs,
                                      const SceneModel& model, const std::map<std::string, Rgb>& truth) {
   return GroupByTruth(h, rs, [&](std::size_t t) -> std::optional<Rgb> {
-    auto it = truth.find(rs.mesh.materials[rs.mesh.triangle_material[t]].name);
+    auto it = truth.find(rs.mesh.MaterialOf(static_cast<int>(t)).name);
     if (it == truth.end()) it = truth.find(model.objects[rs.triangle_object[t]].name);
     if (it == truth.end()) return std::nullopt;
     return it->second;
@@ -656,7 +656,7 @@ Geometry RunGeometryStage(PipelineRun& run, const RadiosityInputs& in) {
   radiosity::HierarchyOptions hopt;
   hopt.max_patch_edge_m = in.knobs.patch_edge_m;
   geo.hierarchy = std::make_unique<radiosity::PatchHierarchy>(geo.scene.mesh, hopt);
-  geo.caster = std::make_unique<RayCaster>(radiosity::ToTriangleMesh(geo.scene.mesh));
+  geo.caster = std::make_unique<RayCaster>(geo.scene.mesh.geometry);
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   geo.key.Add("stage", "radiosity-geometry-v4").Add("scene_model", run.scene_model_json()).Add("device", in.device);
   AddKnobsToKey(geo.key, in.knobs, "geometry");

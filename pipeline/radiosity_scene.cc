@@ -97,9 +97,10 @@ RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::strin
     }
     const bool surface = object.kind == SceneModelObject::Kind::kSurface;
     const Eigen::Vector3d object_center = 0.5 * (object_lo + object_hi);
-    const int base = static_cast<int>(out.mesh.positions_m.size());
+    TriangleMesh& geometry = out.mesh.geometry;
+    const int base = static_cast<int>(geometry.positions.size());
     const int triangles_before = out.mesh.TriangleCount();
-    out.mesh.positions_m.insert(out.mesh.positions_m.end(), object.vertices.begin(), object.vertices.end());
+    for (const Eigen::Vector3d& v : object.vertices) geometry.positions.push_back(v.cast<float>());
     for (std::size_t f = 0; f < object.triangles.size(); ++f) {
       const Eigen::Vector3i& tri = object.triangles[f];
       const Eigen::Vector3d& a = object.vertices[tri[0]];
@@ -113,9 +114,9 @@ RadiosityScene RadiositySceneFromModel(const SceneModel& model, const std::strin
       const bool flip = normal.dot(toward) < 0.0;
       const Eigen::Vector3d facing = flip ? Eigen::Vector3d(-normal) : normal;
       if (!surface && facing.normalized().z() < -0.99 && std::max({a.z(), b.z(), c.z()}) <= floor_z + 1e-3) continue;
-      out.mesh.triangles.push_back(flip ? std::array<int, 3>{base + tri[0], base + tri[2], base + tri[1]}
-                                        : std::array<int, 3>{base + tri[0], base + tri[1], base + tri[2]});
-      out.mesh.triangle_material.push_back(material_for(o, face_material(f), split));
+      geometry.triangles.push_back(Eigen::Vector3i::Constant(base) +
+                                   (flip ? Eigen::Vector3i(tri[0], tri[2], tri[1]) : tri));
+      geometry.material.push_back(material_for(o, face_material(f), split));
       out.triangle_object.push_back(o);
       out.triangle_face.push_back(static_cast<int>(f));
     }

@@ -62,7 +62,9 @@ radiosity::Mesh SceneFromPython(const py::handle& scene) {
   for (const char* key : {"positions", "triangles", "material", "albedo"}) {
     if (!d.contains(key)) throw InvalidArgumentError(std::string("scene: missing key '") + key + "'");
   }
-  mesh.positions_m = Vectors3dFromArray(d["positions"], "scene['positions']");
+  for (const Eigen::Vector3d& p : Vectors3dFromArray(d["positions"], "scene['positions']")) {
+    mesh.geometry.positions.push_back(p.cast<float>());
+  }
   const auto triangles = ContiguousArray<std::int32_t>(py::array::ensure(d["triangles"]), "scene['triangles']");
   if (triangles.ndim() != 2 || triangles.shape(1) != 3) {
     throw InvalidArgumentError("scene['triangles']: expected an (M, 3) int32 array");
@@ -72,8 +74,8 @@ radiosity::Mesh SceneFromPython(const py::handle& scene) {
     throw InvalidArgumentError("scene['material']: expected an (M,) int32 array, one material index per triangle");
   }
   for (py::ssize_t t = 0; t < triangles.shape(0); ++t) {
-    mesh.triangles.push_back({triangles.at(t, 0), triangles.at(t, 1), triangles.at(t, 2)});
-    mesh.triangle_material.push_back(material.at(t));
+    mesh.geometry.triangles.emplace_back(triangles.at(t, 0), triangles.at(t, 1), triangles.at(t, 2));
+    mesh.geometry.material.push_back(material.at(t));
   }
   const std::vector<Eigen::Vector3d> albedo = Vectors3dFromArray(d["albedo"], "scene['albedo']");
   std::vector<Eigen::Vector3d> emission(albedo.size(), Eigen::Vector3d::Zero());
@@ -238,7 +240,7 @@ py::dict SolveRadiosity(const py::object& scene, const py::object& lighting, con
   {
     py::gil_scoped_release release;
     h.emplace(mesh, hierarchy_options);
-    const RayCaster caster(radiosity::ToTriangleMesh(mesh));
+    const RayCaster caster(mesh.geometry);
     patch_albedo = albedo_override.empty() ? h->LeafAlbedo() : albedo_override;
     if (patch_albedo.size() != static_cast<std::size_t>(h->LeafCount())) {
       throw InvalidArgumentError("solve_radiosity: albedo has " + std::to_string(patch_albedo.size()) +
@@ -357,7 +359,7 @@ py::dict EstimateReflectance(const py::object& scene, const py::list& observatio
   {
     py::gil_scoped_release release;
     h.emplace(mesh, hierarchy_options);
-    const RayCaster caster(radiosity::ToTriangleMesh(mesh));
+    const RayCaster caster(mesh.geometry);
     if (!references.is_none()) {
       // The absolute scale from the references first (reference_scale.h), then the albedo at it.
       scale = radiosity::EstimateReferenceScale(*h, caster, observed, ReferencePatches(*h, reference_inputs), options,

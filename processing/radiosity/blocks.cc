@@ -44,7 +44,7 @@ BlockResult EstimateReflectanceInBlocks(const PatchHierarchy& full, const RayCas
   const auto t0 = std::chrono::steady_clock::now();
   const int n = full.LeafCount();
   Eigen::Vector3d origin = Eigen::Vector3d::Constant(INFINITY);
-  for (const auto& p : full.mesh().positions_m) origin = origin.cwiseMin(p);
+  for (const Eigen::Vector3f& p : full.mesh().geometry.positions) origin = origin.cwiseMin(p.cast<double>());
   std::map<Cell, std::vector<int>> cells;
   for (int p = 0; p < n; ++p) cells[CellOf(full.leaf(p).centroid, origin, options.block_size_m)].push_back(p);
 

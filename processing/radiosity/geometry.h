@@ -1,6 +1,6 @@
 // Geometry kernels for radiosity: deterministic sampling of triangles and the hemisphere, and
 // the analytic point-to-polygon form factor. Visibility is relume::RayCaster's
-// (processing/geometry/ray_caster.h, with its offset policy), built on ToTriangleMesh(mesh).
+// (processing/geometry/ray_caster.h, with its offset policy), built on the mesh's geometry.
 //
 // Conventions: see scene.h (metres, one-sided triangles with counter-clockwise fronts).
 // Form factor F(dx -> polygon) is the fraction of the power leaving a Lambertian

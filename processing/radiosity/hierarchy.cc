@@ -22,13 +22,12 @@ bool HierarchyOptions::IsValid(std::string* why) const {
 PatchHierarchy::PatchHierarchy(const Mesh& mesh, const HierarchyOptions& options) : mesh_(mesh) {
   ThrowIfInvalid(options, "radiosity hierarchy options");
   ThrowIfInvalid(mesh, "radiosity mesh");
-  roots_.reserve(mesh.triangles.size());
+  roots_.reserve(static_cast<std::size_t>(mesh.TriangleCount()));
   for (int t = 0; t < mesh.TriangleCount(); ++t) {
-    const auto& idx = mesh.triangles[t];
     Node root;
-    root.triangle = {mesh.positions_m[idx[0]], mesh.positions_m[idx[1]], mesh.positions_m[idx[2]]};
+    root.triangle = {mesh.Corner(t, 0), mesh.Corner(t, 1), mesh.Corner(t, 2)};
     root.root = t;
-    root.material = mesh.triangle_material[t];
+    root.material = mesh.geometry.material[static_cast<std::size_t>(t)];
     roots_.push_back(static_cast<int>(nodes_.size()));
     nodes_.push_back(root);
   }

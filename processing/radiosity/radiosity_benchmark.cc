@@ -31,7 +31,7 @@ const Setup& GetSetup(int edge_mm) {
   HierarchyOptions ho;
   ho.max_patch_edge_m = edge_mm / 1000.0;
   entry->hierarchy = std::make_unique<PatchHierarchy>(entry->room.mesh, ho);
-  entry->caster = std::make_unique<RayCaster>(ToTriangleMesh(entry->room.mesh));
+  entry->caster = std::make_unique<RayCaster>(entry->room.mesh.geometry);
   Lighting lighting;
   lighting.point_lights.push_back({entry->room.lamp_positions_m[0], entry->room.lamp_intensity_w_per_sr});
   entry->direct = ComputeDirectLight(*entry->hierarchy, *entry->caster, lighting, {});

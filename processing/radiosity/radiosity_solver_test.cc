@@ -46,25 +46,30 @@ bool AllFinite(const std::vector<Rgb>& values) {
   return true;
 }
 
-TEST(SceneTest, ToTriangleMeshKeepsVerticesAndTriangleOrder) {
+TEST(SceneTest, TheMeshIsCoreGeometryWithAMaterialIdPerTriangle) {
   Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.5));
   const int box = mesh.AddMaterial({"box", Rgb::Constant(0.3), Rgb::Zero()});
   mesh.AddBox({0.5, 0.5, 0.0}, {1.0, 1.5, 0.7}, box, /*skip_bottom=*/true);
-  const TriangleMesh converted = ToTriangleMesh(mesh);
-  ASSERT_EQ(converted.vertex_count(), mesh.positions_m.size());
-  ASSERT_EQ(converted.triangle_count(), mesh.triangles.size());
-  for (std::size_t i = 0; i < mesh.positions_m.size(); ++i) {
-    EXPECT_EQ(converted.positions[i], mesh.positions_m[i].cast<float>()) << i;
-  }
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    EXPECT_EQ(converted.triangles[t], Eigen::Vector3i(mesh.triangles[t][0], mesh.triangles[t][1], mesh.triangles[t][2]))
-        << t;
-  }
+  std::string why;
+  ASSERT_TRUE(mesh.IsValid(&why)) << why;
+  ASSERT_EQ(mesh.geometry.material.size(), mesh.geometry.triangle_count());
+  EXPECT_EQ(mesh.TriangleCount(), 12 + 10);  // a room of six quads, a box of five
+  EXPECT_EQ(mesh.MaterialOf(mesh.TriangleCount() - 1).name, "box");
+  // The box's top, as given, at float precision.
+  EXPECT_EQ(mesh.Corner(12, 0), Eigen::Vector3f(0.5f, 0.5f, 0.7f).cast<double>());
+  // A material id without its material, or missing for a triangle, is named.
+  mesh.geometry.material.back() = 7;
+  EXPECT_FALSE(mesh.IsValid(&why));
+  EXPECT_NE(why.find("material index out of range"), std::string::npos) << why;
+  mesh.geometry.material.pop_back();
+  EXPECT_FALSE(mesh.IsValid(&why));
+  EXPECT_NE(why.find("one material id per triangle"), std::string::npos) << why;
+  mesh.geometry.material.push_back(box);
   // A ray cast against it names the radiosity mesh's triangle: down onto the box's top.
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   const RayCaster::Hit hit = caster.Intersect({0.75f, 1.0f, 1.5f}, {0, 0, -1}, 0.0f, INFINITY);
   ASSERT_TRUE(hit.valid);
-  EXPECT_EQ(mesh.triangle_material[static_cast<std::size_t>(hit.triangle)], box);
+  EXPECT_EQ(mesh.geometry.material[static_cast<std::size_t>(hit.triangle)], box);
   EXPECT_NEAR(hit.t, 0.8f, 1e-5f);
 }
 
@@ -103,7 +108,7 @@ TEST(FormFactorTest, BackFacingAndBehindGiveZeroAndHorizonClips) {
 TEST(RadiosityTest, ClosedRoomFormFactorsSumToOne) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.5), Rgb::Constant(1.0));
   const PatchHierarchy h(mesh, Edge(0.5));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   const Solved s = SolveWith(h, caster, {});
   double mean = 0.0;
   for (double f : s.solution.form_factor_sum) mean += f;
@@ -116,7 +121,7 @@ TEST(RadiosityTest, FurnaceRoomMatchesAnalyticRadiosity) {
   for (double rho : {0.3, 0.7}) {
     const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(rho), Rgb(1.0, 2.0, 0.5));
     const PatchHierarchy h(mesh, Edge(0.5));
-    const RayCaster caster(ToTriangleMesh(mesh));
+    const RayCaster caster(mesh.geometry);
     RadiosityOptions options;
     options.residual_tolerance = 1e-5;
     const Solved s = SolveWith(h, caster, {}, options);
@@ -135,7 +140,7 @@ TEST(RadiosityTest, FurnaceRoomMatchesAnalyticRadiosity) {
 TEST(RadiosityTest, AlbedoNearOneStopsAndSaysWhy) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.99), Rgb::Constant(1.0));
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   RadiosityOptions options;
   options.residual_tolerance = 1e-4;
   options.max_iterations = 30;
@@ -164,7 +169,7 @@ TEST(RadiosityTest, AlbedoNearOneStopsAndSaysWhy) {
 TEST(RadiosityTest, AlbedoExactlyOneInClosedRoomIsNotContracting) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(1.0), Rgb::Constant(1.0));
   const PatchHierarchy h(mesh, Edge(2.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   RadiosityOptions options;
   options.max_iterations = 400;
   const Solved s = SolveWith(h, caster, {}, options);
@@ -178,7 +183,7 @@ TEST(RadiosityTest, AlbedoExactlyOneInClosedRoomIsNotContracting) {
 TEST(RadiosityTest, NoLightGivesZeroRadiosity) {
   const Mesh mesh = ClosedRoom(2.0, Rgb::Constant(0.5));
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   const Solved s = SolveWith(h, caster, {});
   EXPECT_EQ(s.summary.termination, RadiosityTermination::kNoLight);
   for (const Rgb& b : s.solution.radiosity) EXPECT_EQ(b.norm(), 0.0);
@@ -189,7 +194,7 @@ TEST(RadiosityTest, HierarchicalAgreesWithFullMatrixWithFewerFormFactors) {
   const int box = mesh.AddMaterial({"box", Rgb::Constant(0.3), Rgb::Zero()});
   mesh.AddBox({1.0, 1.0, 0.0}, {2.0, 1.8, 0.8}, box, true);
   const PatchHierarchy h(mesh, Edge(0.8));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   Lighting lighting;
   lighting.point_lights.push_back({Eigen::Vector3d(0.7, 0.6, 2.2), Rgb::Constant(10.0)});
   RadiosityOptions full_options;
@@ -215,7 +220,7 @@ TEST(DirectLightTest, PointLightIrradianceAndShadow) {
   mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   mesh.AddBox({-0.2, 2.8, 0.9}, {0.2, 3.2, 1.0}, m);  // floating occluder above (0, 3)
   const PatchHierarchy h(mesh, Edge(0.2));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   Lighting lighting;
   lighting.point_lights.push_back({Eigen::Vector3d(0, 0, 2), Rgb::Constant(8.0)});
   DirectLightOptions options;
@@ -242,12 +247,10 @@ TEST(DirectLightTest, AtPointsAveragesExactlyThosePointsWithTheirShadows) {
   Mesh mesh;
   const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.5), Rgb::Zero()});
   // The ground is one triangle (one patch: the edge limit is larger than it).
-  mesh.positions_m = {{-10, -10, 0}, {10, -10, 0}, {0, 10, 0}};
-  mesh.triangles = {{0, 1, 2}};
-  mesh.triangle_material = {m};
+  mesh.AddTriangle({-10, -10, 0}, {10, -10, 0}, {0, 10, 0}, m);
   mesh.AddBox({-0.2, 2.8, 0.9}, {0.2, 3.2, 1.0}, m);  // its shadow is centred on (0, 6, 0)
   const PatchHierarchy h(mesh, Edge(100.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   int ground = -1;
   for (int p = 0; p < h.LeafCount(); ++p) {
     if (h.leaf(p).root == 0) ground = p;
@@ -286,7 +289,7 @@ TEST(DirectLightTest, SpotLightFollowsItsConeAndSmoothstepEdge) {
   const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   const PatchHierarchy h(mesh, Edge(0.2));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   PointLight spot{Eigen::Vector3d(0, 0, 2), Rgb::Constant(8.0)};
   spot.spot_direction = Eigen::Vector3d(0, 0, -1);
   spot.cone_half_angle_rad = 30.0 * std::numbers::pi / 180.0;
@@ -327,7 +330,7 @@ TEST(DirectLightTest, PatchFacingAwayGetsNothing) {
   const int m = mesh.AddMaterial({"card", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({0, 0, 0}, {0, 1, 0}, {1, 1, 0}, {1, 0, 0}, m);  // normal -z
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   Lighting lighting;
   lighting.point_lights.push_back({Eigen::Vector3d(0.5, 0.5, 1.0), Rgb::Constant(1.0)});
   const DirectLight d = ComputeDirectLight(h, caster, lighting, {});
@@ -339,7 +342,7 @@ TEST(DirectLightTest, SunAndSkyOnOpenGroundAreExact) {
   const int m = mesh.AddMaterial({"ground", Rgb::Constant(0.2), Rgb::Zero()});
   mesh.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   const PatchHierarchy h(mesh, Edge(3.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   Lighting lighting;
   SunSky sky;
   sky.sun_dir_in_scene = Eigen::Vector3d(0.6, 0.0, 0.8);
@@ -356,7 +359,7 @@ TEST(DirectLightTest, AreaLightMatchesFormFactor) {
   const int m = mesh.AddMaterial({"floor", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({-0.01, -0.01, 0}, {0.01, -0.01, 0}, {0.01, 0.01, 0}, {-0.01, 0.01, 0}, m);
   const PatchHierarchy h(mesh, Edge(1.0));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   Lighting lighting;
   // 2 m square panel 1 m up, facing down: E = pi L F with F from the closed form above.
   lighting.area_lights.push_back(
@@ -377,7 +380,7 @@ TEST(RadiosityTest, TinyAndHugePatchesStayFinite) {
   mesh.AddQuad({-1000, -1000, 0}, {1000, -1000, 0}, {1000, 1000, 0}, {-1000, 1000, 0}, ground);
   mesh.AddBox({0, 0, 0}, {0.001, 0.001, 0.001}, speck, true);
   const PatchHierarchy h(mesh, Edge(1e4));
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   Lighting lighting;
   SunSky sky;
   sky.sun_dir_in_scene = Eigen::Vector3d(0, 0.6, 0.8);
@@ -395,7 +398,7 @@ TEST(IndirectShareTest, OpenGroundSkipsAndRoomDoesNot) {
   const int m = ground.AddMaterial({"ground", Rgb::Constant(0.3), Rgb::Zero()});
   ground.AddQuad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, m);
   const PatchHierarchy hg(ground, Edge(2.0));
-  const RayCaster cg(ToTriangleMesh(ground));
+  const RayCaster cg(ground.geometry);
   Lighting sun;
   sun.sun_sky.push_back({Eigen::Vector3d(0, 0, 1), Rgb::Constant(1000), Rgb::Zero()});
   const DirectLight dg = ComputeDirectLight(hg, cg, sun, {});
@@ -405,7 +408,7 @@ TEST(IndirectShareTest, OpenGroundSkipsAndRoomDoesNot) {
 
   const Mesh room = ClosedRoom(3.0, Rgb::Constant(0.7));
   const PatchHierarchy hr(room, Edge(1.0));
-  const RayCaster cr(ToTriangleMesh(room));
+  const RayCaster cr(room.geometry);
   Lighting lamp;
   lamp.point_lights.push_back({Eigen::Vector3d(1.5, 1.5, 2.5), Rgb::Constant(5.0)});
   const DirectLight dr = ComputeDirectLight(hr, cr, lamp, {});

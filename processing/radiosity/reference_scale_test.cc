@@ -20,7 +20,7 @@ class ReferenceScaleTest : public ::testing::Test {
     HierarchyOptions options;
     options.max_patch_edge_m = 0.6;
     hierarchy_ = std::make_unique<PatchHierarchy>(room_->mesh, options);
-    caster_ = std::make_unique<RayCaster>(ToTriangleMesh(room_->mesh));
+    caster_ = std::make_unique<RayCaster>(room_->mesh.geometry);
     photos_ =
         std::make_unique<std::vector<RadianceObservation>>(testing::RenderPhotographs(*room_, *hierarchy_, *caster_));
   }

@@ -22,7 +22,7 @@ class RoomTest : public ::testing::Test {
     HierarchyOptions options;
     options.max_patch_edge_m = kPatchEdgeM;
     hierarchy_ = std::make_unique<PatchHierarchy>(room_->mesh, options);
-    caster_ = std::make_unique<RayCaster>(ToTriangleMesh(room_->mesh));
+    caster_ = std::make_unique<RayCaster>(room_->mesh.geometry);
     photos_ =
         std::make_unique<std::vector<RadianceObservation>>(testing::RenderPhotographs(*room_, *hierarchy_, *caster_));
   }
@@ -148,7 +148,7 @@ TEST(ReflectanceTest, OpenGroundSkipsRadiosityAndIsExact) {
   HierarchyOptions ho;
   ho.max_patch_edge_m = 2.0;
   const PatchHierarchy h(mesh, ho);
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   RadianceObservation obs;
   obs.lighting.sun_sky.push_back({Eigen::Vector3d(0.0, 0.6, 0.8), Rgb::Constant(1000.0), Rgb::Constant(30.0)});
   const DirectLight direct = ComputeDirectLight(h, caster, obs.lighting, {});
@@ -169,14 +169,12 @@ TEST(ReflectanceTest, PixelPointsMakeTheEstimateExactWherePatchAveragesAreNot) {
   Mesh mesh;
   const Rgb albedo(0.6, 0.5, 0.3);
   const int m = mesh.AddMaterial({"floor", albedo, Rgb::Zero()});
-  mesh.positions_m = {{-10, -10, 0}, {10, -10, 0}, {0, 10, 0}};
-  mesh.triangles = {{0, 1, 2}};
-  mesh.triangle_material = {m};
+  mesh.AddTriangle({-10, -10, 0}, {10, -10, 0}, {0, 10, 0}, m);
   HierarchyOptions ho;
   ho.max_patch_edge_m = 100.0;
   const PatchHierarchy h(mesh, ho);
   ASSERT_EQ(h.LeafCount(), 1);
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   RadianceObservation obs;
   const Eigen::Vector3d lamp(0.5, -0.5, 1.5);
   obs.lighting.point_lights.push_back({lamp, Rgb(20, 18, 15)});
@@ -224,7 +222,7 @@ TEST(ReflectanceTest, WrongSizesAndNoImagesThrow) {
   const int m = mesh.AddMaterial({"a", Rgb::Constant(0.5), Rgb::Zero()});
   mesh.AddQuad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, m);
   const PatchHierarchy h(mesh, HierarchyOptions{});
-  const RayCaster caster(ToTriangleMesh(mesh));
+  const RayCaster caster(mesh.geometry);
   EXPECT_THROW(EstimateReflectance(h, caster, {}, {}), InvalidArgumentError);
   RadianceObservation obs;
   obs.radiance.assign(1, Rgb::Zero());

@@ -19,15 +19,6 @@ bool Fail(std::string* why, const std::string& message) {
 
 }  // namespace
 
-TriangleMesh ToTriangleMesh(const Mesh& mesh) {
-  TriangleMesh out;
-  out.positions.reserve(mesh.positions_m.size());
-  for (const Eigen::Vector3d& p : mesh.positions_m) out.positions.push_back(p.cast<float>());
-  out.triangles.reserve(mesh.triangles.size());
-  for (const std::array<int, 3>& t : mesh.triangles) out.triangles.emplace_back(t[0], t[1], t[2]);
-  return out;
-}
-
 int Mesh::AddMaterial(const Material& material) {
   materials.push_back(material);
   return static_cast<int>(materials.size()) - 1;
@@ -35,11 +26,18 @@ int Mesh::AddMaterial(const Material& material) {
 
 void Mesh::AddQuad(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
                    const Eigen::Vector3d& d, int material) {
-  const int base = static_cast<int>(positions_m.size());
-  positions_m.insert(positions_m.end(), {a, b, c, d});
-  triangles.push_back({base, base + 1, base + 2});
-  triangles.push_back({base, base + 2, base + 3});
-  triangle_material.insert(triangle_material.end(), {material, material});
+  const int base = static_cast<int>(geometry.positions.size());
+  for (const Eigen::Vector3d* p : {&a, &b, &c, &d}) geometry.positions.push_back(p->cast<float>());
+  geometry.triangles.emplace_back(base, base + 1, base + 2);
+  geometry.triangles.emplace_back(base, base + 2, base + 3);
+  geometry.material.insert(geometry.material.end(), {material, material});
+}
+
+void Mesh::AddTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, int material) {
+  const int base = static_cast<int>(geometry.positions.size());
+  for (const Eigen::Vector3d* p : {&a, &b, &c}) geometry.positions.push_back(p->cast<float>());
+  geometry.triangles.emplace_back(base, base + 1, base + 2);
+  geometry.material.push_back(material);
 }
 
 void Mesh::AddBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int material, bool skip_bottom) {
@@ -67,13 +65,12 @@ void Mesh::AddRoom(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int flo
 }
 
 bool Mesh::IsValid(std::string* why) const {
-  if (triangles.empty()) return Fail(why, "mesh has no triangles");
-  if (triangle_material.size() != triangles.size()) {
-    return Fail(why, "triangle_material must have one entry per triangle");
+  if (geometry.triangles.empty()) return Fail(why, "mesh has no triangles");
+  if (geometry.material.size() != geometry.triangles.size()) {
+    return Fail(why, "geometry.material must have one material id per triangle");
   }
-  for (const auto& p : positions_m) {
-    if (!Finite(p)) return Fail(why, "mesh has a non-finite vertex position");
-  }
+  std::string reason;
+  if (!geometry.IsValid(&reason)) return Fail(why, "mesh: " + reason);
   for (size_t m = 0; m < materials.size(); ++m) {
     const Material& mat = materials[m];
     if (!mat.albedo.allFinite() || mat.albedo.minCoeff() < 0.0 || mat.albedo.maxCoeff() > 1.0) {
@@ -83,18 +80,13 @@ bool Mesh::IsValid(std::string* why) const {
       return Fail(why, "material '" + mat.name + "': emitted_radiosity must be finite and >= 0");
     }
   }
-  const int n_pos = static_cast<int>(positions_m.size());
-  for (size_t t = 0; t < triangles.size(); ++t) {
-    for (int i : triangles[t]) {
-      if (i < 0 || i >= n_pos) return Fail(why, "triangle " + std::to_string(t) + " has a vertex index out of range");
-    }
-    const int m = triangle_material[t];
+  for (int t = 0; t < TriangleCount(); ++t) {
+    const int m = geometry.material[static_cast<std::size_t>(t)];
     if (m < 0 || m >= static_cast<int>(materials.size())) {
       return Fail(why, "triangle " + std::to_string(t) + " has a material index out of range");
     }
-    const auto& tri = triangles[t];
-    const Eigen::Vector3d e1 = positions_m[tri[1]] - positions_m[tri[0]];
-    const Eigen::Vector3d e2 = positions_m[tri[2]] - positions_m[tri[0]];
+    const Eigen::Vector3d e1 = Corner(t, 1) - Corner(t, 0);
+    const Eigen::Vector3d e2 = Corner(t, 2) - Corner(t, 0);
     const double area = 0.5 * e1.cross(e2).norm();
     const double scale = std::max(e1.squaredNorm(), e2.squaredNorm());
     if (!(area > 1e-12 * scale) || !(area > 0.0)) {

@@ -30,10 +30,12 @@ struct Material {
   Rgb emitted_radiosity = Rgb::Zero();  // self-emission, W m^-2 (0 for non-luminaires)
 };
 
+// The scene's surfaces: core's triangle mesh, whose per-triangle material ids index `materials`.
+// The same TriangleMesh is what relume::RayCaster takes (`const RayCaster caster(mesh.geometry);`),
+// so a triangle index means the same to the solver and to the rays. Positions are float metres
+// in the scene frame (a local frame: sub-micrometre steps within kilometres of its origin).
 struct Mesh {
-  std::vector<Eigen::Vector3d> positions_m;
-  std::vector<std::array<int, 3>> triangles;  // indices into positions_m
-  std::vector<int> triangle_material;         // one per triangle, index into materials
+  TriangleMesh geometry;  // positions, triangles and material (one id per triangle); the rest unused
   std::vector<Material> materials;
 
   // Adds a material and returns its index.
@@ -41,6 +43,8 @@ struct Mesh {
   // Adds the planar quad a, b, c, d (counter-clockwise seen from its front) as two triangles.
   void AddQuad(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d,
                int material);
+  // Adds the triangle a, b, c (counter-clockwise seen from its front).
+  void AddTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, int material);
   // Adds an axis-aligned box [lo, hi] with outward-facing sides. `skip_bottom` leaves out the
   // face at z = lo.z (a box resting on the floor).
   void AddBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int material, bool skip_bottom = false);
@@ -48,16 +52,21 @@ struct Mesh {
   // ceiling and four walls, each with its own material index.
   void AddRoom(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int floor, int ceiling, int walls);
 
-  int TriangleCount() const { return static_cast<int>(triangles.size()); }
-  // False with the reason for: bad indices, non-finite positions, degenerate (zero-area)
-  // triangles, albedo outside [0, 1], negative or non-finite emission.
+  int TriangleCount() const { return static_cast<int>(geometry.triangles.size()); }
+  // Corner k (0-2) of triangle t, in double precision for the solver's geometry.
+  Eigen::Vector3d Corner(int t, int k) const {
+    return geometry.positions[static_cast<std::size_t>(geometry.triangles[static_cast<std::size_t>(t)][k])]
+        .cast<double>();
+  }
+  // Triangle t's material.
+  const Material& MaterialOf(int t) const {
+    return materials[static_cast<std::size_t>(geometry.material[static_cast<std::size_t>(t)])];
+  }
+  // False with the reason for: bad indices, a material id missing or out of range, non-finite
+  // positions, degenerate (zero-area) triangles, albedo outside [0, 1], negative or non-finite
+  // emission.
   bool IsValid(std::string* why) const;
 };
-
-// The mesh as core's TriangleMesh (float positions, the same vertices and triangles in the same
-// order, so a triangle index means the same in both; no normals or albedo), for
-// relume::RayCaster: `const RayCaster caster(ToTriangleMesh(mesh));`. Materials stay here.
-TriangleMesh ToTriangleMesh(const Mesh& mesh);
 
 // A point lamp: isotropic, or a spot when spot_direction is non-zero. A spot has full
 // intensity within cone_half_angle_rad - falloff_rad of spot_direction and falls smoothly

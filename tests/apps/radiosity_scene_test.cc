@@ -36,9 +36,7 @@ TEST(RadiositySceneTest, RoomPlanesFaceInwardAndBoxesOutward) {
     for (const Eigen::Vector3d& v : scene.objects[o].mesh.vertices) object_center += v;
     object_center /= static_cast<double>(scene.objects[o].mesh.vertices.size());
     for (int k = 0; k < rs.object_triangles[o]; ++k, ++t) {
-      const auto& tri = rs.mesh.triangles[t];
-      const Eigen::Vector3d a = rs.mesh.positions_m[tri[0]], b = rs.mesh.positions_m[tri[1]],
-                            c = rs.mesh.positions_m[tri[2]];
+      const Eigen::Vector3d a = rs.mesh.Corner(t, 0), b = rs.mesh.Corner(t, 1), c = rs.mesh.Corner(t, 2);
       const Eigen::Vector3d normal = (b - a).cross(c - a).normalized();
       const Eigen::Vector3d centroid = (a + b + c) / 3.0;
       if (scene.objects[o].shape == sim::SceneObject::Shape::kPlane) {
@@ -80,7 +78,7 @@ TEST(RadiositySceneTest, AChartKeepsOneMaterialPerPatchWithItsKnownAlbedo) {
   int known = 0;
   for (int t = 0; t < rs.mesh.TriangleCount(); ++t) {
     const int o = rs.triangle_object[t];
-    const int m = rs.mesh.triangle_material[t];
+    const int m = rs.mesh.geometry.material[static_cast<std::size_t>(t)];
     // Each triangle's material is its scene model face's.
     const SceneModelObject& object = model.objects[o];
     const int face_material = object.face_material[rs.triangle_face[t]];
@@ -110,7 +108,7 @@ TEST(RadiositySceneTest, PixelPatchesLieOnTheObjectTheRendererHits) {
   radiosity::HierarchyOptions options;
   options.max_patch_edge_m = 0.5;
   const radiosity::PatchHierarchy h(rs.mesh, options);
-  const RayCaster caster(radiosity::ToTriangleMesh(rs.mesh));
+  const RayCaster caster(rs.mesh.geometry);
   // Every leaf's centroid maps back to that leaf.
   for (int p = 0; p < h.LeafCount(); ++p) ASSERT_EQ(PatchAt(h, h.leaf(p).root, h.leaf(p).centroid), p);
 

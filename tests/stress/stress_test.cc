@@ -395,13 +395,13 @@ TEST_F(StressTest, RadiosityWithAlbedoNearOneStopsWithAReasonAndStaysFinite) {
         {"lamp", radiosity::Rgb::Constant(albedo), lit ? radiosity::Rgb(1.0, 2.0, 0.5) : radiosity::Rgb::Zero()});
     mesh.AddRoom({0, 0, 0}, {2, 2, 2}, /*floor=*/lamp, /*ceiling=*/wall, /*walls=*/wall);
     if (!closed) {  // without its ceiling (triangles 2 and 3) the room is a box open to the sky
-      mesh.triangles.erase(mesh.triangles.begin() + 2, mesh.triangles.begin() + 4);
-      mesh.triangle_material.erase(mesh.triangle_material.begin() + 2, mesh.triangle_material.begin() + 4);
+      mesh.geometry.triangles.erase(mesh.geometry.triangles.begin() + 2, mesh.geometry.triangles.begin() + 4);
+      mesh.geometry.material.erase(mesh.geometry.material.begin() + 2, mesh.geometry.material.begin() + 4);
     }
     radiosity::HierarchyOptions hierarchy_options;
     hierarchy_options.max_patch_edge_m = 0.5 + 1.5 * u(rng);
     const radiosity::PatchHierarchy h(mesh, hierarchy_options);
-    const RayCaster caster(radiosity::ToTriangleMesh(mesh));
+    const RayCaster caster(mesh.geometry);
     radiosity::RadiosityOptions options;
     options.max_iterations = 150;
     options.residual_tolerance = 1e-3;

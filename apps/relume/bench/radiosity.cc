@@ -22,7 +22,7 @@ RadiosityRoom::RadiosityRoom(int lamp_count, double patch_edge_m, double albedo_
   rs::HierarchyOptions options;
   options.max_patch_edge_m = patch_edge_m;
   hierarchy = std::make_unique<rs::PatchHierarchy>(room.mesh, options);
-  caster = std::make_unique<RayCaster>(rs::ToTriangleMesh(room.mesh));
+  caster = std::make_unique<RayCaster>(room.mesh.geometry);
   photos = rs::testing::RenderPhotographs(room, *hierarchy, *caster);
 }
 
@@ -55,7 +55,7 @@ void BenchSolve(bool quick, std::vector<Row>& rows) {
                                  {0.4, 5e-3, 4, 1e-2}, {0.4, 2e-2, 4, 1e-2}, {0.4, 1e-2, 1, 1e-2},
                                  {0.4, 1e-2, 8, 1e-2}, {0.4, 1e-2, 4, 1e-1}, {0.4, 1e-2, 4, 1e-3}};
   const rs::testing::TestRoom room = rs::testing::MakeTestRoom(1);
-  const RayCaster caster(rs::ToTriangleMesh(room.mesh));
+  const RayCaster caster(room.mesh.geometry);
   double edge_m = -1.0;
   std::unique_ptr<rs::PatchHierarchy> hierarchy;
   rs::DirectLight direct;
