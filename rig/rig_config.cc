@@ -367,6 +367,25 @@ void ParseSimDevices(const YamlFile& file, const std::vector<YAML::Node>& sim_de
 
 }  // namespace
 
+// A rig that plays a session back stores RGB-D frames as that session stored them, unless it
+// says otherwise: replaying float-metre depth into 16-bit millimetres would quantise it (and the
+// sh pipeline would then see stairs the recording does not have).
+void StoreAsRecorded(const YAML::Node& root, const RigDevices& devices, RigConfig& rig) {
+  if (!devices.playback_session || (root["rgbd_depth"] && root["rgbd_format"])) return;
+  const capture::SessionReader session(*devices.playback_session);
+  for (const capture::FrameRecord& frame : session.Frames()) {
+    if (frame.stream != "depth") continue;
+    if (!root["rgbd_depth"]) {
+      rig.storage.depth_units =
+          frame.bits_per_sample == 32 ? capture::DepthUnits::kMetres : capture::DepthUnits::kMillimetres;
+    }
+    if (!root["rgbd_format"] && (frame.file_format == "png" || frame.file_format == "exr")) {
+      rig.storage.rgbd_format = capture::RgbdFileFormat::kPng;
+    }
+    return;
+  }
+}
+
 RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override) {
   const YamlFile file(path);
   const YAML::Node& root = file.root();
@@ -386,6 +405,7 @@ RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string
   ParseSchedule(file, root, rig);
   ParseRecorderOptions(file, root, rig);
   ParseStorage(file, root, rig);
+  StoreAsRecorded(root, devices, rig);
   ParseSimDevices(file, devices.sim_devices, rig);
   std::string why;
   if (!rig.recorder.IsValid(&why)) throw ConfigError(path, 0, "", why);

@@ -13,6 +13,7 @@
 //   rgbd_burst_frames: 30                    # RGB-D frames per trigger (0 = stream continuously)
 //   rgbd_format: tiff                        # RGB-D files: tiff (zstd, default) or png
 //   rgbd_depth: millimetres                  # depth: millimetres (16-bit, default) or metres (float)
+//                                            # (rigs playing a session back: as it was recorded)
 //   devices:                                 # sim device specs (sim/devices/sim_backend.h), where
 //     - id: dslr                             # `scene_camera: NAME` may replace `camera:` to take
 //       scene_camera: street                 # the pose, size and field of view of a scene camera
