@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "capture/rgbd_geometry.h"
+#include "capture/scene_model_record.h"
 #include "core/error.h"
 #include "drivers/device_error.h"
 
@@ -410,6 +411,40 @@ std::unique_ptr<drivers::RgbdSensor> PlaybackBackend::OpenRgbdSensor(const drive
     throw InvalidArgumentError(info.FullId() + " is a still camera, not an RGB-D sensor");
   }
   return std::make_unique<PlaybackRgbdSensor>(recording_, info, options_);
+}
+
+std::vector<CalibrationRecord> CarriedCalibrations(const SessionReader& recorded,
+                                                   const std::map<std::string, std::string>& device_ids) {
+  const std::vector<CalibrationRecord> rows = recorded.Calibrations();
+  std::vector<CalibrationRecord> out;
+  for (const CalibrationRecord& row : rows) {
+    if (row.kind != "response" && row.kind != "profile") continue;
+    const auto played = device_ids.find(row.device_id);
+    if (played == device_ids.end()) continue;
+    CalibrationRecord copy = row;
+    copy.id = 0;
+    copy.device_id = played->second;
+    copy.source_frame_ids.clear();
+    out.push_back(std::move(copy));
+  }
+  if (const CalibrationRecord* row = LatestSceneModelRow(rows)) {
+    SceneModel model =
+        SceneModelFromJson(row->json, "calibration row " + std::to_string(row->id) + " of " + recorded.dir().string());
+    std::vector<SceneModelCamera> cameras;
+    for (SceneModelCamera& camera : model.cameras) {
+      const auto played = device_ids.find(camera.device_id);
+      if (played == device_ids.end()) continue;
+      camera.device_id = played->second;
+      cameras.push_back(std::move(camera));
+    }
+    model.cameras = std::move(cameras);
+    CalibrationRecord copy = *row;
+    copy.id = 0;
+    copy.json = SceneModelToJson(model);
+    copy.source_frame_ids.clear();
+    out.push_back(std::move(copy));
+  }
+  return out;
 }
 
 }  // namespace relume::capture

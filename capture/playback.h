@@ -82,6 +82,19 @@ class PlaybackBackend : public drivers::Backend {
   PlaybackOptions options_;
 };
 
+// The calibrations a session recorded through playback inherits from the recorded session, so
+// that processing the replay uses what processing the recording used. `device_ids` maps each
+// played device's recorded full id ("sim:rgbd") to its id in the new session
+// ("playback:sim:rgbd"). Carried, in the recorded order and with their creation times:
+//  - each played device's "response" and "profile" rows (measurements of the camera, which the
+//    replayed frames share byte for byte);
+//  - the latest scene model, its cameras renamed; cameras of devices not played are left out.
+// Not carried: rgbd_geometry rows (the writer stores them with the replayed frames) and rows of
+// devices not played. Source frame ids are dropped: they name frames of the recorded session.
+// IoError when a scene model row is unreadable.
+std::vector<CalibrationRecord> CarriedCalibrations(const SessionReader& recorded,
+                                                   const std::map<std::string, std::string>& device_ids);
+
 // A recorded still camera played back; recorded_brackets() is what the recorder follows.
 class PlaybackStillCamera : public drivers::StillCamera {
  public:

@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <functional>
 #include <iostream>
+#include <map>
+#include <optional>
 
 #include "apps/relume/device_backends.h"
 #include "capture/playback.h"
@@ -240,10 +242,34 @@ std::vector<OpenedDevice> OpenRigDevices(const std::shared_ptr<drivers::DeviceRe
   return opened;
 }
 
+// A rig that plays a recorded session back: the recorded session's calibrations of the played
+// devices go into the new session (capture::CarriedCalibrations), so processing the replay uses
+// the responses, profiles and scene model that processing the recording used.
+void CarryPlaybackCalibrations(const rig::RigConfig& rig, const std::vector<OpenedDevice>& opened,
+                               capture::SessionWriter& writer) {
+  std::optional<std::string> session;
+  for (const rig::RegistryDeviceSpec& spec : rig.registry_devices) {
+    if (spec.backend == "playback") session = spec.session;
+  }
+  if (!session) return;
+  std::map<std::string, std::string> device_ids;
+  for (const OpenedDevice& device : opened) {
+    const drivers::DeviceInfo& info = device.camera ? device.camera->info() : device.sensor->info();
+    if (info.backend == "playback") device_ids[info.id] = info.FullId();
+  }
+  const std::vector<capture::CalibrationRecord> carried =
+      capture::CarriedCalibrations(capture::SessionReader(*session), device_ids);
+  for (const capture::CalibrationRecord& record : carried) writer.AddCalibration(record);
+  if (!carried.empty()) {
+    std::cerr << "relume capture: " << carried.size() << " calibration row(s) of the played devices carried over from "
+              << *session << "\n";
+  }
+}
+
 // The session folder, with the rig stored beside it (processing finds the geometry and cameras
 // there).
 std::unique_ptr<capture::SessionWriter> CreateSession(const CaptureRequest& request, const rig::RigConfig& rig,
-                                                      const Clock& clock) {
+                                                      const Clock& clock, const std::vector<OpenedDevice>& opened) {
   capture::SessionInfo info;
   info.name = rig.name;
   info.site = rig.site;
@@ -266,6 +292,7 @@ std::unique_ptr<capture::SessionWriter> CreateSession(const CaptureRequest& requ
     for (const capture::CalibrationRecord& response : rig::FactoryResponseRecords(rig, info.created_utc))
       writer->AddCalibration(response);
   }
+  CarryPlaybackCalibrations(rig, opened, *writer);
   return writer;
 }
 
@@ -327,7 +354,7 @@ int RunCapture(const CaptureRequest& request) {
   // Every device is found, opened and set up (camera settings, RGB-D stream) before a session
   // folder is made: a missing device or a setting the camera refuses leaves nothing behind.
   std::vector<OpenedDevice> opened = OpenRigDevices(registry, rig);
-  std::unique_ptr<capture::SessionWriter> writer = CreateSession(request, rig, *clock);
+  std::unique_ptr<capture::SessionWriter> writer = CreateSession(request, rig, *clock, opened);
 
   capture::Recorder recorder(*writer, *clock, rig.recorder);
   for (OpenedDevice& device : opened) {

@@ -11,6 +11,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -311,6 +312,66 @@ TEST(ShPipelineCliTest, ADistortedColourLensIsUndistortedWithItsRegisteredDepth)
   EXPECT_EQ(c["decisions"].dump().find("undistorted"), std::string::npos);
   EXPECT_LT(relit(b), relit(f) * 1.1 + 0.002);
   EXPECT_LT(relit(b), relit(c));
+  fs::remove_all(root);
+}
+
+// A session recorded again through playback (`backend: playback`) carries the recorded session's
+// factory response and scene model: the replay is relit exactly as the recording is, not
+// through an sRGB guess in the camera frame.
+TEST(ShPipelineCliTest, AReplayedSessionIsRelitAsTheRecordingIs) {
+  const fs::path root = TempDir("replay");
+  const fs::path recorded = Capture(root, "sim-sh-moving-light-ideal.yaml");
+  const fs::path rig = root / "replay.yaml";
+  std::ofstream(rig) << "name: replay\nschedule: {count: 1}\nrgbd_burst_frames: 4\ndevices:\n"
+                        "  - {backend: playback, session: "
+                     << recorded.string() << ", device: \"sim:rgbd\"}\n";
+  const fs::path replayed = root / "replayed";
+  const auto r = RunRelume("capture --rig " + rig.string() + " --out " + replayed.string() + " --no-progress");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("2 calibration row(s) of the played devices carried over"), std::string::npos) << r.output;
+  const capture::SessionReader replay(replayed);
+  // Stored as recorded (float metres, not 16-bit millimetres): the same files, byte for byte.
+  std::vector<std::string> sums_recorded, sums_replayed;
+  for (const capture::FrameRecord& f : capture::SessionReader(recorded).Frames()) sums_recorded.push_back(f.sha256);
+  for (const capture::FrameRecord& f : replay.Frames()) sums_replayed.push_back(f.sha256);
+  EXPECT_EQ(sums_replayed, sums_recorded);
+  int responses = 0;
+  for (const capture::CalibrationRecord& row : replay.Calibrations()) {
+    if (row.kind == "response") {
+      ++responses;
+      EXPECT_EQ(row.device_id, "playback:sim:rgbd");
+      EXPECT_TRUE(row.source_frame_ids.empty());
+    }
+  }
+  EXPECT_EQ(responses, 1);
+  const std::optional<SceneModel> model = capture::LatestSceneModel(replayed);
+  ASSERT_TRUE(model.has_value());
+  ASSERT_EQ(model->cameras.size(), 1u);
+  EXPECT_EQ(model->cameras[0].device_id, "playback:sim:rgbd");
+
+  const nlohmann::json a = Process(recorded, root / "recorded-out", "--set compare_truth=false");
+  const nlohmann::json b = Process(replayed, root / "replayed-out", "--set compare_truth=false");
+  EXPECT_EQ(b["decisions"].dump().find("assuming the sRGB"), std::string::npos) << b["decisions"].dump(1);
+  EXPECT_NE(b["decisions"].dump().find("pose from the scene model"), std::string::npos) << b["decisions"].dump(1);
+  std::vector<std::string> relit_a, relit_b;
+  for (const nlohmann::json& o : a["outputs"]) {
+    if (o["path"].get<std::string>().find("relit.exr") != std::string::npos) relit_a.push_back(o["path"]);
+  }
+  for (const nlohmann::json& o : b["outputs"]) {
+    if (o["path"].get<std::string>().find("relit.exr") != std::string::npos) relit_b.push_back(o["path"]);
+  }
+  ASSERT_EQ(relit_a.size(), 3u);
+  ASSERT_EQ(relit_b.size(), relit_a.size());
+  for (std::size_t i = 0; i < relit_a.size(); ++i) {
+    const cv::Mat x = calibration::LoadRadianceExr((root / "recorded-out" / relit_a[i]).string()).pixels;
+    const cv::Mat y = calibration::LoadRadianceExr((root / "replayed-out" / relit_b[i]).string()).pixels;
+    ASSERT_EQ(x.size(), y.size());
+    // NaN where not relit, in both at the same pixels: compare with NaN mapped to a sentinel.
+    cv::Mat xa = x.clone(), ya = y.clone();
+    cv::patchNaNs(xa, -1.0);
+    cv::patchNaNs(ya, -1.0);
+    EXPECT_EQ(cv::norm(xa, ya, cv::NORM_INF), 0.0) << relit_a[i] << " vs " << relit_b[i];
+  }
   fs::remove_all(root);
 }
 

@@ -2,15 +2,15 @@
 // into a new session with the recorder, and compare the two frame by frame.
 #include "capture/playback.h"
 
-#include <unistd.h>
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 
 #include "capture/recorder.h"
 #include "capture/rgbd_geometry.h"
+#include "capture/scene_model_record.h"
 #include "capture/session_check.h"
 #include "drivers/device_error.h"
 #include "sim/devices/sim_backend.h"
@@ -56,7 +56,8 @@ bool SameDouble(double a, double b) {
 class PlaybackTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    root_ = fs::path(::testing::TempDir()) / ("playback_test_" + std::to_string(::getpid()));  // ctest runs cases in parallel
+    root_ = fs::path(::testing::TempDir()) /
+            ("playback_test_" + std::to_string(::getpid()));  // ctest runs cases in parallel
     fs::remove_all(root_);
     // A shutter-list camera (14-bit raw, stored as TIFF) and an RGB-D sensor at 320x240
     // recording 3 frames per trigger, two triggers an hour apart on an event-driven clock.
@@ -232,6 +233,55 @@ TEST_F(PlaybackTest, RgbdFramesArePacedAtTheRecordedIntervalsOnTheClock) {
   absent.backend = "playback";
   absent.id = "sim:nope";
   EXPECT_THROW(playback.OpenStillCamera(absent), drivers::DeviceError);
+}
+
+// What a replay inherits: the played devices' response and profile rows and the latest scene
+// model, renamed; nothing of devices not played; no rgbd_geometry row; no recorded frame ids.
+TEST(CarriedCalibrationsTest, OnlyThePlayedDevicesCalibrationsAreCarriedRenamed) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("carried_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  ManualClock clock(sim::testing::RigStart());
+  {
+    auto writer = SessionWriter::Create(dir, Info(clock));
+    const auto model_with = [](const std::vector<std::string>& devices) {
+      SceneModel model;
+      model.source = "test";
+      model.site = Site::FromDegrees(37.97, 23.72, 150);
+      for (const std::string& id : devices) {
+        SceneModelCamera camera;
+        camera.device_id = id;
+        camera.camera.intrinsics = PinholeIntrinsics::FromHorizontalFov(320, 240, 1.0);
+        model.cameras.push_back(camera);
+      }
+      return SceneModelToJson(model);
+    };
+    const UtcTime t = clock.NowUtc();
+    writer->AddCalibration({0, t, kSceneModelKind, "", model_with({"sim:dslr"}), {}});  // older: not carried
+    writer->AddCalibration({0, t, "response", "sim:dslr", "{\"dslr\": 1}", {4, 5}});
+    writer->AddCalibration({0, t, "profile", "sim:rgbd", "{\"rgbd\": 1}", {}});
+    writer->AddCalibration({0, t, "response", "sim:other", "{}", {}});
+    writer->AddCalibration({0, t, kRgbdGeometryKind, "sim:rgbd", "{}", {}});
+    writer->AddCalibration({0, t, kSceneModelKind, "", model_with({"sim:other", "sim:rgbd", "sim:dslr"}), {}});
+  }
+  const std::vector<CalibrationRecord> carried =
+      CarriedCalibrations(SessionReader(dir), {{"sim:dslr", "playback:sim:dslr"}, {"sim:rgbd", "playback:sim:rgbd"}});
+  ASSERT_EQ(carried.size(), 3u);
+  EXPECT_EQ(carried[0].kind, "response");
+  EXPECT_EQ(carried[0].device_id, "playback:sim:dslr");
+  EXPECT_EQ(carried[0].json, "{\"dslr\": 1}");
+  EXPECT_TRUE(carried[0].source_frame_ids.empty());
+  EXPECT_EQ(carried[1].kind, "profile");
+  EXPECT_EQ(carried[1].device_id, "playback:sim:rgbd");
+  ASSERT_EQ(carried[2].kind, kSceneModelKind);
+  const SceneModel model = SceneModelFromJson(carried[2].json, "carried");
+  ASSERT_EQ(model.cameras.size(), 2u);
+  EXPECT_EQ(model.cameras[0].device_id, "playback:sim:rgbd");
+  EXPECT_EQ(model.cameras[1].device_id, "playback:sim:dslr");
+  // A device list that plays nothing of this session carries nothing but the scene model's frame.
+  const std::vector<CalibrationRecord> none = CarriedCalibrations(SessionReader(dir), {});
+  ASSERT_EQ(none.size(), 1u);
+  EXPECT_TRUE(SceneModelFromJson(none[0].json, "carried").cameras.empty());
+  fs::remove_all(dir);
 }
 
 }  // namespace
