@@ -13,6 +13,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <vector>
 
 #include "apps/relume/device_backends.h"
 #include "capture/playback.h"
@@ -257,8 +258,13 @@ void CarryPlaybackCalibrations(const rig::RigConfig& rig, const std::vector<Open
     const drivers::DeviceInfo& info = device.camera ? device.camera->info() : device.sensor->info();
     if (info.backend == "playback") device_ids[info.id] = info.FullId();
   }
-  const std::vector<capture::CalibrationRecord> carried =
+  std::vector<capture::CalibrationRecord> carried =
       capture::CarriedCalibrations(capture::SessionReader(*session), device_ids);
+  // A rig that also has a simulated world stores that world's scene model, which must stay the
+  // latest (the recorded one would drop its cameras and objects).
+  if (rig.world) {
+    std::erase_if(carried, [](const capture::CalibrationRecord& r) { return r.kind == capture::kSceneModelKind; });
+  }
   for (const capture::CalibrationRecord& record : carried) writer.AddCalibration(record);
   if (!carried.empty()) {
     std::cerr << "relume capture: " << carried.size() << " calibration row(s) of the played devices carried over from "
