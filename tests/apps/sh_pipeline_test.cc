@@ -349,6 +349,30 @@ TEST(ShPipelineCliTest, AReplayedSessionIsRelitAsTheRecordingIs) {
   ASSERT_EQ(model->cameras.size(), 1u);
   EXPECT_EQ(model->cameras[0].device_id, "playback:sim:rgbd");
 
+  // A rig with a simulated world of its own that also plays the session back keeps the world's
+  // scene model (the recorded one would drop its cameras): only the response is carried.
+  const fs::path mixed_rig = root / "mixed.yaml";
+  std::ofstream(mixed_rig) << "name: mixed\nscene: " << kSource
+                           << "/tests/data/scenes/sh-moving-light.yaml\n"
+                              "clock: {start: \"2026-03-20T12:00:00+01:00\", mode: event}\n"
+                              "schedule: {every_minutes: 1, count: 1}\nrgbd_burst_frames: 4\ndevices:\n"
+                              "  - {id: rgbd, kind: rgbd_sensor, scene_camera: rgbd}\n"
+                              "  - {backend: playback, session: "
+                           << recorded.string() << ", device: \"sim:rgbd\"}\n";
+  const auto m =
+      RunRelume("capture --rig " + mixed_rig.string() + " --out " + (root / "mixed").string() + " --no-progress");
+  ASSERT_EQ(m.exit_code, 0) << m.output;
+  EXPECT_NE(m.output.find("1 calibration row(s) of the played devices carried over"), std::string::npos) << m.output;
+  int scene_models = 0;
+  for (const capture::CalibrationRecord& row : capture::SessionReader(root / "mixed").Calibrations()) {
+    scene_models += row.kind == capture::kSceneModelKind;
+  }
+  EXPECT_EQ(scene_models, 1);
+  const std::optional<SceneModel> world_model = capture::LatestSceneModel(root / "mixed");
+  ASSERT_TRUE(world_model.has_value());
+  ASSERT_EQ(world_model->cameras.size(), 1u);
+  EXPECT_EQ(world_model->cameras[0].device_id, "sim:rgbd");
+
   const nlohmann::json a = Process(recorded, root / "recorded-out", "--set compare_truth=false");
   const nlohmann::json b = Process(replayed, root / "replayed-out", "--set compare_truth=false");
   EXPECT_EQ(b["decisions"].dump().find("assuming the sRGB"), std::string::npos) << b["decisions"].dump(1);
