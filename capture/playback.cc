@@ -414,7 +414,8 @@ std::unique_ptr<drivers::RgbdSensor> PlaybackBackend::OpenRgbdSensor(const drive
 }
 
 std::vector<CalibrationRecord> CarriedCalibrations(const SessionReader& recorded,
-                                                   const std::map<std::string, std::string>& device_ids) {
+                                                   const std::map<std::string, std::string>& device_ids,
+                                                   bool with_scene_model) {
   const std::vector<CalibrationRecord> rows = recorded.Calibrations();
   std::vector<CalibrationRecord> out;
   for (const CalibrationRecord& row : rows) {
@@ -427,7 +428,8 @@ std::vector<CalibrationRecord> CarriedCalibrations(const SessionReader& recorded
     copy.source_frame_ids.clear();
     out.push_back(std::move(copy));
   }
-  if (const CalibrationRecord* row = LatestSceneModelRow(rows)) {
+  const CalibrationRecord* row = with_scene_model ? LatestSceneModelRow(rows) : nullptr;
+  if (row != nullptr) {
     SceneModel model =
         SceneModelFromJson(row->json, "calibration row " + std::to_string(row->id) + " of " + recorded.dir().string());
     std::vector<SceneModelCamera> cameras;

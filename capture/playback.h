@@ -91,9 +91,11 @@ class PlaybackBackend : public drivers::Backend {
 //  - the latest scene model, its cameras renamed; cameras of devices not played are left out.
 // Not carried: rgbd_geometry rows (the writer stores them with the replayed frames) and rows of
 // devices not played. Source frame ids are dropped: they name frames of the recorded session.
+// `with_scene_model` false: no scene model (a rig with a simulated world stores its own).
 // IoError when a scene model row is unreadable.
 std::vector<CalibrationRecord> CarriedCalibrations(const SessionReader& recorded,
-                                                   const std::map<std::string, std::string>& device_ids);
+                                                   const std::map<std::string, std::string>& device_ids,
+                                                   bool with_scene_model = true);
 
 // A recorded still camera played back; recorded_brackets() is what the recorder follows.
 class PlaybackStillCamera : public drivers::StillCamera {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace relume {
 namespace {
@@ -67,6 +68,16 @@ TEST(MeshTest, MaterialIdsArePerTriangleAndSurviveAppend) {
   none.Append(b);
   EXPECT_TRUE(none.material.empty());
   EXPECT_TRUE(none.IsValid(&why)) << why;
+}
+
+// The float steps core/mesh_io.h and radiosity/scene.h state: why a georeferenced file stays
+// double until placed, and how fine a local scene frame is.
+TEST(MeshTest, FloatStepsAtTheStatedDistances) {
+  const auto step = [](float x) { return std::nextafter(x, 2.0f * x) - x; };
+  EXPECT_FLOAT_EQ(step(500000.0f), 0.03125f);  // a UTM easting: 3 cm
+  EXPECT_FLOAT_EQ(step(5000000.0f), 0.5f);     // a northing: 50 cm
+  EXPECT_LE(step(7.9f), 1e-6f);                // 1 um within 8 m
+  EXPECT_NEAR(step(1000.0f), 61e-6f, 1e-6f);   // 61 um at 1 km
 }
 
 }  // namespace

@@ -56,17 +56,13 @@ const std::string& PipelineRun::scene_model_json() {
 
 const calibration::Undistorter& PipelineRun::LensUndistorter(const PinholeIntrinsics& intrinsics,
                                                              const std::vector<double>& distortion) {
-  std::string key = std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height);
-  char number[32];
-  for (const double v : {intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy}) {
-    std::snprintf(number, sizeof(number), " %.17g", v);
-    key += number;
-  }
-  key += " |";
-  for (const double v : distortion) {
-    std::snprintf(number, sizeof(number), " %.17g", v);
-    key += number;
-  }
+  std::vector<double> key = {static_cast<double>(intrinsics.width),
+                             static_cast<double>(intrinsics.height),
+                             intrinsics.fx,
+                             intrinsics.fy,
+                             intrinsics.cx,
+                             intrinsics.cy};
+  key.insert(key.end(), distortion.begin(), distortion.end());
   std::shared_ptr<const calibration::Undistorter>& slot = undistorters_[key];
   if (slot == nullptr) slot = std::make_shared<const calibration::Undistorter>(intrinsics, distortion);
   return *slot;

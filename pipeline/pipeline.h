@@ -131,7 +131,8 @@ class PipelineRun {
   nlohmann::json knobs_json_ = nlohmann::json::object();
   std::vector<std::pair<std::string, std::string>> outputs_;
   std::map<std::string, bool> settings_read_;
-  std::map<std::string, std::shared_ptr<const calibration::Undistorter>> undistorters_;
+  // By intrinsics (width, height, fx, fy, cx, cy) followed by the coefficients.
+  std::map<std::vector<double>, std::shared_ptr<const calibration::Undistorter>> undistorters_;
   std::chrono::steady_clock::time_point progress_start_;
   std::string progress_stage_;
 };

@@ -365,8 +365,6 @@ void ParseSimDevices(const YamlFile& file, const std::vector<YAML::Node>& sim_de
   }
 }
 
-}  // namespace
-
 // A rig that plays a session back stores RGB-D frames as that session stored them, unless it
 // says otherwise: replaying float-metre depth into 16-bit millimetres would quantise it (and the
 // sh pipeline would then see stairs the recording does not have).
@@ -385,6 +383,8 @@ void StoreAsRecorded(const YAML::Node& root, const RigDevices& devices, RigConfi
     return;
   }
 }
+
+}  // namespace
 
 RigConfig LoadRigConfig(const std::string& path, const std::optional<std::string>& scene_override) {
   const YamlFile file(path);

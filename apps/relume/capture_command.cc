@@ -258,13 +258,10 @@ void CarryPlaybackCalibrations(const rig::RigConfig& rig, const std::vector<Open
     const drivers::DeviceInfo& info = device.camera ? device.camera->info() : device.sensor->info();
     if (info.backend == "playback") device_ids[info.id] = info.FullId();
   }
-  std::vector<capture::CalibrationRecord> carried =
-      capture::CarriedCalibrations(capture::SessionReader(*session), device_ids);
   // A rig that also has a simulated world stores that world's scene model, which must stay the
   // latest (the recorded one would drop its cameras and objects).
-  if (rig.world) {
-    std::erase_if(carried, [](const capture::CalibrationRecord& r) { return r.kind == capture::kSceneModelKind; });
-  }
+  const std::vector<capture::CalibrationRecord> carried =
+      capture::CarriedCalibrations(capture::SessionReader(*session), device_ids, /*with_scene_model=*/!rig.world);
   for (const capture::CalibrationRecord& record : carried) writer.AddCalibration(record);
   if (!carried.empty()) {
     std::cerr << "relume capture: " << carried.size() << " calibration row(s) of the played devices carried over from "

@@ -33,7 +33,7 @@ struct Material {
 // The scene's surfaces: core's triangle mesh, whose per-triangle material ids index `materials`.
 // The same TriangleMesh is what relume::RayCaster takes (`const RayCaster caster(mesh.geometry);`),
 // so a triangle index means the same to the solver and to the rays. Positions are float metres
-// in the scene frame (a local frame: sub-micrometre steps within kilometres of its origin).
+// in the scene frame, a local one: float steps are 1 um within 8 m of its origin, 61 um at 1 km.
 struct Mesh {
   TriangleMesh geometry;  // positions, triangles and material (one id per triangle); the rest unused
   std::vector<Material> materials;

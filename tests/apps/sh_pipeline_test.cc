@@ -377,13 +377,14 @@ TEST(ShPipelineCliTest, AReplayedSessionIsRelitAsTheRecordingIs) {
   const nlohmann::json b = Process(replayed, root / "replayed-out", "--set compare_truth=false");
   EXPECT_EQ(b["decisions"].dump().find("assuming the sRGB"), std::string::npos) << b["decisions"].dump(1);
   EXPECT_NE(b["decisions"].dump().find("pose from the scene model"), std::string::npos) << b["decisions"].dump(1);
-  std::vector<std::string> relit_a, relit_b;
-  for (const nlohmann::json& o : a["outputs"]) {
-    if (o["path"].get<std::string>().find("relit.exr") != std::string::npos) relit_a.push_back(o["path"]);
-  }
-  for (const nlohmann::json& o : b["outputs"]) {
-    if (o["path"].get<std::string>().find("relit.exr") != std::string::npos) relit_b.push_back(o["path"]);
-  }
+  const auto relit_outputs = [](const nlohmann::json& summary) {
+    std::vector<std::string> paths;
+    for (const nlohmann::json& o : summary["outputs"]) {
+      if (o["path"].get<std::string>().find("relit.exr") != std::string::npos) paths.push_back(o["path"]);
+    }
+    return paths;
+  };
+  const std::vector<std::string> relit_a = relit_outputs(a), relit_b = relit_outputs(b);
   ASSERT_EQ(relit_a.size(), 3u);
   ASSERT_EQ(relit_b.size(), relit_a.size());
   for (std::size_t i = 0; i < relit_a.size(); ++i) {
