@@ -309,7 +309,7 @@ BatchSummary RunBatch(const BatchOptions& options, const BatchCallbacks& callbac
     WriteState(out_dir, state);
     if (callbacks.on_started) callbacks.on_started(attempt, "", indices);
     RunLocalTasks(
-        indices, options.local_workers, options.task_command, plan_file, attempt,
+        indices, options.local_workers, options.local_start, options.task_command, plan_file, attempt,
         [&](int i) { return out_dir / state.tasks[static_cast<std::size_t>(i)].log; },
         [&](int i, const std::string& how) {
           Attempt& a = state.tasks[static_cast<std::size_t>(i)];

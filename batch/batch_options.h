@@ -13,6 +13,11 @@ namespace relume::batch {
 
 enum class Backend { kLocal, kSlurm };
 
+// How the local backend starts a worker for a task (local_backend.h): a fork of this process that
+// runs the task (no program start per task), or the task command.
+enum class LocalStart { kFork, kExec };
+const char* LocalStartName(LocalStart start);  // "fork", "exec"
+
 // Resources and behaviour of the Slurm job array (docs/batch.md). Empty strings and zeros leave
 // the cluster's defaults in place.
 struct SlurmOptions {
@@ -39,6 +44,7 @@ struct BatchOptions {
   pipeline::PipelineRequest request;
   Backend backend = Backend::kLocal;
   int local_workers = 1;  // worker processes of the local backend
+  LocalStart local_start = LocalStart::kFork;
   SlurmOptions slurm;
   // Rerun only the tasks of the batch already in out_dir that have no complete result (failed,
   // killed, never run), with that batch's sessions and pipeline options: `sessions` must be

@@ -44,9 +44,19 @@ int CountDefaultThreads() {
 
 }  // namespace
 
+namespace {
+std::atomic<int> default_threads_override{0};
+}  // namespace
+
 int DefaultThreads() {
   static const int threads = CountDefaultThreads();
-  return threads;
+  const int override_threads = default_threads_override.load(std::memory_order_relaxed);
+  return override_threads > 0 ? override_threads : threads;
+}
+
+void SetDefaultThreads(int threads) {
+  RELUME_CHECK(threads >= 0);
+  default_threads_override.store(threads, std::memory_order_relaxed);
 }
 
 int ParallelThreads(std::int64_t begin, std::int64_t end, int threads, std::int64_t min_chunk) {

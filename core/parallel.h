@@ -29,8 +29,14 @@ namespace relume {
 // positive number (what `relume batch` gives each of its workers), else SLURM_CPUS_PER_TASK (a
 // Slurm task's share), else the CPUs this process may run on (its affinity mask, which
 // taskset, cgroups' cpusets and schedulers set; std::thread::hardware_concurrency counts the
-// machine's). Read once per process.
+// machine's). Read once per process, unless SetDefaultThreads replaces it.
 int DefaultThreads();
+
+// Replaces what DefaultThreads() returns from now on (threads > 0), or goes back to what the
+// environment and the affinity mask say (threads = 0). For a process that changes its share of
+// the CPUs after it started: a worker that `relume batch --local N` forks to run one task gets
+// the CPUs divided by N. Calls already running keep the threads they started with.
+void SetDefaultThreads(int threads);
 
 // How many threads (the caller's included) ParallelFor(begin, end, ..., threads, min_chunk) runs
 // chunks on: min(threads or DefaultThreads(), (end - begin) / min_chunk), at least 1.

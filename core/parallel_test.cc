@@ -159,6 +159,19 @@ TEST(ParallelForTest, DefaultThreadsFollowTheEnvironmentAndTheAffinityMask) {
       ::testing::ExitedWithCode(0), "");
 }
 
+// A forked batch worker's share replaces the count, and 0 restores it; ParallelThreads (what
+// ParallelFor with threads = 0 starts) follows it.
+TEST(ParallelForTest, SetDefaultThreadsReplacesTheCountUntilReset) {
+  const int before = DefaultThreads();
+  SetDefaultThreads(before + 3);
+  EXPECT_EQ(DefaultThreads(), before + 3);
+  EXPECT_EQ(ParallelThreads(0, 1'000'000, 0, 1), before + 3);
+  SetDefaultThreads(1);
+  EXPECT_EQ(ParallelThreads(0, 1'000'000, 0, 1), 1);
+  SetDefaultThreads(0);
+  EXPECT_EQ(DefaultThreads(), before);
+}
+
 TEST(ParallelForTest, TwoThreadsRunChunksAtTheSameTime) {
   // Every chunk waits until two different threads are inside body at once: this returns only
   // if the second thread really runs beside the caller (a deadline keeps a failure from hanging).

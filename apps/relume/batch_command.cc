@@ -10,6 +10,7 @@
 
 #include "apps/relume/pipeline_args.h"
 #include "batch/batch.h"
+#include "batch/local_backend.h"
 #include "batch/plan.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -25,6 +26,7 @@ struct BatchArgs {
   std::string out;
   PipelineArgs pipeline;
   int local = -1;  // -1: not given
+  std::string local_start = "fork";
   bool slurm = false;
   batch::SlurmOptions slurm_options;
   bool no_wait = false;
@@ -99,6 +101,7 @@ void Run(const BatchArgs& args) {
   options.request = PipelineRequestFromArgs(args.pipeline);
   options.backend = args.slurm ? batch::Backend::kSlurm : batch::Backend::kLocal;
   options.local_workers = args.local >= 0 ? args.local : DefaultThreads();
+  options.local_start = args.local_start == "exec" ? batch::LocalStart::kExec : batch::LocalStart::kFork;
   options.slurm = args.slurm_options;
   options.slurm.wait = !args.no_wait;
   options.only_failed = args.only_failed;
@@ -108,7 +111,11 @@ void Run(const BatchArgs& args) {
   callbacks.on_started = [&](const std::string& attempt, const std::string& job_id, const std::vector<int>& indices) {
     if (job_id.empty()) {
       std::cout << "running " << indices.size() << " task(s) on " << options.local_workers << " local worker(s) ("
-                << attempt << ")\n";
+                << attempt << ", "
+                << (batch::EffectiveLocalStart(options.local_start) == batch::LocalStart::kFork
+                        ? "forked from this process"
+                        : "each started as relume batch-task")
+                << ")\n";
     } else {
       std::cout << "submitted Slurm job " << job_id << ": " << indices.size() << " array task(s); logs in "
                 << (fs::absolute(args.out) / "logs").string() << "\n";
@@ -141,6 +148,10 @@ void AddBatchCommand(CLI::App& app) {
   cmd->add_option("--out", args->out, "The batch folder: index, logs, each session's results");
   AddPipelineOptions(*cmd, args->pipeline);
   cmd->add_option("--local", args->local, "Run the tasks here with N worker processes (default: one per CPU)");
+  cmd->add_option("--local-start", args->local_start,
+                  "How a local worker starts: fork (a copy of this process runs the task; no program start "
+                  "per task) or exec (relume batch-task is started for each task)")
+      ->check(CLI::IsMember({"fork", "exec"}));
   cmd->add_flag("--slurm", args->slurm, "Submit the tasks as a Slurm job array (sbatch)");
   cmd->add_option("--partition", args->slurm_options.partition, "Slurm partition");
   cmd->add_option("--account", args->slurm_options.account, "Slurm account");

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -109,6 +110,59 @@ TEST_F(BatchCliTest, LocalWorkersProcessEverySessionIntoOneIndexAndARerunReusesE
   EXPECT_GE(actions["reuse"], 10 * 8);
 }
 
+// Workers forked from `relume batch` (the default) and workers started as `relume batch-task`
+// (--local-start exec) process the same sessions to the same bytes and figures; each forked
+// task records its own process and writes its own log.
+TEST_F(BatchCliTest, ForkedAndStartedWorkersGiveTheSameResults) {
+  // Built with += (GCC 12 warns about a chain of + on these strings).
+  std::string command = "batch --local 2 --pipeline irm";
+  for (int i = 0; i < 3; ++i) {
+    command += ' ';
+    command += (Field() / ("day" + std::to_string(i)) / "session").string();
+  }
+  const fs::path forked = Field().parent_path() / "batch-forked";
+  const fs::path started = Field().parent_path() / "batch-started";
+  const testing::CliResult a = RunRelume(command + " --out " + forked.string());
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  EXPECT_NE(a.output.find(", forked from this process)"), std::string::npos) << a.output;
+  const testing::CliResult b = RunRelume(command + " --local-start exec --out " + started.string());
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  EXPECT_NE(b.output.find(", each started as relume batch-task)"), std::string::npos) << b.output;
+
+  std::set<long> pids;
+  int relit = 0;
+  for (const auto& e : fs::directory_iterator(forked / "sessions")) {
+    const fs::path other = started / "sessions" / e.path().filename();
+    ASSERT_TRUE(fs::exists(other)) << other;
+    const TaskRecord record = ReadTaskRecord(e.path());
+    EXPECT_EQ(record.state, TaskState::kDone);
+    pids.insert(record.pid);
+    const nlohmann::json mine = ReadJsonFile(e.path() / kResultFolder / kResultRecordFile)["pipelines"];
+    const nlohmann::json theirs = ReadJsonFile(other / kResultFolder / kResultRecordFile)["pipelines"];
+    ASSERT_EQ(mine.size(), theirs.size()) << e.path();
+    for (std::size_t p = 0; p < mine.size(); ++p) {
+      EXPECT_EQ(mine[p]["figures"], theirs[p]["figures"]) << e.path();
+      EXPECT_EQ(mine[p]["headline"], theirs[p]["headline"]) << e.path();
+    }
+    for (const auto& f : fs::recursive_directory_iterator(e.path() / kResultFolder)) {
+      if (f.path().filename() != "relit.exr") continue;
+      ++relit;
+      const fs::path twin = other / fs::relative(f.path(), e.path());
+      EXPECT_EQ(Read(f.path()), Read(twin)) << f.path() << " differs from " << twin;
+    }
+  }
+  EXPECT_EQ(relit, 3);
+  EXPECT_EQ(pids.size(), 3u);  // a process of its own per task
+  EXPECT_EQ(pids.count(0), 0u);
+  int logs = 0;
+  for (const auto& e : fs::directory_iterator(forked / "logs")) {
+    ++logs;
+    const std::string log = Read(e.path());
+    EXPECT_EQ(CountOf(log, " done in "), 1) << e.path() << ":\n" << log;
+  }
+  EXPECT_EQ(logs, 3);
+}
+
 // A worker killed mid-way (SIGKILL) leaves no result: the batch lists the task as failed with its
 // log, and --only-failed reruns that task alone, continuing from its completed stages.
 TEST_F(BatchCliTest, AKilledWorkerIsListedFailedAndRerunAlone) {
@@ -199,6 +253,7 @@ TEST_F(BatchCliTest, UserErrorsNameWhatIsWrongAndWhatToDo) {
   ExpectUserError(RunRelume("batch --out " + (dir / "never-ran").string() + " --only-failed"),
                   "no batch has run there yet");
   ExpectUserError(RunRelume("batch" + one + out + " --local 0"), "--local 0: give 1 or more");
+  ExpectUserError(RunRelume("batch" + one + out + " --local-start spawn"), "--local-start: spawn not in {fork,exec}");
   ExpectUserError(RunRelume("batch" + one + out + " --slurm --time soon"), "not a Slurm time");
   ExpectUserError(RunRelume("batch" + one), "--out");
   // A folder of the user's is not taken over.
