@@ -117,14 +117,9 @@ std::vector<Pair> Associate(const std::vector<RgbdListEntry>& depth, const std::
   return pairs;
 }
 
-// The pair's frame for SessionWriter, and its files (the originals).
-struct LoadedPair {
-  drivers::RgbdFrame frame;
-  RgbdOriginalFiles files;
-};
-
-LoadedPair LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color,
-                    const PinholeIntrinsics& intrinsics) {
+// The pair's frame for SessionWriter, with its files (depth_file, color_file) as recorded.
+drivers::RgbdFrame LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color,
+                            const PinholeIntrinsics& intrinsics) {
   const fs::path depth_path = options.folder / depth.file, color_path = options.folder / color.file;
   if (FormatOf(depth.file) != "png") {
     throw InvalidArgumentError(depth_path.string() + ": depth frames must be 16-bit PNG files");
@@ -132,31 +127,28 @@ LoadedPair LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth
   if (FormatOf(color.file).empty()) {
     throw InvalidArgumentError(color_path.string() + ": colour frames must be PNG or JPEG files");
   }
-  LoadedPair p;
-  p.files.depth = ReadInputBytes(depth_path);
-  p.files.color = ReadInputBytes(color_path);
-  p.files.depth_format = "png";
-  p.files.color_format = FormatOf(color.file);
-  p.frame.depth_m = DecodeDepth(p.files.depth, depth_path, options.depth_units_per_metre);
-  p.frame.color = DecodeColor(p.files.color, color_path);
-  if (p.frame.color.pixels.cols != intrinsics.width || p.frame.color.pixels.rows != intrinsics.height) {
-    throw InvalidArgumentError(color_path.string() + " is " + Size(p.frame.color.pixels) +
-                               " but the colour camera is " + std::to_string(intrinsics.width) + "x" +
-                               std::to_string(intrinsics.height) +
+  drivers::RgbdFrame frame;
+  frame.depth_file = {ReadInputBytes(depth_path), "png", options.depth_units_per_metre};
+  frame.color_file = {ReadInputBytes(color_path), FormatOf(color.file), 0.0};
+  frame.depth_m = DecodeDepth(frame.depth_file.bytes, depth_path, options.depth_units_per_metre);
+  frame.color = DecodeColor(frame.color_file.bytes, color_path);
+  if (frame.color.pixels.cols != intrinsics.width || frame.color.pixels.rows != intrinsics.height) {
+    throw InvalidArgumentError(color_path.string() + " is " + Size(frame.color.pixels) + " but the colour camera is " +
+                               std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height) +
                                " (--intrinsics' size, or the first colour frame's): a recording has one size");
   }
-  if (p.frame.depth_m.size() != p.frame.color.pixels.size()) {
-    throw InvalidArgumentError(depth_path.string() + " is " + Size(p.frame.depth_m) + " but its colour frame " +
-                               color_path.string() + " is " + Size(p.frame.color.pixels) +
+  if (frame.depth_m.size() != frame.color.pixels.size()) {
+    throw InvalidArgumentError(depth_path.string() + " is " + Size(frame.depth_m) + " but its colour frame " +
+                               color_path.string() + " is " + Size(frame.color.pixels) +
                                ": relume needs depth registered to colour (the colour camera's viewpoint and size); "
                                "register it first, e.g. with OpenNI's image registration or librealsense's align");
   }
-  p.frame.depth_intrinsics = intrinsics;
-  p.frame.color_intrinsics = intrinsics;
-  p.frame.registered_to_color = true;
-  p.frame.color_exposure.exposure_time_s = options.exposure_time_s;
-  p.frame.color_exposure.iso = options.iso;
-  return p;
+  frame.depth_intrinsics = intrinsics;
+  frame.color_intrinsics = intrinsics;
+  frame.registered_to_color = true;
+  frame.color_exposure.exposure_time_s = options.exposure_time_s;
+  frame.color_exposure.iso = options.iso;
+  return frame;
 }
 
 drivers::FrameTiming Timing(UtcTime utc, UtcTime first, std::uint64_t sequence) {
@@ -314,23 +306,22 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
   for (std::size_t begin = 0; begin < pairs.size(); begin += batch) {
     const std::size_t end = std::min(pairs.size(), begin + batch);
     std::vector<drivers::RgbdFrame> frames;
-    std::vector<RgbdOriginalFiles> files;
     for (std::size_t i = begin; i < end; ++i) {
       const RgbdListEntry& d = depth[pairs[i].depth];
       const RgbdListEntry& c = color[pairs[i].color];
-      LoadedPair p = LoadPair(options, d, c, intrinsics);
-      p.frame.device_id = device.FullId();
-      p.frame.depth_timing = Timing(d.utc, first, i);
-      p.frame.color_timing = Timing(c.utc, first, i);
-      summary.bytes += p.files.color.size() + p.files.depth.size();
+      drivers::RgbdFrame frame = LoadPair(options, d, c, intrinsics);
+      frame.device_id = device.FullId();
+      frame.depth_timing = Timing(d.utc, first, i);
+      frame.color_timing = Timing(c.utc, first, i);
+      summary.bytes += frame.color_file.bytes.size() + frame.depth_file.bytes.size();
+      // Depth in other units than millimetres is stored as float metres (the writer encodes it:
+      // the file's units are not the session's); the note below names the original by checksum.
       if (summary.depth_converted) {
-        summary.original_depth_sha256.push_back(d.file.generic_string() + " " + Sha256Hex(p.files.depth));
-        p.files.depth.clear();  // stored as metres: encoded by the writer
+        summary.original_depth_sha256.push_back(d.file.generic_string() + " " + Sha256Hex(frame.depth_file.bytes));
       }
-      frames.push_back(std::move(p.frame));
-      files.push_back(std::move(p.files));
+      frames.push_back(std::move(frame));
     }
-    const std::vector<std::pair<FrameRecord, FrameRecord>> rows = writer->WriteRgbdFrames(frames, files);
+    const std::vector<std::pair<FrameRecord, FrameRecord>> rows = writer->WriteRgbdFrames(frames);
     if (summary.depth_converted) {
       for (std::size_t i = begin; i < end; ++i) {
         Note(*writer, device.FullId(),

@@ -11,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "capture/durable_file.h"
+#include "capture/playback.h"
+#include "capture/recorder.h"
 #include "capture/rgbd_geometry.h"
 #include "capture/session.h"
 #include "core/error.h"
@@ -144,6 +146,80 @@ TEST_F(ImportRgbdTest, PairsFramesKeepsTheFilesAndRecordsTheGeometry) {
   EXPECT_EQ(g.color_intrinsics.height, kHeight);
   EXPECT_DOUBLE_EQ(g.color_intrinsics.fx, 30.0);
   EXPECT_DOUBLE_EQ(g.color_intrinsics.cy, 12.0);
+}
+
+// Plays `recorded` back into a new session `out` stored with `options`: every recorded RGB-D
+// pair, on a clock that does not pace. Returns its frames.
+std::vector<FrameRecord> Replay(const fs::path& recorded, const fs::path& out, const SessionWriterOptions& options) {
+  ManualClock clock(UtcTime(std::chrono::seconds(1773999000)));
+  PlaybackBackend playback(recorded);
+  SessionInfo info;
+  info.name = "replay";
+  info.clock_name = clock.name();
+  info.created_utc = clock.NowUtc();
+  auto writer = SessionWriter::Create(out, info, options);
+  RecorderOptions recorder_options;
+  recorder_options.schedule.kind = ScheduleOptions::Kind::kCount;
+  recorder_options.schedule.count = 1;
+  Recorder recorder(*writer, clock, recorder_options);
+  const std::vector<drivers::DeviceInfo> devices = playback.Enumerate();
+  EXPECT_EQ(devices.size(), 1u);
+  auto sensor = playback.OpenRgbdSensor(devices.front());
+  const drivers::RgbdStreamConfig config = sensor->SupportedConfigs().front();
+  recorder.AddRgbdSensor(std::move(sensor), nullptr, config, 5);
+  std::atomic<bool> stop{false};
+  recorder.Run(stop);
+  writer.reset();
+  return SessionReader(out).Frames();
+}
+
+// Frames played back from a session are stored again byte for byte, as still frames are: the
+// colour file always (here the recording's JPEGs, which relume would otherwise store as PNG or
+// TIFF), the depth file when the new session stores depth in its format and units; otherwise
+// the depth is encoded again, to the same metres.
+TEST_F(ImportRgbdTest, APlayedBackRecordingKeepsItsFilesByteForByte) {
+  WriteRecording(1000.0, ".jpg");
+  ImportRgbd(options_, dir_ / "session");
+  const SessionReader recorded(dir_ / "session");
+  const std::vector<FrameRecord> originals = recorded.Frames();
+  ASSERT_EQ(originals.size(), 2u * kFrames);
+
+  SessionWriterOptions as_recorded;  // what a playback rig stores by default: 16-bit PNG millimetres
+  as_recorded.rgbd_format = RgbdFileFormat::kPng;
+  as_recorded.depth_units = DepthUnits::kMillimetres;
+  const std::vector<FrameRecord> same = Replay(dir_ / "session", dir_ / "replay-png", as_recorded);
+  ASSERT_EQ(same.size(), originals.size());
+  for (std::size_t i = 0; i < same.size(); ++i) {
+    EXPECT_EQ(same[i].stream, originals[i].stream);
+    EXPECT_EQ(same[i].file_format, originals[i].file_format) << i;
+    EXPECT_EQ(same[i].sha256, originals[i].sha256) << i << " " << same[i].stream;
+  }
+  EXPECT_EQ(same[1].file_format, "jpeg");
+
+  SessionWriterOptions tiff_metres;  // a rig that sets rgbd_format: tiff and rgbd_depth: metres
+  tiff_metres.rgbd_format = RgbdFileFormat::kTiffZstd;
+  tiff_metres.depth_units = DepthUnits::kMetres;
+  const std::vector<FrameRecord> converted = Replay(dir_ / "session", dir_ / "replay-tiff", tiff_metres);
+  ASSERT_EQ(converted.size(), originals.size());
+  const SessionReader replayed(dir_ / "replay-tiff");
+  for (std::size_t i = 0; i < converted.size(); i += 2) {
+    EXPECT_EQ(converted[i].file_format, "tiff");
+    EXPECT_NE(converted[i].sha256, originals[i].sha256);
+    const cv::Mat a = recorded.LoadDepth(originals[i]), b = replayed.LoadDepth(converted[i]);
+    ASSERT_EQ(a.size(), b.size());
+    int holes = 0, differ = 0;
+    for (int y = 0; y < a.rows; ++y) {
+      for (int x = 0; x < a.cols; ++x) {
+        const float u = a.at<float>(y, x), v = b.at<float>(y, x);
+        holes += std::isnan(u) ? 1 : 0;
+        differ += std::isnan(u) != std::isnan(v) || (!std::isnan(u) && u != v) ? 1 : 0;
+      }
+    }
+    EXPECT_EQ(holes, 1) << "depth frame " << i / 2;  // the recording's hole, NaN in both
+    EXPECT_EQ(differ, 0) << "depth frame " << i / 2;
+    EXPECT_EQ(converted[i + 1].sha256, originals[i + 1].sha256);  // the JPEG colour, as recorded
+    EXPECT_EQ(converted[i + 1].file_format, "jpeg");
+  }
 }
 
 // The benchmark's own depth scale (5000 per metre): depth is stored as float metres, exactly,

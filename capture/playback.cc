@@ -353,10 +353,18 @@ class PlaybackRgbdSensor : public drivers::RgbdSensor {
     ++next_;
     drivers::RgbdFrame frame;
     frame.device_id = info_.FullId();
+    // The files as recorded, and the pixels decoded from them: storing the frame again keeps the
+    // files byte for byte (SessionWriter::WriteRgbdFrames), as a still camera's do.
+    const SessionReader& reader = *recording_->reader;
+    frame.depth_file.bytes = ReadForPlayback(reader, depth, options_.verify_checksums, info_.FullId());
+    frame.depth_file.format = depth.file_format;
+    frame.color_file.bytes = ReadForPlayback(reader, color, options_.verify_checksums, info_.FullId());
+    frame.color_file.format = color.file_format;
     try {
-      frame.depth_m = recording_->reader->LoadDepth(depth, options_.verify_checksums);
-      frame.color = recording_->reader->LoadImage(color, options_.verify_checksums);
-    } catch (const IoError& e) {
+      frame.depth_m = DecodeDepthFrame(frame.depth_file.bytes, depth, (reader.dir() / depth.file_path).string(),
+                                       &frame.depth_file.depth_samples_per_metre);
+      frame.color = DecodeFrameImage(frame.color_file.bytes, color, (reader.dir() / color.file_path).string());
+    } catch (const Error& e) {
       throw DeviceError(DeviceErrorKind::kCorruptFrame, info_.FullId(),
                         std::string("recorded frame unreadable: ") + e.what());
     }

@@ -480,11 +480,7 @@ std::pair<FrameRecord, FrameRecord> SessionWriter::WriteRgbdFrame(const drivers:
 }
 
 std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
-    std::span<const drivers::RgbdFrame> frames, std::span<const RgbdOriginalFiles> originals) {
-  if (!originals.empty() && originals.size() != frames.size()) {
-    throw InvalidArgumentError("WriteRgbdFrames: " + std::to_string(originals.size()) + " original file sets for " +
-                               std::to_string(frames.size()) + " frames");
-  }
+    std::span<const drivers::RgbdFrame> frames) {
   // Records and images: depth then colour for each frame.
   std::vector<FrameRecord> records;
   std::vector<cv::Mat> images;
@@ -511,23 +507,24 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
   // Encoding dominates the cost of a frame: encode every image of the batch in parallel.
   std::vector<std::vector<std::uint8_t>> encoded(images.size());
   std::vector<std::string> failed(images.size());
-  // A file recorded elsewhere: its own bytes (k even: depth, odd: colour).
-  const auto original = [&](std::size_t k) -> const std::vector<std::uint8_t>* {
-    if (originals.empty()) return nullptr;
-    const RgbdOriginalFiles& o = originals[k / 2];
-    const std::vector<std::uint8_t>& bytes = k % 2 == 0 ? o.depth : o.color;
-    return bytes.empty() ? nullptr : &bytes;
-  };
+  // A frame's recorded file (k even: depth, odd: colour), when it is stored as it is: a colour
+  // file always, a depth file only in the format and units this writer stores depth in.
+  const double depth_samples_per_metre = options_.depth_units == DepthUnits::kMetres ? 1.0 : 1000.0;
+  std::vector<const drivers::RecordedFile*> kept(records.size(), nullptr);
   for (std::size_t k = 0; k < records.size(); ++k) {
-    if (original(k) != nullptr) {
-      const RgbdOriginalFiles& o = originals[k / 2];
-      records[k].file_format = k % 2 == 0 ? o.depth_format : o.color_format;
+    const drivers::RecordedFile& file = k % 2 == 0 ? frames[k / 2].depth_file : frames[k / 2].color_file;
+    if (file.bytes.empty()) continue;
+    if (k % 2 == 0 &&
+        (file.format != records[k].file_format || file.depth_samples_per_metre != depth_samples_per_metre)) {
+      continue;
     }
+    kept[k] = &file;
+    records[k].file_format = file.format;
   }
   cv::parallel_for_(cv::Range(0, static_cast<int>(images.size())), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i) {
       const auto k = static_cast<std::size_t>(i);
-      if (original(k) != nullptr) continue;
+      if (kept[k] != nullptr) continue;
       try {
         encoded[k] =
             records[k].file_format == "tiff" ? EncodeTiff(images[k]) : Encode(images[k], "." + records[k].file_format);
@@ -541,8 +538,8 @@ std::vector<std::pair<FrameRecord, FrameRecord>> SessionWriter::WriteRgbdFrames(
   }
   std::set<fs::path> folders;
   for (std::size_t k = 0; k < records.size(); ++k) {
-    const std::vector<std::uint8_t>* own = original(k);
-    records[k] = StoreFile(std::move(records[k]), own != nullptr ? *own : encoded[k], /*sync_folder=*/false);
+    records[k] =
+        StoreFile(std::move(records[k]), kept[k] != nullptr ? kept[k]->bytes : encoded[k], /*sync_folder=*/false);
     folders.insert((dir_ / records[k].file_path).parent_path());
   }
   for (const fs::path& folder : folders) SyncDirectory(folder);  // the renames are durable before the rows
@@ -738,16 +735,14 @@ std::vector<std::uint8_t> SessionReader::ReadFrameFile(const FrameRecord& frame,
 }
 
 namespace {
-cv::Mat DecodeVerified(const SessionReader& reader, const FrameRecord& frame, bool verify_checksum) {
-  const fs::path path = reader.dir() / frame.file_path;
-  const std::vector<std::uint8_t> bytes = reader.ReadFrameFile(frame, verify_checksum);
+cv::Mat DecodeStoredImage(std::span<const std::uint8_t> bytes, const FrameRecord& frame, const std::string& name) {
   if (frame.file_format != "png" && frame.file_format != "tiff" && frame.file_format != "jpeg" &&
       frame.file_format != "jpg" && frame.file_format != "exr") {
-    throw InvalidArgumentError(path.string() + ": '" + frame.file_format +
+    throw InvalidArgumentError(name + ": '" + frame.file_format +
                                "' files are camera raw; decode them with the calibration layer's raw loader");
   }
   if (frame.file_format == "exr") AllowOpenExr();
-  cv::Mat pixels = DecodeWithOpenCv(bytes, path.string());
+  cv::Mat pixels = DecodeWithOpenCv(bytes, name);
   if (pixels.channels() == 3) cv::cvtColor(pixels, pixels, cv::COLOR_BGR2RGB);
   return pixels;
 }
@@ -786,13 +781,17 @@ CameraImage SessionReader::LoadImage(const FrameRecord& frame, bool verify_check
   return DecodeFrameImage(ReadFrameFile(frame, verify_checksum), frame, (dir_ / frame.file_path).string());
 }
 
-cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {
-  const cv::Mat mm = DecodeVerified(*this, frame, verify_checksum);
-  if (mm.type() == CV_32FC1) return DepthMetres(mm);  // stored in metres (`rgbd_depth: metres`)
-  if (mm.type() != CV_16UC1) {
-    throw IoError((dir_ / frame.file_path).string(),
-                  "depth file is neither 16-bit millimetres nor 32-bit float metres (one channel)");
+cv::Mat DecodeDepthFrame(std::span<const std::uint8_t> bytes, const FrameRecord& frame, const std::string& name,
+                         double* samples_per_metre) {
+  const cv::Mat mm = DecodeStoredImage(bytes, frame, name);
+  if (mm.type() == CV_32FC1) {  // stored in metres (`rgbd_depth: metres`)
+    if (samples_per_metre != nullptr) *samples_per_metre = 1.0;
+    return DepthMetres(mm);
   }
+  if (mm.type() != CV_16UC1) {
+    throw IoError(name, "depth file is neither 16-bit millimetres nor 32-bit float metres (one channel)");
+  }
+  if (samples_per_metre != nullptr) *samples_per_metre = 1000.0;
   cv::Mat depth_m(mm.size(), CV_32FC1);
   for (int y = 0; y < mm.rows; ++y) {
     const std::uint16_t* in = mm.ptr<std::uint16_t>(y);
@@ -800,6 +799,10 @@ cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum)
     for (int x = 0; x < mm.cols; ++x) out[x] = in[x] == 0 ? NAN : static_cast<float>(in[x]) * 0.001f;
   }
   return depth_m;
+}
+
+cv::Mat SessionReader::LoadDepth(const FrameRecord& frame, bool verify_checksum) const {
+  return DecodeDepthFrame(ReadFrameFile(frame, verify_checksum), frame, (dir_ / frame.file_path).string());
 }
 
 }  // namespace relume::capture

@@ -122,12 +122,6 @@ struct StorageFaultPlan {
   bool Any() const { return slow_write_ms > 0.0 || full_after_mb > 0.0; }
 };
 
-// An RGB-D frame's files as another recorder wrote them (SessionWriter::WriteRgbdFrames).
-struct RgbdOriginalFiles {
-  std::vector<std::uint8_t> depth, color;
-  std::string depth_format, color_format;  // "png", "jpeg", ...: the rows' file_format
-};
-
 struct SessionWriterOptions {
   RgbdFileFormat rgbd_format = RgbdFileFormat::kTiffZstd;
   DepthUnits depth_units = DepthUnits::kMillimetres;
@@ -170,11 +164,12 @@ class SessionWriter {
   // Several RGB-D frames acknowledged together (group commit): their images are encoded in
   // parallel, each file written and fsynced, each folder fsynced once, and all rows committed
   // in one transaction. Same durability as one at a time, far fewer fsyncs per frame.
-  // `originals` (empty, or one per frame): files recorded elsewhere (capture/import_rgbd.h),
-  // stored byte for byte in place of encoding the frame's pixels, which must be what they
-  // decode to (they give the row's fields); an empty file is encoded as usual.
-  std::vector<std::pair<FrameRecord, FrameRecord>> WriteRgbdFrames(std::span<const drivers::RgbdFrame> frames,
-                                                                   std::span<const RgbdOriginalFiles> originals = {});
+  // A frame's recorded files (RgbdFrame::depth_file, color_file: a played session, an imported
+  // recording) are stored byte for byte in place of encoding its pixels, which must be what
+  // they decode to (the pixels give the row's fields): the colour file always, the depth file
+  // when its format and units are the ones this writer stores depth in (SessionWriterOptions);
+  // otherwise the depth is encoded as usual.
+  std::vector<std::pair<FrameRecord, FrameRecord>> WriteRgbdFrames(std::span<const drivers::RgbdFrame> frames);
 
   std::int64_t AddEvent(const EventRecord& event);
   std::int64_t AddCalibration(const CalibrationRecord& calibration);
@@ -208,6 +203,11 @@ class SessionWriter {
 // IoError (or InvalidArgumentError for a raw layout relume does not handle), saying that the
 // stored file itself is intact.
 CameraImage DecodeFrameImage(std::span<const std::uint8_t> bytes, const FrameRecord& frame, const std::string& name);
+// Decodes a stored depth frame file to metres (NaN where there was no measurement): 16-bit
+// millimetres (0: none) or 32-bit float metres. `samples_per_metre`, when given, receives which
+// (1000 or 1). IoError naming `name` when the file is neither.
+cv::Mat DecodeDepthFrame(std::span<const std::uint8_t> bytes, const FrameRecord& frame, const std::string& name,
+                         double* samples_per_metre = nullptr);
 
 // Reads a session (what calibration, processing and the player use).
 class SessionReader {
@@ -229,7 +229,7 @@ class SessionReader {
   // Decodes a still or colour frame's pixels (DecodeFrameImage). Throws IoError when the file
   // is missing, its checksum does not match (when verify_checksum) or it cannot be decoded.
   CameraImage LoadImage(const FrameRecord& frame, bool verify_checksum = true) const;
-  // Depth in metres, NaN where there was no measurement.
+  // Depth in metres, NaN where there was no measurement (DecodeDepthFrame).
   cv::Mat LoadDepth(const FrameRecord& frame, bool verify_checksum = true) const;
 
  private:

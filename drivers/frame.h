@@ -48,6 +48,16 @@ struct StillFrame {
   std::optional<double> sensor_temperature_c;
 };
 
+// A frame's file as a recorder wrote it, byte for byte: what a session played back or a recording
+// imported delivers beside the decoded pixels, so that storing the frame again keeps the file.
+struct RecordedFile {
+  std::vector<std::uint8_t> bytes;  // empty: there is none (a live sensor)
+  std::string format;               // the file's format: "png", "tiff", "exr", "jpeg"
+  // Depth files: what a stored sample of 1 means, in samples per metre (1000: 16-bit
+  // millimetres; 1: float metres; 5000: the TUM RGB-D layout's PNGs). 0 for colour files.
+  double depth_samples_per_metre = 0.0;
+};
+
 struct RgbdFrame {
   std::string device_id;
   cv::Mat depth_m;  // CV_32FC1, metres along the optical axis; NaN = no measurement (hole)
@@ -64,6 +74,12 @@ struct RgbdFrame {
   // exposure changes it from frame to frame, so radiance is comparable across frames only
   // through it.
   ExposureRecord color_exposure;
+  // The files depth_m and color were decoded from, when the frame comes from a recording
+  // (playback, import) rather than a live sensor. The capture layer stores the colour file as it
+  // is, and the depth file when it is in the format and units the session stores depth in
+  // (SessionWriter::WriteRgbdFrames); otherwise it encodes the pixels.
+  RecordedFile depth_file;
+  RecordedFile color_file;
 };
 
 }  // namespace relume::drivers
