@@ -14,23 +14,18 @@
 #include <sstream>
 #include <thread>
 
+#include "batch/test_files.h"
+
 namespace relume::batch {
 namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("relume_local_backend_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
+  return testing::FreshDir("local_backend_test", name);
 }
 
 std::string Read(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return testing::ReadText(file);
 }
 
 // A thread that lives until the object ends: the process runs more than one thread meanwhile.

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "batch/slurm_backend.h"
+#include "batch/test_files.h"
 #include "core/error.h"
 
 namespace relume::batch {
@@ -13,10 +14,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("relume_plan_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
+  return testing::FreshDir("plan_test", name);
 }
 
 // A folder that looks like a session to the planner (it holds session.sqlite).

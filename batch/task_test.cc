@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "batch/plan.h"
+#include "batch/test_files.h"
 #include "core/error.h"
 
 namespace relume::batch {
@@ -16,17 +17,11 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("relume_task_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
+  return testing::FreshDir("task_test", name);
 }
 
 std::string Read(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return testing::ReadText(file);
 }
 
 TEST(TaskResultTest, PublishedWholeOrNotAtAll) {
