@@ -53,10 +53,6 @@ bool SlurmIsValid(const SlurmOptions& slurm, std::string* why) {
 
 }  // namespace
 
-const char* LocalStartName(LocalStart start) {
-  return start == LocalStart::kFork ? "fork" : "exec";
-}
-
 bool BatchOptions::IsValid(std::string* why) const {
   if (out_dir.empty()) return Fail(why, "give the batch's output folder (--out DIR)");
   if (task_command.empty() || task_command.front().empty()) {

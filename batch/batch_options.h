@@ -16,7 +16,6 @@ enum class Backend { kLocal, kSlurm };
 // How the local backend starts a worker for a task (local_backend.h): a fork of this process that
 // runs the task (no program start per task), or the task command.
 enum class LocalStart { kFork, kExec };
-const char* LocalStartName(LocalStart start);  // "fork", "exec"
 
 // Resources and behaviour of the Slurm job array (docs/batch.md). Empty strings and zeros leave
 // the cluster's defaults in place.

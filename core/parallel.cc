@@ -42,10 +42,9 @@ int CountDefaultThreads() {
   return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
-}  // namespace
-
-namespace {
+// SetDefaultThreads' value; 0: none.
 std::atomic<int> default_threads_override{0};
+
 }  // namespace
 
 int DefaultThreads() {

@@ -53,8 +53,8 @@ struct StillFrame {
 struct RecordedFile {
   std::vector<std::uint8_t> bytes;  // empty: there is none (a live sensor)
   std::string format;               // the file's format: "png", "tiff", "exr", "jpeg"
-  // Depth files: what a stored sample of 1 means, in samples per metre (1000: 16-bit
-  // millimetres; 1: float metres; 5000: the TUM RGB-D layout's PNGs). 0 for colour files.
+  // Depth files: the stored units per metre (1000: 16-bit millimetres; 1: float metres; 5000:
+  // the TUM RGB-D layout's PNGs). 0 for colour files.
   double depth_samples_per_metre = 0.0;
 };
 
