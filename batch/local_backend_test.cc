@@ -14,19 +14,11 @@
 #include <sstream>
 #include <thread>
 
-#include "batch/test_files.h"
+#include "core/testing/temp_files.h"
 
 namespace relume::batch {
 namespace {
 namespace fs = std::filesystem;
-
-fs::path TempDir(const std::string& name) {
-  return testing::FreshDir("local_backend_test", name);
-}
-
-std::string Read(const fs::path& file) {
-  return testing::ReadText(file);
-}
 
 // A thread that lives until the object ends: the process runs more than one thread meanwhile.
 class SecondThread {
@@ -58,7 +50,7 @@ const std::vector<std::string> kEchoCommand = {
     "/bin/sh", "-c", "echo \"exec $1 $2 $3 threads=$RELUME_THREADS\"; test \"$2\" != 1", "sh"};
 
 TEST(LocalBackendTest, AProcessWithThreadsStartsTheTaskCommandInstead) {
-  const fs::path dir = TempDir("exec");
+  const fs::path dir = testing::FreshTempDir("local_backend_test", "exec");
   std::map<int, std::string> ends;
   LocalStart used = LocalStart::kFork;
   {
@@ -74,9 +66,10 @@ TEST(LocalBackendTest, AProcessWithThreadsStartsTheTaskCommandInstead) {
   EXPECT_EQ(ends[0], "exit code 0");
   EXPECT_EQ(ends[1], "exit code 1");
   EXPECT_EQ(ends[2], "exit code 0");
-  EXPECT_NE(Read(dir / "task2.log").find("exec " + (dir / "plan.json").string() + " 2 local-test threads="),
-            std::string::npos)
-      << Read(dir / "task2.log");
+  EXPECT_NE(
+      testing::ReadText(dir / "task2.log").find("exec " + (dir / "plan.json").string() + " 2 local-test threads="),
+      std::string::npos)
+      << testing::ReadText(dir / "task2.log");
   fs::remove_all(dir);
 }
 
@@ -102,11 +95,12 @@ TEST(LocalBackendTest, AProcessWithOneThreadForksItsWorkers) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   // The death test's process runs this test again from its start: it finds the folder here.
   const char* const kDirVariable = "RELUME_LOCAL_BACKEND_TEST_DIR";
-  const fs::path dir = std::getenv(kDirVariable) != nullptr ? fs::path(std::getenv(kDirVariable)) : TempDir("fork");
+  const fs::path dir = std::getenv(kDirVariable) != nullptr ? fs::path(std::getenv(kDirVariable))
+                                                            : testing::FreshTempDir("local_backend_test", "fork");
   ::setenv(kDirVariable, dir.c_str(), 1);
   EXPECT_EXIT(std::_Exit(ForkTwoFailingTasks(dir)), ::testing::ExitedWithCode(0), "");
   for (const int i : {0, 1}) {
-    const std::string log = Read(dir / ("task" + std::to_string(i) + ".log"));
+    const std::string log = testing::ReadText(dir / ("task" + std::to_string(i) + ".log"));
     EXPECT_NE(log.find("relume: error: "), std::string::npos) << log;
     EXPECT_NE(log.find("missing-plan.json"), std::string::npos) << log;
     EXPECT_EQ(log.find("buffered in the parent"), std::string::npos) << log;

@@ -6,16 +6,12 @@
 #include <fstream>
 
 #include "batch/slurm_backend.h"
-#include "batch/test_files.h"
 #include "core/error.h"
+#include "core/testing/temp_files.h"
 
 namespace relume::batch {
 namespace {
 namespace fs = std::filesystem;
-
-fs::path TempDir(const std::string& name) {
-  return testing::FreshDir("plan_test", name);
-}
 
 // A folder that looks like a session to the planner (it holds session.sqlite).
 void FakeSession(const fs::path& dir) {
@@ -46,7 +42,7 @@ TEST(PlanTest, FolderNamesDifferForAlikeNamesAndAreStable) {
 }
 
 TEST(PlanTest, GlobsAndListFilesExpandInOrderWithoutDuplicates) {
-  const fs::path dir = TempDir("expand");
+  const fs::path dir = testing::FreshTempDir("plan_test", "expand");
   for (const char* name : {"a", "b", "c"}) FakeSession(dir / "field" / name / "session");
   {
     std::ofstream list(dir / "list.txt");
@@ -61,7 +57,7 @@ TEST(PlanTest, GlobsAndListFilesExpandInOrderWithoutDuplicates) {
 }
 
 TEST(PlanTest, BadPatternsAndNonSessionsAreNamed) {
-  const fs::path dir = TempDir("bad");
+  const fs::path dir = testing::FreshTempDir("plan_test", "bad");
   FakeSession(dir / "good");
   fs::create_directories(dir / "notes");
   EXPECT_NE(ErrorOf([&] { ExpandSessions({(dir / "nothing*").string()}, std::nullopt); }).find("matches nothing"),
@@ -79,7 +75,7 @@ TEST(PlanTest, BadPatternsAndNonSessionsAreNamed) {
 }
 
 TEST(PlanTest, PlansRoundTripAndAnIdenticalPlanIsTheSameFile) {
-  const fs::path dir = TempDir("roundtrip");
+  const fs::path dir = testing::FreshTempDir("plan_test", "roundtrip");
   pipeline::PipelineRequest request;
   request.pipeline = "irm";
   request.source = "bracket:1";

@@ -9,23 +9,15 @@
 #include <sstream>
 
 #include "batch/plan.h"
-#include "batch/test_files.h"
 #include "core/error.h"
+#include "core/testing/temp_files.h"
 
 namespace relume::batch {
 namespace {
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  return testing::FreshDir("task_test", name);
-}
-
-std::string Read(const fs::path& file) {
-  return testing::ReadText(file);
-}
-
 TEST(TaskResultTest, PublishedWholeOrNotAtAll) {
-  const fs::path task = TempDir("publish");
+  const fs::path task = testing::FreshTempDir("task_test", "publish");
   const fs::path work = BeginResult(task);
   EXPECT_EQ(work, task / kWorkFolder);
   EXPECT_THROW(PublishResult(task), IoError);  // nothing to publish
@@ -40,7 +32,7 @@ TEST(TaskResultTest, PublishedWholeOrNotAtAll) {
 }
 
 TEST(TaskResultTest, ARerunUnpublishesKeepsStagesAndDropsTheOldRow) {
-  const fs::path task = TempDir("rerun");
+  const fs::path task = testing::FreshTempDir("task_test", "rerun");
   fs::create_directories(task / kResultFolder / "stages" / "irm-0123");
   std::ofstream(task / kResultFolder / "stages" / "irm-0123" / "stage.json") << "{}";
   std::ofstream(task / kResultFolder / kResultRecordFile) << "{\"run\": 1}";
@@ -54,18 +46,18 @@ TEST(TaskResultTest, ARerunUnpublishesKeepsStagesAndDropsTheOldRow) {
   EXPECT_FALSE(fs::exists(task / kResultFolder));
   std::ofstream(work / kResultRecordFile) << "{\"run\": 2}";
   PublishResult(task);
-  EXPECT_EQ(Read(task / kResultFolder / kResultRecordFile), "{\"run\": 2}");
+  EXPECT_EQ(testing::ReadText(task / kResultFolder / kResultRecordFile), "{\"run\": 2}");
   fs::remove_all(task);
 }
 
 TEST(TaskResultTest, BothFoldersPresentKeepsTheCompleteOne) {
-  const fs::path task = TempDir("both");
+  const fs::path task = testing::FreshTempDir("task_test", "both");
   fs::create_directories(task / kResultFolder);
   std::ofstream(task / kResultFolder / "report.html") << "complete";
   fs::create_directories(task / kWorkFolder);
   std::ofstream(task / kWorkFolder / "half.txt") << "half";
   const fs::path work = BeginResult(task);
-  EXPECT_EQ(Read(work / "report.html"), "complete");
+  EXPECT_EQ(testing::ReadText(work / "report.html"), "complete");
   EXPECT_FALSE(fs::exists(work / "half.txt"));
   fs::remove_all(task);
 }
@@ -93,7 +85,7 @@ TEST(TaskRecordTest, RoundTripsAndAMissingRecordIsNotRun) {
 
 // A task whose session cannot be processed records why and publishes nothing.
 TEST(RunBatchTaskTest, AFolderThatIsNoSessionFailsWithItsReasonAndPublishesNothing) {
-  const fs::path dir = TempDir("nosession");
+  const fs::path dir = testing::FreshTempDir("task_test", "nosession");
   fs::create_directories(dir / "fake");
   std::ofstream(dir / "fake" / "session.sqlite") << "not a database";
   pipeline::PipelineRequest request;

@@ -1,5 +1,6 @@
 // What the CLI tests share: running the relume binary (its path comes from CMake) and capturing
-// its output and exit code, a fresh temporary folder per test process, reading a JSON file, and
+// its output and exit code, a fresh temporary folder per test process (core/testing/temp_files.h),
+// reading a JSON file, and
 // loading a page in headless Chromium.
 #pragma once
 
@@ -13,6 +14,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+
+#include "core/testing/temp_files.h"
 
 namespace relume::testing {
 
@@ -39,16 +42,6 @@ inline CliResult RunRelume(const std::string& arguments) {
   command += ' ';
   command += arguments;
   return RunCommand(command);
-}
-
-// An empty folder `relume_<suite>_<name>_<pid>` under the system's temporary folder: the pid
-// keeps the cases of one suite apart when ctest runs them in parallel.
-inline std::filesystem::path FreshTempDir(const std::string& suite, const std::string& name) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("relume_" + suite + "_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
 }
 
 // A user error: exit code 2 and "relume: error: " followed by text containing `expected`.

@@ -20,15 +20,9 @@ namespace {
 namespace fs = std::filesystem;
 using relume::testing::ExpectUserError;
 using relume::testing::ReadJsonFile;
+using relume::testing::ReadText;
 using relume::testing::RunCommand;
 using relume::testing::RunRelume;
-
-std::string Read(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 int CountOf(const std::string& text, const std::string& what) {
   int n = 0;
@@ -84,11 +78,11 @@ TEST_F(BatchCliTest, LocalWorkersProcessEverySessionIntoOneIndexAndARerunReusesE
       << first.output;
   EXPECT_EQ(CountOf(first.output, "irm: four IRMs; against the truth: lit "), 10) << first.output;
 
-  const std::string csv = Read(out / "index.csv");
+  const std::string csv = ReadText(out / "index.csv");
   EXPECT_EQ(CountOf(csv, "\n"), 11) << csv;
   EXPECT_EQ(CountOf(csv, ",done,"), 10) << csv;
   EXPECT_NE(csv.find("\"irm: relit vs truth, lit (per-pixel relative RMS) [%]\""), std::string::npos) << csv;
-  const std::string html = Read(out / "index.html");
+  const std::string html = ReadText(out / "index.html");
   EXPECT_NE(html.find("data-tasks=\"10\" data-done=\"10\" data-failed=\"0\""), std::string::npos);
   EXPECT_EQ(CountOf(html, ">report</a>"), 10);
   // Ten folders, one per session, each published whole; the plan kept the --set knob.
@@ -148,7 +142,7 @@ TEST_F(BatchCliTest, ForkedAndStartedWorkersGiveTheSameResults) {
       if (f.path().filename() != "relit.exr") continue;
       ++relit;
       const fs::path twin = other / fs::relative(f.path(), e.path());
-      EXPECT_EQ(Read(f.path()), Read(twin)) << f.path() << " differs from " << twin;
+      EXPECT_EQ(ReadText(f.path()), ReadText(twin)) << f.path() << " differs from " << twin;
     }
   }
   EXPECT_EQ(relit, 3);
@@ -157,7 +151,7 @@ TEST_F(BatchCliTest, ForkedAndStartedWorkersGiveTheSameResults) {
   int logs = 0;
   for (const auto& e : fs::directory_iterator(forked / "logs")) {
     ++logs;
-    const std::string log = Read(e.path());
+    const std::string log = ReadText(e.path());
     EXPECT_EQ(CountOf(log, " done in "), 1) << e.path() << ":\n" << log;
   }
   EXPECT_EQ(logs, 3);
@@ -168,7 +162,7 @@ TEST_F(BatchCliTest, ForkedAndStartedWorkersGiveTheSameResults) {
 TEST_F(BatchCliTest, AKilledWorkerIsListedFailedAndRerunAlone) {
   const fs::path dir = Field().parent_path();
   // A slower session (640x480), so that the kill lands while it runs.
-  const std::string rig = Read(fs::path(RELUME_SOURCE_DIR) / "tests/data/rigs/sim-tiny-irm.yaml");
+  const std::string rig = ReadText(fs::path(RELUME_SOURCE_DIR) / "tests/data/rigs/sim-tiny-irm.yaml");
   std::string slow_rig = rig;
   slow_rig.replace(slow_rig.find("width: 160, height: 120"), 23, "width: 640, height: 480");
   slow_rig.replace(slow_rig.find("../../../config"), 15, std::string(RELUME_SOURCE_DIR) + "/config");
@@ -204,22 +198,22 @@ TEST_F(BatchCliTest, AKilledWorkerIsListedFailedAndRerunAlone) {
       }
     }
   }
-  ASSERT_NE(pid, 0) << "the slow task never got under way:\n" << Read(log);
+  ASSERT_NE(pid, 0) << "the slow task never got under way:\n" << ReadText(log);
   ASSERT_EQ(::kill(static_cast<pid_t>(pid), SIGKILL), 0);
   std::string output;
   for (int i = 0; i < 1200 && output.find(" session(s): ") == std::string::npos; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    output = Read(log);
+    output = ReadText(log);
   }
   EXPECT_NE(output.find("2 session(s): 1 done, 1 failed (task 0)"), std::string::npos) << output;
   EXPECT_NE(output.find("ended without a result (signal 9"), std::string::npos) << output;
   EXPECT_NE(output.find("relume: error: 1 task(s) failed"), std::string::npos) << output;
   EXPECT_FALSE(fs::exists(slow_folder / kResultFolder));
   EXPECT_TRUE(fs::exists(slow_folder / kWorkFolder));
-  const std::string csv = Read(out / "index.csv");
+  const std::string csv = ReadText(out / "index.csv");
   EXPECT_NE(csv.find("\n0," + fs::canonical(slow).string() + ",failed,"), std::string::npos) << csv;
   EXPECT_NE(csv.find(",logs/local-"), std::string::npos) << csv;
-  EXPECT_NE(Read(out / "index.html").find("--only-failed"), std::string::npos);
+  EXPECT_NE(ReadText(out / "index.html").find("--only-failed"), std::string::npos);
 
   const testing::CliResult retry = RunRelume("batch --out " + out.string() + " --only-failed --local 2");
   ASSERT_EQ(retry.exit_code, 0) << retry.output;
