@@ -30,31 +30,6 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // ---------------------------------------------------------------------------------------
-// JSON helpers
-
-nlohmann::json VecJson(const Eigen::Vector3f& v) {
-  if (!v.allFinite()) return nullptr;
-  return nlohmann::json::array({v.x(), v.y(), v.z()});
-}
-
-Eigen::Vector3f VecFromJson(const nlohmann::json& j) {
-  if (j.is_null()) return Eigen::Vector3f::Constant(kNaN);
-  return {j.at(0).get<float>(), j.at(1).get<float>(), j.at(2).get<float>()};
-}
-
-nlohmann::json ReadJsonFile(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path.string(), "cannot be read (a stage output is missing; run with --force)");
-  return nlohmann::json::parse(in);
-}
-
-void WriteJsonFile(const fs::path& path, const nlohmann::json& json) {
-  std::ofstream out(path);
-  out << json.dump(1) << "\n";
-  if (!out) throw IoError(path.string(), "cannot be written");
-}
-
-// ---------------------------------------------------------------------------------------
 // Inputs: brackets, cameras, sun, mesh
 
 std::vector<capture::FrameRecord> OneBracket(const PipelineRun& run, const std::optional<std::string>& selector,
@@ -212,6 +187,16 @@ SceneGeometry LoadGeometry(PipelineRun& run, const IrmKnobs& knobs) {
 
 // The scene mesh as a stage (mesh.bin: counts, positions, triangles, normals, albedo, parts; mesh.json:
 // the counts): a rerun reads it only when a stage that casts rays has to run.
+// Stage irm-mesh's record (mesh.json) beside mesh.bin.
+struct MeshCounts {
+  std::int64_t vertices = 0, triangles = 0;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("vertices", vertices);
+    v.Field("triangles", triangles);
+  }
+};
+
 struct MeshStage {
   std::int64_t vertices = 0;
   std::int64_t triangles = 0;
@@ -267,12 +252,13 @@ MeshStage RunMeshStage(PipelineRun& run, const SceneGeometry& g) {
     WriteVectors(out, made->albedo);
     WriteVectors(out, made->part);
     if (!out) throw IoError((dir / "mesh.bin").string(), "cannot be written");
-    WriteJsonFile(dir / "mesh.json", {{"vertices", made->vertex_count()}, {"triangles", made->triangle_count()}});
+    WriteRecord(dir / "mesh.json", MeshCounts{static_cast<std::int64_t>(made->vertex_count()),
+                                              static_cast<std::int64_t>(made->triangle_count())});
   });
   MeshStage m;
-  const nlohmann::json counts = ReadJsonFile(stage.dir / "mesh.json");
-  m.vertices = counts["vertices"].get<std::int64_t>();
-  m.triangles = counts["triangles"].get<std::int64_t>();
+  const auto counts = ReadRecord<MeshCounts>(stage.dir / "mesh.json");
+  m.vertices = counts.vertices;
+  m.triangles = counts.triangles;
   m.mesh = made ? Lazy<TriangleMesh>([made] { return *made; })
                 : Lazy<TriangleMesh>([path = stage.dir / "mesh.bin"] { return ReadMeshFile(path); });
   return m;
@@ -389,27 +375,9 @@ irm::SkyShape SkyShapeStage(PipelineRun& run, const std::string& role, const Laz
   const StageCache::Result stage = run.RunStage("irm-sky-" + role, key, [&](const fs::path& dir) {
     const irm::SkyShape shape =
         irm::FitSkyShape(caster.get(), view.image->pixels, view.camera, view.mask, view.sun_dir.normalized(), o);
-    // Floats through JSON doubles: exact both ways.
-    WriteJsonFile(dir / "sky.json", {{"measured", shape.measured},
-                                     {"gradient", VecJson(shape.gradient)},
-                                     {"horizon", VecJson(shape.horizon)},
-                                     {"pixels", shape.pixels},
-                                     {"min_elevation_rad", shape.min_elevation_rad},
-                                     {"max_elevation_rad", shape.max_elevation_rad},
-                                     {"rms_relative_residual", shape.rms_relative_residual},
-                                     {"reason", shape.reason}});
+    WriteRecord(dir / "sky.json", shape);
   });
-  const nlohmann::json j = ReadJsonFile(stage.dir / "sky.json");
-  irm::SkyShape shape;
-  shape.measured = j["measured"].get<bool>();
-  shape.gradient = VecFromJson(j["gradient"]);
-  shape.horizon = VecFromJson(j["horizon"]);
-  shape.pixels = j["pixels"].get<int>();
-  shape.min_elevation_rad = j["min_elevation_rad"].get<float>();
-  shape.max_elevation_rad = j["max_elevation_rad"].get<float>();
-  shape.rms_relative_residual = j["rms_relative_residual"].get<double>();
-  shape.reason = j["reason"].get<std::string>();
-  return shape;
+  return ReadRecord<irm::SkyShape>(stage.dir / "sky.json");
 }
 
 // One IRM as images: ratios (EXR, 0 where the bin is empty), a preview (PNG) and the sample
@@ -530,46 +498,6 @@ SeamResult Seam(const RayCaster& caster, const irm::View& source, const irm::Vie
   return seam;
 }
 
-nlohmann::json SummaryJson(const irm::RelightSummary& s) {
-  return {{"vertices", s.vertices},
-          {"visible_in_both", s.visible_in_both},
-          {"consistent_samples", s.consistent_samples},
-          {"irm_summary", s.irm_summary},
-          {"pixels_relit", s.pixels_relit},
-          {"pixels_without_geometry", s.pixels_without_geometry},
-          {"pixels_without_ratio", s.pixels_without_ratio},
-          {"pixels_masked", s.pixels_masked},
-          {"pixels_with_own_sun_rays", s.pixels_with_own_sun_rays},
-          {"pixels_with_own_sky_rays", s.pixels_with_own_sky_rays},
-          {"pixels_with_own_indirect_rays", s.pixels_with_own_indirect_rays},
-          {"overlap_vertex_rms_before", s.overlap_rms_before},
-          {"overlap_vertex_rms_after", s.overlap_rms_after},
-          {"indirect_rays", s.indirect_rays},
-          {"indirect_hit_share", s.indirect_hit_share},
-          {"indirect_filled_source", s.indirect_filled_source},
-          {"indirect_filled_target", s.indirect_filled_target},
-          {"indirect_s", s.indirect_s},
-          {"build_s", s.build_s},
-          {"relight_s", s.relight_s}};
-}
-
-irm::RelightSummary SummaryFromJson(const nlohmann::json& j) {
-  irm::RelightSummary s;
-  s.vertices = j.at("vertices").get<int>();
-  s.visible_in_both = j.at("visible_in_both").get<int>();
-  s.consistent_samples = j.at("consistent_samples").get<int>();
-  s.irm_summary = j.at("irm_summary").get<std::string>();
-  s.overlap_rms_before = j.at("overlap_vertex_rms_before").get<double>();
-  s.overlap_rms_after = j.at("overlap_vertex_rms_after").get<double>();
-  s.indirect_rays = j.value("indirect_rays", std::int64_t{0});
-  s.indirect_hit_share = j.value("indirect_hit_share", 0.0);
-  s.indirect_filled_source = j.value("indirect_filled_source", 0);
-  s.indirect_filled_target = j.value("indirect_filled_target", 0);
-  s.indirect_s = j.value("indirect_s", 0.0);
-  s.build_s = j.at("build_s").get<double>();
-  return s;
-}
-
 cv::Mat MaskFromStatus(const cv::Mat& status) {
   if (status.empty()) return {};
   cv::Mat mask;
@@ -589,64 +517,7 @@ RadianceImage SunImage(const cv::Mat& fractions) {
 // ---------------------------------------------------------------------------------------
 
 nlohmann::json IrmSetToJson(const irm::IrmSet& set) {
-  nlohmann::json j;
-  j["single_map"] = set.single_map;
-  j["samples_used"] = set.samples_used;
-  j["samples_in_penumbra"] = set.samples_in_penumbra;
-  j["samples_too_dark"] = set.samples_too_dark;
-  j["summary"] = set.summary;
-  j["lit_threshold"] = set.lit_threshold;
-  j["shadow_threshold"] = set.shadow_threshold;
-  j["model_correction"] = set.model_correction;
-  for (int k = 0; k < 4; ++k) {
-    const irm::RatioMap& map = set.maps[static_cast<std::size_t>(k)];
-    nlohmann::json m;
-    m["kind"] = irm::ToString(static_cast<irm::MapKind>(k));
-    m["bins"] = map.bins;
-    m["count"] = map.count;
-    m["source"] = map.source;
-    nlohmann::json ratios = nlohmann::json::array();
-    for (const Eigen::Vector3f& r : map.ratio) ratios.push_back(VecJson(r));
-    m["ratio"] = std::move(ratios);
-    nlohmann::json normals = nlohmann::json::array();
-    for (const Eigen::Vector3f& n : map.mean_normal) normals.push_back(VecJson(n));
-    m["mean_normal"] = std::move(normals);
-    nlohmann::json sky = nlohmann::json::array();
-    for (float v : map.mean_sky_view) sky.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
-    m["mean_sky_view"] = std::move(sky);
-    nlohmann::json moment = nlohmann::json::array();
-    for (float v : map.mean_sky_moment)
-      moment.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
-    m["mean_sky_moment"] = std::move(moment);
-    nlohmann::json reference = nlohmann::json::array();
-    for (const Eigen::Vector3f& r : map.model_ratio) reference.push_back(VecJson(r));
-    m["model_ratio"] = std::move(reference);
-    j["maps"].push_back(std::move(m));
-  }
-  const irm::SunSkyModel& model = set.model;
-  j["model"] = {{"valid", model.valid},
-                {"sun_source", VecJson(model.sun_source)},
-                {"sun_target", VecJson(model.sun_target)},
-                {"sky_target", VecJson(model.sky_target)},
-                {"sky_gradient_source", VecJson(model.sky_gradient_source)},
-                {"sky_gradient_target", VecJson(model.sky_gradient_target)},
-                {"sun_dir_source", VecJson(model.sun_dir_source)},
-                {"sun_dir_target", VecJson(model.sun_dir_target)},
-                {"indirect_scale", VecJson(model.indirect_scale)},
-                {"indirect_reason", model.indirect_reason},
-                {"rms_relative_residual", model.rms_relative_residual},
-                {"condition_number", model.condition_number},
-                {"reason", model.reason}};
-  const irm::IndirectShare& share = set.indirect_share;
-  j["indirect_share"] = {{"source_lit", share.source_lit},
-                         {"source_shadow", share.source_shadow},
-                         {"target_lit", share.target_lit},
-                         {"target_shadow", share.target_shadow},
-                         {"source_lit_samples", share.source_lit_samples},
-                         {"source_shadow_samples", share.source_shadow_samples},
-                         {"target_lit_samples", share.target_lit_samples},
-                         {"target_shadow_samples", share.target_shadow_samples}};
-  return j;
+  return FieldsToJson(set);
 }
 
 namespace {
@@ -676,87 +547,18 @@ void ReadVertexIndirect(const fs::path& path, irm::IrmSet* set) {
 
 }  // namespace
 
-irm::IrmSet IrmSetFromJson(const nlohmann::json& j) {
-  irm::IrmSet set;
-  set.single_map = j.at("single_map").get<bool>();
-  set.samples_used = j.at("samples_used").get<int>();
-  set.samples_in_penumbra = j.at("samples_in_penumbra").get<int>();
-  set.samples_too_dark = j.at("samples_too_dark").get<int>();
-  set.summary = j.at("summary").get<std::string>();
-  set.lit_threshold = j.at("lit_threshold").get<float>();
-  set.shadow_threshold = j.at("shadow_threshold").get<float>();
-  set.model_correction = j.at("model_correction").get<bool>();
-  for (int k = 0; k < 4; ++k) {
-    const nlohmann::json& m = j.at("maps").at(static_cast<std::size_t>(k));
-    irm::RatioMap& map = set.maps[static_cast<std::size_t>(k)];
-    map.bins = m.at("bins").get<int>();
-    map.count = m.at("count").get<std::vector<int>>();
-    map.source = m.at("source").get<std::vector<std::uint8_t>>();
-    for (const nlohmann::json& r : m.at("ratio")) map.ratio.push_back(VecFromJson(r));
-    for (const nlohmann::json& n : m.at("mean_normal")) map.mean_normal.push_back(VecFromJson(n));
-    for (const nlohmann::json& v : m.at("mean_sky_view"))
-      map.mean_sky_view.push_back(v.is_null() ? kNaN : v.get<float>());
-    // Files from before 2026-12-02 have no model references (no correction) and no moments (a
-    // uniform sky).
-    if (m.contains("model_ratio")) {
-      for (const nlohmann::json& r : m.at("model_ratio")) map.model_ratio.push_back(VecFromJson(r));
-    } else {
-      map.model_ratio.assign(map.ratio.size(), Eigen::Vector3f::Constant(kNaN));
-    }
-    if (m.contains("mean_sky_moment")) {
-      for (const nlohmann::json& v : m.at("mean_sky_moment"))
-        map.mean_sky_moment.push_back(v.is_null() ? kNaN : v.get<float>());
-    } else {
-      map.mean_sky_moment.assign(map.mean_sky_view.size(), kNaN);
-    }
+irm::IrmSet IrmSetFromJson(const nlohmann::json& json, const std::string& source) {
+  irm::IrmSet set = FieldsFromJson<irm::IrmSet>(json, source);
+  for (std::size_t k = 0; k < set.maps.size(); ++k) {
+    const irm::RatioMap& map = set.maps[k];
     const std::size_t bins = static_cast<std::size_t>(map.bins) * static_cast<std::size_t>(map.bins);
     if (map.count.size() != bins || map.source.size() != bins || map.ratio.size() != bins ||
         map.mean_normal.size() != bins || map.mean_sky_view.size() != bins || map.mean_sky_moment.size() != bins ||
         map.model_ratio.size() != bins) {
-      throw InvalidArgumentError("IRM file: map " + std::to_string(k) + " has the wrong number of bins");
+      throw InvalidArgumentError(source + ": map " + std::to_string(k) + " has the wrong number of bins");
     }
   }
-  const nlohmann::json& model = j.at("model");
-  set.model.valid = model.at("valid").get<bool>();
-  set.model.sun_source = VecFromJson(model.at("sun_source"));
-  set.model.sun_target = VecFromJson(model.at("sun_target"));
-  set.model.sky_target = VecFromJson(model.at("sky_target"));
-  if (model.contains("sky_gradient_source")) {
-    set.model.sky_gradient_source = VecFromJson(model.at("sky_gradient_source"));
-    set.model.sky_gradient_target = VecFromJson(model.at("sky_gradient_target"));
-  }
-  set.model.sun_dir_source = VecFromJson(model.at("sun_dir_source"));
-  set.model.sun_dir_target = VecFromJson(model.at("sun_dir_target"));
-  if (model.contains("indirect_scale")) {
-    set.model.indirect_scale = VecFromJson(model.at("indirect_scale"));
-    set.model.indirect_reason = model.at("indirect_reason").get<std::string>();
-  }
-  if (j.contains("indirect_share")) {
-    const nlohmann::json& share = j.at("indirect_share");
-    set.indirect_share.source_lit = share.at("source_lit").get<double>();
-    set.indirect_share.source_shadow = share.at("source_shadow").get<double>();
-    set.indirect_share.target_lit = share.at("target_lit").get<double>();
-    set.indirect_share.target_shadow = share.at("target_shadow").get<double>();
-    set.indirect_share.source_lit_samples = share.at("source_lit_samples").get<int>();
-    set.indirect_share.source_shadow_samples = share.at("source_shadow_samples").get<int>();
-    set.indirect_share.target_lit_samples = share.at("target_lit_samples").get<int>();
-    set.indirect_share.target_shadow_samples = share.at("target_shadow_samples").get<int>();
-  }
-  set.model.rms_relative_residual = model.at("rms_relative_residual").get<double>();
-  set.model.condition_number = model.at("condition_number").get<double>();
-  set.model.reason = model.at("reason").get<std::string>();
   return set;
-}
-
-nlohmann::json SunRegionErrorsJson(const metrics::SunRegionErrors& e) {
-  return {{"scale", e.scale},
-          {"relative_rms_all", e.all},
-          {"relative_rms_lit", e.lit},
-          {"relative_rms_shadow", e.shadow},
-          {"relative_rms_penumbra", e.penumbra},
-          {"lit_pixels", e.lit_pixels},
-          {"shadow_pixels", e.shadow_pixels},
-          {"penumbra_pixels", e.penumbra_pixels}};
 }
 
 cv::Mat GeometryAgreement(const RayCaster& caster, const PinholeCamera& camera, const cv::Mat& truth_depth_m) {
@@ -819,7 +621,7 @@ cv::Mat ShadowAgreement(const RayCaster& caster, const PinholeCamera& camera, co
 // The relit source (relight_dir/relit.exr, status.png) against the world rendered from the source
 // camera at the target's time, per region (lit, shadow, penumbra), on relit pixels where the mesh
 // and the world agree; writes the error image to `error_png`.
-nlohmann::json CompareIrmWithTruth(const SessionTruth& world, const RayCaster& caster, const irm::View& source,
+IrmTruthRecord CompareIrmWithTruth(const SessionTruth& world, const RayCaster& caster, const irm::View& source,
                                    const irm::View& target, UtcTime source_utc, UtcTime target_utc,
                                    const fs::path& relight_dir, const fs::path& error_png) {
   const GroundTruth truth = world.Render(source.camera, target_utc);
@@ -837,26 +639,22 @@ nlohmann::json CompareIrmWithTruth(const SessionTruth& world, const RayCaster& c
   use &= agree;
   const int geometry_agrees = cv::countNonZero(use);
   use &= shadows_agree;
-  nlohmann::json t;
-  t["geometry_mismatch_pixels"] = relit_pixels - geometry_agrees;
-  t["shadow_geometry_mismatch_pixels"] = geometry_agrees - cv::countNonZero(use);
+  IrmTruthRecord t;
+  t.geometry_mismatch_pixels = relit_pixels - geometry_agrees;
+  t.shadow_geometry_mismatch_pixels = geometry_agrees - cv::countNonZero(use);
   cv::Mat error_image;
-  const metrics::SunRegionErrors after =
-      metrics::CompareSunRegions(relit.pixels, truth.radiance.pixels, source_truth.sun_visibility, truth.sun_visibility,
-                                 use, metrics::Scale::kFitted, &error_image);
+  t.relit = metrics::CompareSunRegions(relit.pixels, truth.radiance.pixels, source_truth.sun_visibility,
+                                       truth.sun_visibility, use, metrics::Scale::kFitted, &error_image);
   calibration::SaveImage(error_image, error_png.string());
-  const metrics::SunRegionErrors before =
-      metrics::CompareSunRegions(source.image->pixels, truth.radiance.pixels, source_truth.sun_visibility,
-                                 truth.sun_visibility, use, metrics::Scale::kFitted);
-  t["relit"] = SunRegionErrorsJson(after);
-  t["no_relighting"] = SunRegionErrorsJson(before);
-  t["comparison"] =
+  t.no_relighting = metrics::CompareSunRegions(source.image->pixels, truth.radiance.pixels, source_truth.sun_visibility,
+                                               truth.sun_visibility, use, metrics::Scale::kFitted);
+  t.comparison =
       "relit source vs the world rendered from the source camera at the target's time, on relit pixels "
       "where mesh and truth agree; one least-squares scale per image (relative radiance), relative RMS per region";
   // How far the frames' recorded sun is from the world's (both ENU).
   const double angle = std::acos(
       std::clamp(static_cast<double>(target.sun_dir.cast<double>().dot(world.SunDirection(target_utc))), -1.0, 1.0));
-  t["target_sun_direction_error_deg"] = angle * 180.0 / std::numbers::pi;
+  t.target_sun_direction_error_deg = angle * 180.0 / std::numbers::pi;
   return t;
 }
 
@@ -880,7 +678,7 @@ cv::Mat ExternalTruthImage(const fs::path& truth_dir, const char* name, const Pi
 
 // The relit source against a truth made outside relume (`truth_dir`, IrmKnobs::truth_dir): per
 // region from the truth's own sun fractions, on relit pixels the truth marks as surface.
-nlohmann::json CompareIrmWithExternalTruth(const fs::path& truth_dir, const irm::View& source,
+IrmTruthRecord CompareIrmWithExternalTruth(const fs::path& truth_dir, const irm::View& source,
                                            const fs::path& relight_dir, const fs::path& error_png) {
   const cv::Mat truth = ExternalTruthImage(truth_dir, "target.exr", source.camera);
   std::vector<cv::Mat> source_sun, target_sun;
@@ -894,25 +692,23 @@ nlohmann::json CompareIrmWithExternalTruth(const fs::path& truth_dir, const irm:
   const int relit_pixels = cv::countNonZero(use);
   const cv::Mat both_surfaces = (source_sun[1] > 0.5f) & (target_sun[1] > 0.5f);
   use &= both_surfaces;
-  nlohmann::json t;
-  t["truth"] = "external: " + truth_dir.string();
-  t["relit_pixels_off_the_truths_surfaces"] = relit_pixels - cv::countNonZero(use);
+  IrmTruthRecord t;
+  t.truth = "external: " + truth_dir.string();
+  t.relit_pixels_off_the_truths_surfaces = relit_pixels - cv::countNonZero(use);
   cv::Mat error_image;
-  const metrics::SunRegionErrors after = metrics::CompareSunRegions(relit.pixels, truth, source_sun[0], target_sun[0],
-                                                                    use, metrics::Scale::kFitted, &error_image);
+  t.relit = metrics::CompareSunRegions(relit.pixels, truth, source_sun[0], target_sun[0], use, metrics::Scale::kFitted,
+                                       &error_image);
   calibration::SaveImage(error_image, error_png.string());
-  const metrics::SunRegionErrors before = metrics::CompareSunRegions(source.image->pixels, truth, source_sun[0],
-                                                                     target_sun[0], use, metrics::Scale::kFitted);
-  t["relit"] = SunRegionErrorsJson(after);
-  t["no_relighting"] = SunRegionErrorsJson(before);
+  t.no_relighting = metrics::CompareSunRegions(source.image->pixels, truth, source_sun[0], target_sun[0], use,
+                                               metrics::Scale::kFitted);
   // The floor the relit image inherits: the linearised source photograph against the truth's
   // own source image (optional source.exr), in the same regions.
   if (fs::exists(truth_dir / "source.exr")) {
     const cv::Mat source_truth = ExternalTruthImage(truth_dir, "source.exr", source.camera);
-    t["source_photograph"] = SunRegionErrorsJson(metrics::CompareSunRegions(
-        source.image->pixels, source_truth, source_sun[0], target_sun[0], use, metrics::Scale::kFitted));
+    t.source_photograph = metrics::CompareSunRegions(source.image->pixels, source_truth, source_sun[0], target_sun[0],
+                                                     use, metrics::Scale::kFitted);
   }
-  t["comparison"] =
+  t.comparison =
       "relit source vs an external truth of the source camera under the target's light, on relit pixels of its "
       "surfaces; one least-squares scale per image (relative radiance), relative RMS per region of its sun fractions";
   return t;
@@ -979,7 +775,7 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
                                      &b.summary);
     WriteJsonFile(dir / "irms.json", IrmSetToJson(b.irms));
     WriteVertexIndirect(b.irms, dir / "indirect.f32");
-    WriteJsonFile(dir / "build.json", SummaryJson(b.summary));
+    WriteRecord(dir / "build.json", b.summary);
     for (int k = 0; k < 4; ++k) {
       if (b.irms.single_map && k > 0) break;
       SaveMapImages(b.irms.maps[static_cast<std::size_t>(k)],
@@ -987,9 +783,9 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
     }
   });
   if (build.reused) {
-    b.irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"));
+    b.irms = IrmSetFromJson(ReadJsonFile(build.dir / "irms.json"), (build.dir / "irms.json").string());
     ReadVertexIndirect(build.dir / "indirect.f32", &b.irms);
-    b.summary = SummaryFromJson(ReadJsonFile(build.dir / "build.json"));
+    b.summary = ReadRecord<irm::RelightSummary>(build.dir / "build.json");
   }
   // The decision is the library's (irm::BuildIrms: a sample seen in both images in cast shadow
   // in either), reported as built; the per-view counts are context.
@@ -1009,11 +805,11 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
   return b;
 }
 
-// Stage irm-relight's result: its key, folder and relight.json.
+// Stage irm-relight's result: its key, folder and record.
 struct RelightStage {
   StageKey key;
   fs::path dir;
-  nlohmann::json json;
+  IrmRelightRecord record;
 };
 
 // Stage irm-relight: the source relit per pixel to the target's light with the IRMs, previews,
@@ -1035,18 +831,15 @@ RelightStage RunRelightStage(PipelineRun& run, const IrmKnobs& knobs, const View
     calibration::SaveRadianceExr(SunImage(result.target_sun), (dir / "target_sun.exr").string());
     const SeamResult seam = Seam(v.caster.get(), v.source, v.target, result);
     calibration::SaveRadianceExr(seam.image, (dir / "seam_difference.exr").string());
-    r.json = SummaryJson(result.summary);
-    r.json["seam"] = {{"overlap_pixels", seam.overlap_pixels},
-                      {"overlap_relative_rms_before", seam.overlap_before},
-                      {"overlap_relative_rms_after", seam.overlap_after},
-                      {"seam_pixels", seam.seam_pixels},
-                      {"seam_relative_rms_before", seam.seam_before},
-                      {"seam_relative_rms_after", seam.seam_after}};
-    r.json["preview_white"] = white;
-    WriteJsonFile(dir / "relight.json", r.json);
+    IrmRelightRecord record;
+    record.summary = result.summary;
+    record.seam = {seam.overlap_pixels, seam.overlap_before, seam.overlap_after,
+                   seam.seam_pixels,    seam.seam_before,    seam.seam_after};
+    record.preview_white = white;
+    WriteRecord(dir / "relight.json", record);
   });
   r.dir = relight.dir;
-  if (relight.reused) r.json = ReadJsonFile(relight.dir / "relight.json");
+  r.record = ReadRecord<IrmRelightRecord>(relight.dir / "relight.json");
   run.AddOutput(relight.dir / "relit.exr", "the source relit to the target's light (linear float RGB)");
   run.AddOutput(relight.dir / "relit.png",
                 "preview with the target's exposure (target.png, source.png beside it with the same one)");
@@ -1058,49 +851,36 @@ RelightStage RunRelightStage(PipelineRun& run, const IrmKnobs& knobs, const View
   return r;
 }
 
-// The run's "irm" metrics: the relighting's summary, the mesh, the views' counts and sky shapes.
-void AddIrmMetrics(PipelineRun& run, const SceneGeometry& geometry, const MeshStage& mesh, const ViewPair& v,
-                   const irm::IrmSet& irms, const nlohmann::json& relight_json) {
-  nlohmann::json& m = run.metrics();
-  m["irm"] = relight_json;
-  m["irm"]["mesh"] = {{"origin", geometry.origin}, {"vertices", mesh.vertices}, {"triangles", mesh.triangles}};
-  m["irm"]["visible_in_cast_shadow"] = {{"source", v.source_geometry.visible_in_cast_shadow},
-                                        {"target", v.target_geometry.visible_in_cast_shadow}};
-  m["irm"]["single_map"] = irms.single_map;
-  // Interreflection: the model's scale for the gathered light and the share of each region's
-  // light it makes (irm.h, indirect.h).
+// What the relighting did, for the summary: its record, the mesh, the views' counts and sky shapes.
+IrmResultFigures ResultFigures(const SceneGeometry& geometry, const MeshStage& mesh, const ViewPair& v,
+                               const irm::IrmSet& irms, const IrmRelightRecord& relight) {
+  IrmResultFigures r;
+  r.relight = relight;
+  r.mesh = {geometry.origin, mesh.vertices, mesh.triangles};
+  r.visible_in_cast_shadow = {v.source_geometry.visible_in_cast_shadow, v.target_geometry.visible_in_cast_shadow};
+  r.single_map = irms.single_map;
   const irm::IndirectShare& share = irms.indirect_share;
-  m["irm"]["indirect"] = {{"used", !irms.vertex_indirect_source.empty()}, {"scale", VecJson(irms.model.indirect_scale)},
-                          {"reason", irms.model.indirect_reason},         {"share_source_lit", share.source_lit},
-                          {"share_source_shadow", share.source_shadow},   {"share_target_lit", share.target_lit},
-                          {"share_target_shadow", share.target_shadow}};
-  auto sky_json = [](const irm::SkyShape& shape) {
-    return nlohmann::json{
-        {"measured", shape.measured},
-        {"gradient", VecJson(shape.gradient)},
-        {"horizon", VecJson(shape.horizon)},
-        {"pixels", shape.pixels},
-        {"elevation_deg",
-         {shape.min_elevation_rad * 180.0 / std::numbers::pi, shape.max_elevation_rad * 180.0 / std::numbers::pi}},
-        {"rms_relative_residual", shape.rms_relative_residual},
-        {"reason", shape.reason}};
-  };
-  m["irm"]["sky_shape"] = {{"source", sky_json(v.source_geometry.sky_shape)},
-                           {"target", sky_json(v.target_geometry.sky_shape)}};
-  // The fitted q against what the source's sky radiance predicts, 1 / (pi a_s) (irm.h): near 1
-  // when the gathered light and the sky's units agree.
+  r.indirect.used = !irms.vertex_indirect_source.empty();
+  r.indirect.scale = irms.model.indirect_scale;
+  r.indirect.reason = irms.model.indirect_reason;
+  r.indirect.share_source_lit = share.source_lit;
+  r.indirect.share_source_shadow = share.source_shadow;
+  r.indirect.share_target_lit = share.target_lit;
+  r.indirect.share_target_shadow = share.target_shadow;
+  r.sky_shape = {v.source_geometry.sky_shape, v.target_geometry.sky_shape};
   const irm::SkyShape& sky = v.source_geometry.sky_shape;
   if (sky.measured && sky.horizon.minCoeff() > 0.0f) {
-    m["irm"]["indirect"]["scale_over_sky_prediction"] =
-        VecJson((irms.model.indirect_scale.cwiseProduct(sky.horizon) * std::numbers::pi_v<float>).eval());
+    r.indirect.scale_over_sky_prediction =
+        (irms.model.indirect_scale.cwiseProduct(sky.horizon) * std::numbers::pi_v<float>).eval();
   }
+  return r;
 }
 
 // Stage irm-truth: against the truth, the source camera under the target's sun: the simulated
 // world's (rendered twice, shadow rays per pixel) or, with --set truth_dir, one made outside
 // relume. A stage of its own, keyed by the relit result and the truth.
-void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& relight, const StageKey& mesh_key,
-                   const std::string& truth_dir) {
+IrmTruthRecord RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& relight, const StageKey& mesh_key,
+                             const std::string& truth_dir) {
   StageKey truth_key;
   truth_key.Add("stage", "irm-truth-v2").AddKey("relight", relight.key).AddKey("mesh", mesh_key);
   truth_key.AddKey("source_radiance", v.source_radiance.key).AddKey("target_radiance", v.target_radiance.key);
@@ -1126,33 +906,31 @@ void RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightStage& reli
     truth_key.Add("target_sun", static_cast<double>(v.target.sun_dir[k]));
   }
   const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
-    WriteJsonFile(dir / "truth.json",
-                  truth_dir.empty()
-                      ? CompareIrmWithTruth(*run.truth(), v.caster.get(), v.source, v.target, v.source_radiance.utc,
-                                            v.target_radiance.utc, relight.dir, dir / "truth_error.png")
-                      : CompareIrmWithExternalTruth(truth_dir, v.source, relight.dir, dir / "truth_error.png"));
+    WriteRecord(dir / "truth.json",
+                truth_dir.empty()
+                    ? CompareIrmWithTruth(*run.truth(), v.caster.get(), v.source, v.target, v.source_radiance.utc,
+                                          v.target_radiance.utc, relight.dir, dir / "truth_error.png")
+                    : CompareIrmWithExternalTruth(truth_dir, v.source, relight.dir, dir / "truth_error.png"));
   });
   fs::copy_file(truth.dir / "truth_error.png", run.out_dir() / "truth_error.png", fs::copy_options::overwrite_existing);
   run.AddOutput(run.out_dir() / "truth_error.png",
                 "relative error of the relit source against the truth (white at 10%; blue tint: shadow, red: "
                 "penumbra)");
-  nlohmann::json& m = run.metrics();
-  m["truth"] = ReadJsonFile(truth.dir / "truth.json");
-  const auto figure = [&](const char* which, const char* region) {
-    const nlohmann::json& value = m["truth"][which]["relative_rms_" + std::string(region)];
-    return value.is_number() ? value.get<double>() : std::numeric_limits<double>::quiet_NaN();
-  };
+  IrmTruthRecord t = ReadRecord<IrmTruthRecord>(truth.dir / "truth.json");
   char text[200];
   std::snprintf(text, sizeof(text),
                 "relit vs %s: relative RMS lit %.4f, shadow %.4f, penumbra %.4f (no "
                 "relighting: %.4f, %.4f, %.4f)",
-                truth_dir.empty() ? "truth" : "the external truth", figure("relit", "lit"), figure("relit", "shadow"),
-                figure("relit", "penumbra"), figure("no_relighting", "lit"), figure("no_relighting", "shadow"),
-                figure("no_relighting", "penumbra"));
+                truth_dir.empty() ? "truth" : "the external truth", t.relit.lit, t.relit.shadow, t.relit.penumbra,
+                t.no_relighting.lit, t.no_relighting.shadow, t.no_relighting.penumbra);
   run.Decide("truth", "note", text);
+  return t;
 }
 
-void RunIrmPipeline(PipelineRun& run) {
+}  // namespace
+
+IrmSummary RunIrmPipeline(PipelineRun& run) {
+  IrmSummary summary;
   const auto [source_selector, target_selector] = SourceAndTarget(run);
   const auto source_bracket = OneBracket(run, source_selector, "source");
   const auto target_bracket = OneBracket(run, target_selector, "target");
@@ -1172,7 +950,7 @@ void RunIrmPipeline(PipelineRun& run) {
              "relight " + source_bracket.front().device_id + " frame " + std::to_string(source_bracket.front().id) +
                  " to the light of frame " + std::to_string(target_bracket.front().id) + " (mesh: " + geometry.origin +
                  ")");
-  if (run.request().explain) return;
+  if (run.request().explain) return summary;
   const MeshStage mesh = RunMeshStage(run, geometry);
   run.Decide("irm", "note", "the mesh has " + std::to_string(mesh.triangles) + " triangles");
 
@@ -1192,59 +970,54 @@ void RunIrmPipeline(PipelineRun& run) {
                        target_geometry, source_view_key, target_view_key, caster};
   const BuildStage build = RunBuildStage(run, knobs, views);
   const RelightStage relight = RunRelightStage(run, knobs, views, build);
-  AddIrmMetrics(run, geometry, mesh, views, build.irms, relight.json);
+  summary.irm = ResultFigures(geometry, mesh, views, build.irms, relight.record);
   if (!knobs.truth_dir.empty()) {
-    RunTruthStage(run, views, relight, geometry.key, knobs.truth_dir);
+    summary.truth = RunTruthStage(run, views, relight, geometry.key, knobs.truth_dir);
   } else if (compare_truth && run.truth() != nullptr) {
-    RunTruthStage(run, views, relight, geometry.key, "");
+    summary.truth = RunTruthStage(run, views, relight, geometry.key, "");
   }
+  return summary;
 }
 
-std::string IrmHeadline(const nlohmann::json& m) {
-  if (!m.contains("irm")) return "";
-  const nlohmann::json& irm = Field(m, "irm");
-  std::string text = std::string(irm.value("single_map", false) ? "one IRM" : "four IRMs");
-  if (m.contains("truth")) {
-    const nlohmann::json& a = Field(Field(m, "truth"), "relit");
-    const nlohmann::json& b = Field(Field(m, "truth"), "no_relighting");
-    text += "; against the truth: lit " + PercentText(Field(a, "relative_rms_lit")) + ", shadow " +
-            PercentText(Field(a, "relative_rms_shadow")) + ", penumbra " +
-            PercentText(Field(a, "relative_rms_penumbra")) +
-            " (not relit: " + PercentText(Field(b, "relative_rms_lit")) + ", " +
-            PercentText(Field(b, "relative_rms_shadow")) + ", " + PercentText(Field(b, "relative_rms_penumbra")) + ")";
-  } else if (irm.contains("seam")) {
-    text += "; where both photographs see a surface, relit vs target " +
-            PercentText(Field(Field(irm, "seam"), "overlap_relative_rms_after")) + " (before " +
-            PercentText(Field(Field(irm, "seam"), "overlap_relative_rms_before")) + ")";
+namespace {
+
+std::string IrmHeadline(const IrmSummary& s) {
+  if (!s.irm) return "";
+  std::string text = s.irm->single_map ? "one IRM" : "four IRMs";
+  if (s.truth) {
+    const metrics::SunRegionErrors& a = s.truth->relit;
+    const metrics::SunRegionErrors& b = s.truth->no_relighting;
+    text += "; against the truth: lit " + PercentText(a.lit) + ", shadow " + PercentText(a.shadow) + ", penumbra " +
+            PercentText(a.penumbra) + " (not relit: " + PercentText(b.lit) + ", " + PercentText(b.shadow) + ", " +
+            PercentText(b.penumbra) + ")";
+  } else {
+    const IrmSeamFigures& seam = s.irm->relight.seam;
+    text += "; where both photographs see a surface, relit vs target " + PercentText(seam.overlap_relative_rms_after) +
+            " (before " + PercentText(seam.overlap_relative_rms_before) + ")";
   }
   return text;
 }
 
-std::vector<Figure> IrmFigures(const nlohmann::json& m) {
+std::vector<Figure> IrmFigures(const IrmSummary& s) {
   std::vector<Figure> f;
-  if (m.contains("truth")) {
-    const nlohmann::json& t = Field(m, "truth");
-    for (const char* region : {"lit", "shadow", "penumbra"}) {
-      const std::string key = std::string("relative_rms_") + region;
-      AddFigure(f, std::string("relit vs truth, ") + region + " (per-pixel relative RMS)",
-                Field(Field(t, "relit"), key), "%");
-      AddFigure(f, std::string("not relit vs truth, ") + region, Field(Field(t, "no_relighting"), key), "%");
-      AddFigure(f, std::string("pixels compared, ") + region, Field(Field(t, "relit"), std::string(region) + "_pixels"),
-                "", 9);
-    }
-    AddFigure(f, "recorded sun direction vs the world's", t.value("target_sun_direction_error_deg", nlohmann::json()),
-              "deg", 3);
+  if (s.truth) {
+    const IrmTruthRecord& t = *s.truth;
+    const auto region = [&](const char* name, double relit, double not_relit, std::int64_t pixels) {
+      AddFigure(f, std::string("relit vs truth, ") + name + " (per-pixel relative RMS)", relit, "%");
+      AddFigure(f, std::string("not relit vs truth, ") + name, not_relit, "%");
+      AddFigure(f, std::string("pixels compared, ") + name, static_cast<double>(pixels), "", 9);
+    };
+    region("lit", t.relit.lit, t.no_relighting.lit, t.relit.lit_pixels);
+    region("shadow", t.relit.shadow, t.no_relighting.shadow, t.relit.shadow_pixels);
+    region("penumbra", t.relit.penumbra, t.no_relighting.penumbra, t.relit.penumbra_pixels);
+    AddFigure(f, "recorded sun direction vs the world's", t.target_sun_direction_error_deg, "deg", 3);
   }
-  if (m.contains("irm")) {
-    const nlohmann::json& irm = Field(m, "irm");
-    if (irm.contains("seam")) {
-      AddFigure(f, "relit vs target where both see a surface", Field(Field(irm, "seam"), "overlap_relative_rms_after"),
-                "%");
-      AddFigure(f, "source vs target there (before)", Field(Field(irm, "seam"), "overlap_relative_rms_before"), "%");
-    }
-    AddFigure(f, "pixels relit", irm.value("pixels_relit", nlohmann::json()), "", 9);
-    if (irm.contains("mesh"))
-      AddFigure(f, "mesh triangles", Field(irm, "mesh").value("triangles", nlohmann::json()), "", 9);
+  if (s.irm) {
+    const IrmSeamFigures& seam = s.irm->relight.seam;
+    AddFigure(f, "relit vs target where both see a surface", seam.overlap_relative_rms_after, "%");
+    AddFigure(f, "source vs target there (before)", seam.overlap_relative_rms_before, "%");
+    AddFigure(f, "pixels relit", static_cast<double>(s.irm->relight.summary.pixels_relit), "", 9);
+    AddFigure(f, "mesh triangles", static_cast<double>(s.irm->mesh.triangles), "", 9);
   }
   return f;
 }
@@ -1252,13 +1025,14 @@ std::vector<Figure> IrmFigures(const nlohmann::json& m) {
 }  // namespace
 
 PipelineEntry IrmPipelineEntry() {
-  return {"irm",
-          "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
-          RunIrmPipeline,
-          WithRadianceKnobs(DescribeKnobs<IrmKnobs>()),
-          IrmHeadline,
-          IrmFigures,
-          {"radiance", "mesh", "view", "build", "relight"}};
+  return MakePipelineEntry(TypedPipeline<IrmSummary>{
+      "irm",
+      "relight a still bracket (--source) to the light of another (--target) with irradiance ratio maps",
+      RunIrmPipeline,
+      WithRadianceKnobs(DescribeKnobs<IrmKnobs>()),
+      IrmHeadline,
+      IrmFigures,
+      {"radiance", "mesh", "view", "build", "relight"}});
 }
 
 }  // namespace relume::pipeline

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <span>
@@ -126,7 +127,7 @@ StageCache::Result PipelineRun::RunStage(const std::string& stage, const StageKe
     Decide(stage, "run", std::string("computed in ") + text + " (key " + result.key.substr(0, 12) + ")");
   }
   decisions_.back().cache = true;
-  metrics_["stage_seconds"][stage] = result.reused ? 0.0 : seconds;
+  stage_seconds_[stage] = result.reused ? 0.0 : seconds;
   return result;
 }
 
@@ -150,7 +151,7 @@ void PipelineRun::AddOutput(const fs::path& path, const std::string& what) {
   outputs_.emplace_back(fs::relative(path, request_.out_dir).string(), what);
 }
 
-nlohmann::json PipelineRun::Summary(double seconds) const {
+nlohmann::json PipelineRun::Summary(double seconds, nlohmann::json metrics) const {
   nlohmann::json summary;
   summary["pipeline"] = request_.pipeline;
   summary["session"] = fs::absolute(request_.session_dir).string();
@@ -166,7 +167,9 @@ nlohmann::json PipelineRun::Summary(double seconds) const {
   }
   summary["outputs"] = nlohmann::json::array();
   for (const auto& [path, what] : outputs_) summary["outputs"].push_back({{"path", path}, {"what", what}});
-  summary["metrics"] = metrics_;
+  if (!metrics.is_object()) metrics = nlohmann::json::object();
+  if (!stage_seconds_.empty()) metrics["stage_seconds"] = stage_seconds_;
+  summary["metrics"] = std::move(metrics);
   return summary;
 }
 
@@ -196,30 +199,27 @@ const nlohmann::json& Field(const nlohmann::json& j, const std::string& key) {
   return it == j.end() ? null_json : *it;
 }
 
-std::string PercentText(const nlohmann::json& fraction) {
-  return fraction.is_number() ? PercentText(fraction.get<double>()) : "n/a";
-}
-
-std::string PercentText(double fraction, int decimals) {
+std::string PercentText(std::optional<double> fraction, int decimals) {
+  if (!fraction || !std::isfinite(*fraction)) return "n/a";
   char text[48];
-  std::snprintf(text, sizeof(text), "%.*f %%", decimals, 100.0 * fraction);
+  std::snprintf(text, sizeof(text), "%.*f %%", decimals, 100.0 * *fraction);
   return text;
 }
 
-void AddFigure(std::vector<Figure>& out, const std::string& label, const nlohmann::json& value, const std::string& unit,
+void AddFigure(std::vector<Figure>& out, const std::string& label, std::optional<double> value, const std::string& unit,
                int digits) {
-  if (value.is_boolean()) {
-    out.push_back({label, value.get<bool>() ? "yes" : "no", unit});
-    return;
-  }
-  if (!value.is_number()) return;
+  if (!value || !std::isfinite(*value)) return;
   char text[48];
   if (unit == "%") {
-    std::snprintf(text, sizeof(text), "%.2f", 100.0 * value.get<double>());
+    std::snprintf(text, sizeof(text), "%.2f", 100.0 * *value);
   } else {
-    std::snprintf(text, sizeof(text), "%.*g", digits, value.get<double>());
+    std::snprintf(text, sizeof(text), "%.*g", digits, *value);
   }
   out.push_back({label, text, unit});
+}
+
+void AddYesNoFigure(std::vector<Figure>& out, const std::string& label, bool value) {
+  out.push_back({label, value ? "yes" : "no", ""});
 }
 
 void CheckSettings(const std::map<std::string, std::string>& settings, const std::string& pipeline) {
@@ -355,12 +355,12 @@ nlohmann::json RunPipeline(const PipelineRequest& request) {
   if (!truth)
     run.Decide("session", "note", "no ground truth for this session (a real capture): nothing is compared with truth");
   const auto start = std::chrono::steady_clock::now();
-  entry->run(run);
+  nlohmann::json metrics = entry->run(run);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const std::string& key : run.UnusedSettings()) {
     run.Decide("settings", "note", "--set " + key + " is not a knob of the " + request.pipeline + " pipeline; ignored");
   }
-  nlohmann::json summary = run.Summary(seconds);
+  nlohmann::json summary = run.Summary(seconds, std::move(metrics));
   if (entry->headline && !request.explain) {
     const std::string headline = entry->headline(summary["metrics"]);
     if (!headline.empty()) summary["headline"] = headline;

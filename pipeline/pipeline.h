@@ -1,8 +1,9 @@
 // `relume process SESSION --pipeline NAME`: the frame a processing pipeline runs in.
 //
 // A pipeline is a function that reads a recorded session, runs its stages through the
-// StageCache (so unchanged stages are reused) and records what it decided and measured in a
-// PipelineRun. The command writes the run's summary (summary.json) and prints its decisions.
+// StageCache (so unchanged stages are reused), records what it decided in a PipelineRun and
+// returns what it measured as its typed summary (fields.h). The command writes the run's
+// summary (summary.json, the typed summary as "metrics") and prints its decisions.
 // Each pipeline lives in its own file under pipeline/ and is listed once in
 // Pipelines() (pipelines.cc).
 #pragma once
@@ -22,6 +23,7 @@
 #include "core/pinhole.h"
 #include "core/scene_model.h"
 #include "core/truth.h"
+#include "pipeline/fields.h"
 #include "pipeline/knobs.h"
 #include "pipeline/stage_cache.h"
 
@@ -110,11 +112,14 @@ class PipelineRun {
   // done / total, rate, time elapsed and left); nothing when stderr is not a terminal.
   void Progress(const std::string& stage, std::int64_t done, std::int64_t total);
 
-  // Figures the pipeline measured (errors against truth, timings, counts), written to summary.json.
-  nlohmann::json& metrics() { return metrics_; }
+  // Seconds each stage took in this run (0 when reused), by stage: summary.json "metrics"
+  // "stage_seconds" beside the pipeline's own summary.
+  const std::map<std::string, double>& stage_seconds() const { return stage_seconds_; }
   void AddOutput(const std::filesystem::path& path, const std::string& what);
 
-  nlohmann::json Summary(double seconds) const;
+  // summary.json: the request, knobs, decisions, outputs and, as "metrics", the pipeline's summary
+  // (`metrics`, its FieldsToJson) with the stage times.
+  nlohmann::json Summary(double seconds, nlohmann::json metrics) const;
   const std::vector<Decision>& decisions() const { return decisions_; }
 
  private:
@@ -127,7 +132,7 @@ class PipelineRun {
   std::string scene_model_json_;
   std::string scene_model_row_;  // "calibration row N", for messages
   std::vector<Decision> decisions_;
-  nlohmann::json metrics_ = nlohmann::json::object();
+  std::map<std::string, double> stage_seconds_;
   nlohmann::json knobs_json_ = nlohmann::json::object();
   std::vector<std::pair<std::string, std::string>> outputs_;
   std::map<std::string, bool> settings_read_;
@@ -160,35 +165,68 @@ struct Figure {
   std::string value;
   std::string unit;
 };
-// Appends a figure from a metrics value: fractions shown as per cent ("%"), other numbers with
-// `digits` significant digits; a missing value is left out.
-void AddFigure(std::vector<Figure>& out, const std::string& label, const nlohmann::json& value, const std::string& unit,
+// Appends a figure: fractions shown as per cent (unit "%"), other numbers with `digits`
+// significant digits; a missing (nullopt) or non-finite value is left out.
+void AddFigure(std::vector<Figure>& out, const std::string& label, std::optional<double> value, const std::string& unit,
                int digits = 4);
+// A yes/no figure.
+void AddYesNoFigure(std::vector<Figure>& out, const std::string& label, bool value);
 
-using PipelineFunction = std::function<void(PipelineRun&)>;
+// A pipeline with its typed summary: `Summary` has VisitFields (fields.h). `run` returns what the
+// run measured (a default Summary when it planned only, PipelineRequest::explain); `headline` and
+// `figures` read it, for a fresh run and for a summary.json an earlier run wrote alike.
+template <typename Summary>
+struct TypedPipeline {
+  std::string name;
+  std::string description;
+  Summary (*run)(PipelineRun&);
+  std::vector<KnobInfo> knobs;
+  std::string (*headline)(const Summary&);
+  std::vector<Figure> (*figures)(const Summary&);
+  std::vector<std::string> stage_tags;
+};
 
+// A pipeline as the process command, the report and batch see it, whatever its summary's type:
+// the summary crosses this edge as JSON (summary.json "metrics").
 struct PipelineEntry {
   std::string name;
   std::string description;
-  PipelineFunction run;
+  // Runs it; returns its summary as JSON (FieldsToJson).
+  std::function<nlohmann::json(PipelineRun&)> run;
   std::vector<KnobInfo> knobs;  // its --set keys (knobs.h)
-  // The run's headline figures in one sentence, from its metrics (errors against the truth, what
+  // The run's headline figures in one sentence, from its summary (errors against the truth, what
   // was relit); empty when there is nothing to say. summary.json "headline", the CLI's last lines.
+  // Throws IoError when `metrics` holds a field of the wrong type.
   std::function<std::string(const nlohmann::json& metrics)> headline;
-  // Its key figures with labels and units, from its metrics (the report's table).
+  // Its key figures with labels and units, from its summary (the report's table).
   std::function<std::vector<Figure>(const nlohmann::json& metrics)> figures;
   // The stage names its AddKnobsToKey calls use (knobs.h); with "plan", "report" and "none", the
   // only tags its knobs may name.
   std::vector<std::string> stage_tags;
 };
 
+template <typename Summary>
+PipelineEntry MakePipelineEntry(const TypedPipeline<Summary>& p) {
+  const auto read = [](const nlohmann::json& metrics) {
+    return FieldsFromJson<Summary>(metrics, "summary.json \"metrics\"");
+  };
+  auto run = p.run;
+  auto headline = p.headline;
+  auto figures = p.figures;
+  return {p.name,
+          p.description,
+          [run](PipelineRun& r) { return FieldsToJson(run(r)); },
+          p.knobs,
+          [headline, read](const nlohmann::json& metrics) { return headline(read(metrics)); },
+          [figures, read](const nlohmann::json& metrics) { return figures(read(metrics)); },
+          p.stage_tags};
+}
+
 // j[key] when j is an object holding key, else null: reading a summary that may lack a figure.
 const nlohmann::json& Field(const nlohmann::json& j, const std::string& key);
 
-// "12.3 %" (one decimal; "n/a" for a missing or non-numeric value).
-std::string PercentText(const nlohmann::json& fraction);
-// A fraction as per cent with `decimals` decimals: "12.35 %".
-std::string PercentText(double fraction, int decimals = 1);
+// A fraction as per cent with `decimals` decimals: "12.35 %"; "n/a" for nullopt or non-finite.
+std::string PercentText(std::optional<double> fraction, int decimals = 1);
 
 // Every pipeline of this build (pipelines.cc).
 const std::vector<PipelineEntry>& Pipelines();

@@ -51,26 +51,73 @@ struct RadiancePipelineKnobs {
   }
 };
 
-void RunRadiancePipeline(PipelineRun& run) {
+// The radiance pipeline's summary: per bracket, where its radiance is and how far it is from the
+// truth.
+struct RadianceBracketSummary {
+  std::string device;
+  std::vector<std::int64_t> frames;
+  std::string utc;
+  double sun_elevation_deg = 0.0;
+  std::string exr;  // relative to the output folder
+  std::optional<double> truth_relative_rms;
+  std::optional<int> truth_pixels;
+  std::optional<double> truth_scale;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("device", device);
+    v.Field("frames", frames);
+    v.Field("utc", utc);
+    v.Field("sun_elevation_deg", sun_elevation_deg);
+    v.Field("exr", exr);
+    v.Field("truth_relative_rms", truth_relative_rms);
+    v.Field("truth_pixels", truth_pixels);
+    v.Field("truth_scale", truth_scale);
+  }
+};
+
+struct RadianceSummary {
+  std::vector<RadianceBracketSummary> brackets;
+  std::optional<double> truth_relative_rms_max;  // the worst bracket against the truth
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("brackets", brackets);
+    v.Field("truth_relative_rms_max", truth_relative_rms_max);
+  }
+};
+
+// Stage radiance-truth's record (truth.json).
+struct RadianceTruthRecord {
+  double relative_rms = 0.0;
+  int pixels = 0;
+  double scale = 0.0;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("relative_rms", relative_rms);
+    v.Field("pixels", pixels);
+    v.Field("scale", scale);
+  }
+};
+
+RadianceSummary RunRadiancePipeline(PipelineRun& run) {
+  RadianceSummary summary;
   const auto brackets = StillBrackets(run.session(), run.request().source);
   if (brackets.empty()) {
     run.Decide("radiance", "skip", "the session has no still-camera frames");
-    return;
+    return summary;
   }
   run.Decide("radiance", "plan", std::to_string(brackets.size()) + " bracket(s) of still frames to linearise");
-  if (run.request().explain) return;
-  nlohmann::json& per_bracket = run.metrics()["brackets"];
+  if (run.request().explain) return summary;
   const bool truth = run.ReadKnobs<RadiancePipelineKnobs>().compare_truth;
-  double worst = 0.0;
   int done = 0;
   for (const auto& bracket : brackets) {
     // Images are read only when the truth stage runs: a rerun reads none.
     const BracketRadiance r = LinearRadiance(run, bracket, /*load=*/false);
-    nlohmann::json m = {{"device", r.device_id},
-                        {"frames", r.frame_ids},
-                        {"utc", FormatIso8601(r.utc)},
-                        {"sun_elevation_deg", r.sun_elevation_deg},
-                        {"exr", std::filesystem::relative(r.exr, run.out_dir()).string()}};
+    RadianceBracketSummary& b = summary.brackets.emplace_back();
+    b.device = r.device_id;
+    b.frames = r.frame_ids;
+    b.utc = FormatIso8601(r.utc);
+    b.sun_elevation_deg = r.sun_elevation_deg;
+    b.exr = std::filesystem::relative(r.exr, run.out_dir()).string();
     const std::optional<PinholeCamera> truth_camera =
         run.truth() != nullptr ? run.truth()->DeviceCamera(r.device_id) : std::nullopt;
     if (truth && truth_camera) {
@@ -83,39 +130,36 @@ void RunRadiancePipeline(PipelineRun& run) {
         const RadianceImage radiance = calibration::LoadRadianceExr(r.exr.string());
         const cv::Mat status = cv::imread((r.exr.parent_path() / "status.png").string(), cv::IMREAD_UNCHANGED);
         const TruthComparison cmp = CompareWithTruth(radiance, status, gt.radiance);
-        std::ofstream(dir / "truth.json")
-            << nlohmann::json{{"relative_rms", cmp.relative_rms}, {"pixels", cmp.pixels}, {"scale", cmp.scale}};
+        WriteRecord(dir / "truth.json", RadianceTruthRecord{cmp.relative_rms, cmp.pixels, cmp.scale});
       });
-      const nlohmann::json cmp = nlohmann::json::parse(std::ifstream(stage.dir / "truth.json"));
-      m["truth_relative_rms"] = cmp["relative_rms"];
-      m["truth_pixels"] = cmp["pixels"];
-      m["truth_scale"] = cmp["scale"];
-      worst = std::max(worst, cmp["relative_rms"].get<double>());
+      const auto cmp = ReadRecord<RadianceTruthRecord>(stage.dir / "truth.json");
+      b.truth_relative_rms = cmp.relative_rms;
+      b.truth_pixels = cmp.pixels;
+      b.truth_scale = cmp.scale;
+      summary.truth_relative_rms_max = std::max(summary.truth_relative_rms_max.value_or(0.0), cmp.relative_rms);
     }
     run.AddOutput(
         r.exr, "linear radiance of " + r.device_id + (r.bracket_id ? " bracket " + std::to_string(*r.bracket_id) : ""));
-    per_bracket.push_back(m);
     run.Progress("radiance", ++done, static_cast<std::int64_t>(brackets.size()));
   }
-  if (worst > 0.0) run.metrics()["truth_relative_rms_max"] = worst;
+  return summary;
 }
 
-std::string RadianceHeadline(const nlohmann::json& m) {
-  if (!m.contains("brackets")) return "";
-  std::string text = std::to_string(Field(m, "brackets").size()) + " bracket(s) linearised";
-  if (m.contains("truth_relative_rms_max")) {
-    text += "; against the truth: worst relative RMS " + PercentText(Field(m, "truth_relative_rms_max"));
+std::string RadianceHeadline(const RadianceSummary& s) {
+  if (s.brackets.empty()) return "";
+  std::string text = std::to_string(s.brackets.size()) + " bracket(s) linearised";
+  if (s.truth_relative_rms_max) {
+    text += "; against the truth: worst relative RMS " + PercentText(s.truth_relative_rms_max);
   }
   return text;
 }
 
-std::vector<Figure> RadianceFigures(const nlohmann::json& m) {
+std::vector<Figure> RadianceFigures(const RadianceSummary& s) {
   std::vector<Figure> f;
-  if (!m.contains("brackets")) return f;
-  for (const nlohmann::json& b : Field(m, "brackets")) {
-    const std::string name = b.value("device", "") + " at " + b.value("utc", "");
-    AddFigure(f, name + ": relative RMS against the truth", b.value("truth_relative_rms", nlohmann::json()), "%");
-    AddFigure(f, name + ": sun elevation", b.value("sun_elevation_deg", nlohmann::json()), "deg", 3);
+  for (const RadianceBracketSummary& b : s.brackets) {
+    const std::string name = b.device + " at " + b.utc;
+    AddFigure(f, name + ": relative RMS against the truth", b.truth_relative_rms, "%");
+    AddFigure(f, name + ": sun elevation", b.sun_elevation_deg, "deg", 3);
   }
   return f;
 }
@@ -124,13 +168,14 @@ std::vector<Figure> RadianceFigures(const nlohmann::json& m) {
 
 const std::vector<PipelineEntry>& Pipelines() {
   static const std::vector<PipelineEntry> pipelines = {
-      {"radiance",
-       "linear HDR radiance of every still bracket (merge, response, colour profile)",
-       RunRadiancePipeline,
-       WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>()),
-       RadianceHeadline,
-       RadianceFigures,
-       {"radiance"}},
+      MakePipelineEntry(
+          TypedPipeline<RadianceSummary>{"radiance",
+                                         "linear HDR radiance of every still bracket (merge, response, colour profile)",
+                                         RunRadiancePipeline,
+                                         WithRadianceKnobs(DescribeKnobs<RadiancePipelineKnobs>()),
+                                         RadianceHeadline,
+                                         RadianceFigures,
+                                         {"radiance"}}),
       ShPipelineEntry(),
       IrmPipelineEntry(),
       RadiosityPipelineEntry(),

@@ -111,16 +111,6 @@ Knobs ReadRadiosityKnobs(PipelineRun& run) {
 
 // ---- small file helpers -------------------------------------------------------------------
 
-void WriteJson(const fs::path& path, const nlohmann::json& json) {
-  std::ofstream(path) << json.dump(2) << "\n";
-}
-
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path.string(), "cannot read (stage output missing; rerun with --force)");
-  return nlohmann::json::parse(in);
-}
-
 // Per-patch RGB values as CSV: "patch,<name>_r,<name>_g,<name>_b[,extra...]".
 void WritePatchRgb(const fs::path& path, const std::string& name, const std::vector<Rgb>& values,
                    const std::vector<int>* counts = nullptr) {
@@ -288,8 +278,9 @@ class MaterialErrors {
     total_ += e;
     ++total_count_;
   }
-  nlohmann::json ToJson(const std::string& unit, long long min_count) const {
-    nlohmann::json out;
+  // `pixels`: one estimate is a pixel (else a patch).
+  AlbedoErrorFigures Figures(bool pixels, long long min_count) const {
+    AlbedoErrorFigures out;
     double max_spread = 0.0, max_mean_error = 0.0;
     for (size_t k = 0; k < g_.truth.size(); ++k) {
       if (count_[k] == 0) continue;
@@ -302,18 +293,19 @@ class MaterialErrors {
         max_spread = std::max(max_spread, spread);
         max_mean_error = std::max(max_mean_error, bias);
       }
-      out["materials"].push_back({{"material", g_.names[k]},
-                                  {"truth", {g_.truth[k].x(), g_.truth[k].y(), g_.truth[k].z()}},
-                                  {"mean", {mean.x(), mean.y(), mean.z()}},
-                                  {"error_of_mean", bias},
-                                  {unit, count_[k]},
-                                  {"mean_abs_error", err_[k] / n},
-                                  {"spread_sd", spread}});
+      MaterialAlbedoError& m = out.materials.emplace_back();
+      m.material = g_.names[k];
+      m.truth = g_.truth[k];
+      m.mean = mean;
+      m.error_of_mean = bias;
+      (pixels ? m.pixels : m.patches) = count_[k];
+      m.mean_abs_error = err_[k] / n;
+      m.spread_sd = spread;
     }
-    out["mean_abs_error"] = total_count_ > 0 ? total_ / static_cast<double>(total_count_) : 0.0;
-    out["max_error_of_material_mean"] = max_mean_error;  // bias, materials with >= min_count estimates
-    out["max_spread_sd"] = max_spread;                   // likewise
-    out[unit] = total_count_;
+    out.mean_abs_error = total_count_ > 0 ? total_ / static_cast<double>(total_count_) : 0.0;
+    out.max_error_of_material_mean = max_mean_error;  // bias, materials with >= min_count estimates
+    out.max_spread_sd = max_spread;                   // likewise
+    (pixels ? out.pixels : out.patches) = total_count_;
     return out;
   }
 
@@ -327,12 +319,13 @@ class MaterialErrors {
 };
 
 // Per observed patch, over materials with >= 5 observed patches.
-nlohmann::json AlbedoErrors(const MaterialGroups& g, const std::vector<Rgb>& albedo, const std::vector<bool>& seen) {
+AlbedoErrorFigures AlbedoErrors(const MaterialGroups& g, const std::vector<Rgb>& albedo,
+                                const std::vector<bool>& seen) {
   MaterialErrors errors(g);
   for (size_t p = 0; p < albedo.size(); ++p) {
     if (seen[p]) errors.Add(g.group_of_patch[p], albedo[p]);
   }
-  return errors.ToJson("patches", 5);
+  return errors.Figures(/*pixels=*/false, 5);
 }
 
 // ---- convergence chart -----------------------------------------------------------------------
@@ -500,7 +493,7 @@ RadianceImage PixelReflectance(const Geometry& geo, const std::vector<BracketRad
 
 // A per-pixel reflectance map against the true albedo of each pixel's material, over materials
 // with >= 20 pixels.
-nlohmann::json PixelAlbedoErrors(const MaterialGroups& g, const cv::Mat& ids, const RadianceImage& map) {
+AlbedoErrorFigures PixelAlbedoErrors(const MaterialGroups& g, const cv::Mat& ids, const RadianceImage& map) {
   MaterialErrors errors(g);
   for (int y = 0; y < ids.rows; ++y) {
     for (int x = 0; x < ids.cols; ++x) {
@@ -510,7 +503,7 @@ nlohmann::json PixelAlbedoErrors(const MaterialGroups& g, const cv::Mat& ids, co
       errors.Add(g.group_of_patch[p], Rgb(v[0], v[1], v[2]));
     }
   }
-  return errors.ToJson("pixels", 20);
+  return errors.Figures(/*pixels=*/true, 20);
 }
 
 radiosity::ReflectanceOptions ReflectanceOptionsFrom(const Knobs& k, bool skip_radiosity) {
@@ -671,8 +664,6 @@ Geometry RunGeometryStage(PipelineRun& run, const RadiosityInputs& in) {
   if (geo.points_m.size() != geo.ids.size()) {
     throw IoError((stage.dir / "pixel_points_m.bin").string(), "size differs from the patch ids (rerun with --force)");
   }
-  run.metrics()["patches"] = h.LeafCount();
-  run.metrics()["mesh_triangles"] = h.mesh().TriangleCount();
   return geo;
 }
 
@@ -743,20 +734,20 @@ Observations ObserveBrackets(PipelineRun& run, const RadiosityInputs& in, const 
     out.patches.push_back(std::move(obs));
     out.keys.push_back(key);
   }
-  run.metrics()["patches_seen"] = std::count(out.seen.begin(), out.seen.end(), true);
   return out;
 }
 
-// The radiosity-scale stage's result: bracket 0's absolute scale.
+// The radiosity-scale stage's result: bracket 0's absolute scale and its record.
 struct AbsoluteScale {
   StageKey key;
   double k = 1.0;
+  RadiosityScaleRecord record;
 };
 
 // Bracket 0's absolute scale against the world's rendered radiance, into `j`: the median of
 // truth / measured over well-exposed pixels and channels (robust to the few very bright pixels, a
 // lamp's hot spot, that dominate a least-squares scale), and the ratio's relative spread.
-void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, nlohmann::json* j) {
+void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, RadiosityScaleRecord* j) {
   const GroundTruth truth = in.world->Render(in.camera, r.utc);
   std::vector<double> ratios;
   for (int y = 0; y < r.radiance.height(); ++y) {
@@ -780,9 +771,9 @@ void AddScaleFromTruth(const RadiosityInputs& in, const BracketRadiance& r, nloh
   const double p16 = *lo;
   const auto hi = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() * 84 / 100);
   std::nth_element(ratios.begin(), hi, ratios.end());
-  (*j)["scale"] = k;
-  (*j)["samples"] = ratios.size();
-  (*j)["relative_spread"] = 0.5 * (*hi - p16) / k;
+  j->scale = k;
+  j->samples = static_cast<std::int64_t>(ratios.size());
+  j->relative_spread = 0.5 * (*hi - p16) / k;
 }
 
 // The reference patches of scale=chart: leaves of a material with known albedo (a chart's
@@ -835,21 +826,21 @@ bool HasKnownAlbedo(const Geometry& geo) {
 
 // scale=chart's work: the fixed point of the reference patches' scale (reference_scale.h), into `j`.
 void AddScaleFromChart(const RadiosityInputs& in, const Geometry& geo, const Observations& observed,
-                       const std::vector<radiosity::ReferencePatch>& references, nlohmann::json* j) {
+                       const std::vector<radiosity::ReferencePatch>& references, RadiosityScaleRecord* j) {
   const radiosity::ReferenceScaleResult r =
       radiosity::EstimateReferenceScale(*geo.hierarchy, *geo.caster, observed.patches, references,
                                         ReflectanceOptionsFrom(in.knobs, false), radiosity::ReferenceScaleOptions());
-  (*j)["scale"] = r.scale;
-  (*j)["direct_only_scale"] = r.direct_only_scale;
-  (*j)["relative_spread"] = r.relative_spread;
-  (*j)["samples"] = r.samples;
-  (*j)["reference_patches"] = r.patches;
-  (*j)["indirect_share"] = r.indirect_share;
-  (*j)["history"] = r.history;
-  (*j)["solves"] = r.solves;
-  (*j)["converged"] = r.converged;
-  (*j)["reason"] = r.reason;
-  (*j)["seconds"] = r.time_s;
+  j->scale = r.scale;
+  j->direct_only_scale = r.direct_only_scale;
+  j->relative_spread = r.relative_spread;
+  j->samples = r.samples;
+  j->reference_patches = r.patches;
+  j->indirect_share = r.indirect_share;
+  j->history = r.history;
+  j->solves = r.solves;
+  j->converged = r.converged;
+  j->reason = r.reason;
+  j->seconds = r.time_s;
 }
 
 // The scale mode a run uses: auto becomes chart when the scene model has materials of known
@@ -899,25 +890,26 @@ AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const G
     AddKnobsToKey(out.key, knobs, "reflectance");
   }
   const StageCache::Result stage = run.RunStage("radiosity-scale", out.key, [&](const fs::path& dir) {
-    nlohmann::json j = {{"mode", mode}, {"scale", 1.0}};
+    RadiosityScaleRecord j;
+    j.mode = mode;
     if (mode == "input=truth") {
-      j["mode"] = "input=truth: already absolute";
+      j.mode = "input=truth: already absolute";
     } else if (mode == "truth") {
       AddScaleFromTruth(in, bracket0, &j);
     } else if (mode == "chart") {
       AddScaleFromChart(in, geo, observed, references, &j);
       if (in.world != nullptr && knobs.compare_truth) {  // evaluation only: the oracle's scale beside it
-        nlohmann::json truth;
+        RadiosityScaleRecord truth;
         AddScaleFromTruth(in, bracket0, &truth);
-        j["truth_scale"] = truth["scale"];
-        j["error_against_truth"] = j["scale"].get<double>() / truth["scale"].get<double>() - 1.0;
+        j.truth_scale = truth.scale;
+        j.error_against_truth = j.scale / truth.scale - 1.0;
       }
     }
-    WriteJson(dir / "scale.json", j);
+    WriteRecord(dir / "scale.json", j);
   });
-  const nlohmann::json scale = ReadJson(stage.dir / "scale.json");
-  out.k = scale["scale"].get<double>();
-  run.metrics()["absolute_scale"] = scale;
+  out.record = ReadRecord<RadiosityScaleRecord>(stage.dir / "scale.json");
+  const RadiosityScaleRecord& scale = out.record;
+  out.k = scale.scale;
   std::string text;
   if (knobs.input == "truth") {
     text = "input=truth: the world's radiance is absolute (W m^-2 sr^-1); no camera";
@@ -930,14 +922,14 @@ AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const G
     std::snprintf(buffer, sizeof(buffer),
                   "bracket 0's absolute scale from %d chart patch(es) of known albedo: %.5g (direct light alone "
                   "%.5g; indirect %.0f %% of their light; per-patch spread %.1f %%; %s)",
-                  scale.value("reference_patches", 0), out.k, scale.value("direct_only_scale", 0.0),
-                  100.0 * scale.value("indirect_share", 0.0), 100.0 * scale.value("relative_spread", 0.0),
-                  scale.value("converged", false) ? "converged" : "NOT converged");
+                  scale.reference_patches.value_or(0), out.k, scale.direct_only_scale.value_or(0.0),
+                  100.0 * scale.indirect_share.value_or(0.0), 100.0 * scale.relative_spread.value_or(0.0),
+                  scale.converged.value_or(false) ? "converged" : "NOT converged");
     text = buffer;
   } else {
     text = "scale=none: albedo is relative (bracket 0's units), not absolute";
   }
-  run.Decide("radiosity-scale", mode == "chart" && !scale.value("converged", false) ? "warn" : "choose", text);
+  run.Decide("radiosity-scale", mode == "chart" && !scale.converged.value_or(false) ? "warn" : "choose", text);
   return out;
 }
 
@@ -977,7 +969,7 @@ std::vector<Rgb> FirstAlbedoEstimate(const radiosity::PatchHierarchy& h, const r
 // factors. Below the tolerance the radiosity iterations cannot change the albedo by more, and
 // they are skipped (returns true).
 bool DecideSkipRadiosity(PipelineRun& run, const Knobs& knobs, const Geometry& geo,
-                         const radiosity::RadianceObservation& bracket0) {
+                         const radiosity::RadianceObservation& bracket0, IndirectShareFigures* figures) {
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   const radiosity::DirectLight direct0 =
       radiosity::ComputeDirectLight(h, *geo.caster, bracket0.lighting, ReflectanceOptionsFrom(knobs, false).direct);
@@ -985,11 +977,8 @@ bool DecideSkipRadiosity(PipelineRun& run, const Knobs& knobs, const Geometry& g
   const radiosity::IndirectShareEstimate share = radiosity::EstimateIndirectShare(
       h, *geo.caster, albedo0, direct0.irradiance, knobs.tolerance, knobs.form_factor_rays);
   const bool skip = share.indirect_share < knobs.tolerance;
-  run.metrics()["indirect_share"] = {{"estimate", share.indirect_share},
-                                     {"first_bounce_ratio", share.first_bounce_ratio},
-                                     {"series_ratio", share.series_ratio},
-                                     {"mean_enclosure", share.mean_enclosure},
-                                     {"tolerance", knobs.tolerance}};
+  *figures = {share.indirect_share, share.first_bounce_ratio, share.series_ratio, share.mean_enclosure,
+              knobs.tolerance};
   run.Decide("radiosity", skip ? "skip" : "run",
              "estimated indirect light " + PercentText(share.indirect_share) + " of the direct (first bounce " +
                  PercentText(share.first_bounce_ratio) + ", enclosure " + std::to_string(share.mean_enclosure) + ") " +
@@ -1047,11 +1036,9 @@ class RelativeDifference {
     }
     count_ += 3;
   }
-  nlohmann::json ToJson() const {
+  RelativeDifferenceFigures Figures() const {
     const double mean = count_ > 0 ? sum_ / count_ : 0.0;
-    return {{"mean_relative_difference", mean},
-            {"sd_relative_difference", count_ > 0 ? std::sqrt(std::max(0.0, sum2_ / count_ - mean * mean)) : 0.0},
-            {"samples", count_}};
+    return {mean, count_ > 0 ? std::sqrt(std::max(0.0, sum2_ / count_ - mean * mean)) : 0.0, count_};
   }
 
  private:
@@ -1063,9 +1050,9 @@ class RelativeDifference {
 // photograph, per observed patch. What remains here (Monte Carlo noise and bounce truncation of
 // the simulated photographs, patch discretisation, camera) no albedo can remove. `solver` is the
 // reflectance stage's (its links refined by the converged solution).
-nlohmann::json ModelGap(const Geometry& geo, const MaterialGroups& groups, radiosity::RadiositySolver& solver,
-                        const radiosity::DirectLight& direct, const radiosity::RadianceObservation& bracket0,
-                        const radiosity::DirectLightOptions& direct_options) {
+ModelGapFigures ModelGap(const Geometry& geo, const MaterialGroups& groups, radiosity::RadiositySolver& solver,
+                         const radiosity::DirectLight& direct, const radiosity::RadianceObservation& bracket0,
+                         const radiosity::DirectLightOptions& direct_options) {
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   const int n = h.LeafCount();
   std::vector<Rgb> truth_albedo(n, Rgb::Constant(0.5));
@@ -1078,7 +1065,8 @@ nlohmann::json ModelGap(const Geometry& geo, const MaterialGroups& groups, radio
     if (!l.allFinite() || !(l.minCoeff() > 0.0)) continue;
     per_patch.Add((truth_solution.radiosity[p] / std::numbers::pi).cwiseQuotient(l));
   }
-  nlohmann::json model_gap = per_patch.ToJson();
+  ModelGapFigures model_gap;
+  model_gap.per_patch = per_patch.Figures();
   // The same with the direct light averaged over the pixels' own points (what the estimate
   // divides by when direct_at_pixels is on): what is left is the indirect light's error
   // (patch-constant, Monte Carlo noise of the photographs).
@@ -1093,7 +1081,7 @@ nlohmann::json ModelGap(const Geometry& geo, const MaterialGroups& groups, radio
           truth_albedo[p].cwiseProduct(at.irradiance[p] + truth_solution.indirect_irradiance[p]) / std::numbers::pi;
       at_pixels.Add(model.cwiseQuotient(l));
     }
-    model_gap["at_pixels"] = at_pixels.ToJson();
+    model_gap.at_pixels = at_pixels.Figures();
   }
   return model_gap;
 }
@@ -1101,7 +1089,7 @@ nlohmann::json ModelGap(const Geometry& geo, const MaterialGroups& groups, radio
 // convergence.csv and convergence.png: the albedo change per iteration and, with compare_truth,
 // the error and the largest spread per material against the truth.
 void WriteConvergence(const fs::path& dir, const radiosity::ReflectanceResult& result,
-                      const nlohmann::json& per_iteration, bool compare_truth) {
+                      const std::vector<ReflectanceIterationFigures>& per_iteration, bool compare_truth) {
   std::vector<double> change{std::numeric_limits<double>::quiet_NaN()}, error, spread;
   for (double c : result.max_change) change.push_back(c);
   {
@@ -1110,9 +1098,9 @@ void WriteConvergence(const fs::path& dir, const radiosity::ReflectanceResult& r
     for (size_t i = 0; i < per_iteration.size(); ++i) {
       const double mc = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.max_change[i - 1];
       const double mean_c = i == 0 ? std::numeric_limits<double>::quiet_NaN() : result.mean_change[i - 1];
-      const nlohmann::json& t = per_iteration[i].contains("truth") ? per_iteration[i]["truth"] : nlohmann::json();
-      const double e = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["mean_abs_error"].get<double>();
-      const double sd = t.is_null() ? std::numeric_limits<double>::quiet_NaN() : t["max_spread_sd"].get<double>();
+      const std::optional<AlbedoErrorFigures>& t = per_iteration[i].truth;
+      const double e = t ? t->mean_abs_error : std::numeric_limits<double>::quiet_NaN();
+      const double sd = t ? t->max_spread_sd : std::numeric_limits<double>::quiet_NaN();
       error.push_back(e);
       spread.push_back(sd);
       char line[160];
@@ -1128,19 +1116,20 @@ void WriteConvergence(const fs::path& dir, const radiosity::ReflectanceResult& r
   calibration::SaveImage(LogChart(series, "reflectance iterations (Loscos)"), (dir / "convergence.png").string());
 }
 
-// The reflectance result's part of the stage's metrics.json.
-nlohmann::json ReflectanceMetrics(const radiosity::ReflectanceResult& result, const nlohmann::json& per_iteration) {
-  nlohmann::json m;
-  m["iterations"] = result.iterations;
-  m["converged"] = result.converged;
-  m["reason"] = result.reason;
-  m["radiosity_skipped"] = result.radiosity_skipped;
-  m["image_scale"] = result.image_scale;
-  m["scale_samples"] = result.scale_samples;
-  m["max_change"] = result.max_change;
-  m["clamped"] = result.clamped;
-  m["seconds"] = result.time_s;
-  m["per_iteration"] = per_iteration;
+// The reflectance result's part of the stage's record.
+RadiosityReflectanceRecord ReflectanceRecord(const radiosity::ReflectanceResult& result,
+                                             std::vector<ReflectanceIterationFigures> per_iteration) {
+  RadiosityReflectanceRecord m;
+  m.iterations = result.iterations;
+  m.converged = result.converged;
+  m.reason = result.reason;
+  m.radiosity_skipped = result.radiosity_skipped;
+  m.image_scale = result.image_scale;
+  m.scale_samples = result.scale_samples;
+  m.max_change = result.max_change;
+  m.clamped = result.clamped;
+  m.seconds = result.time_s;
+  m.per_iteration = std::move(per_iteration);
   return m;
 }
 
@@ -1151,11 +1140,12 @@ void ComputeReflectance(PipelineRun& run, const fs::path& dir, const Knobs& knob
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   const radiosity::RadianceObservation& bracket0 = observed.patches.front();
   radiosity::ReflectanceOptions options = ReflectanceOptionsFrom(knobs, skip);
-  nlohmann::json per_iteration = nlohmann::json::array();
+  std::vector<ReflectanceIterationFigures> per_iteration;
   options.on_iteration = [&](int iteration, const std::vector<Rgb>& albedo, const std::vector<double>& scales) {
-    nlohmann::json it = {{"iteration", iteration}, {"image_scale", scales}};
-    if (knobs.compare_truth) it["truth"] = AlbedoErrors(groups, albedo, observed.seen);
-    per_iteration.push_back(it);
+    ReflectanceIterationFigures& it = per_iteration.emplace_back();
+    it.iteration = iteration;
+    it.image_scale = scales;
+    if (knobs.compare_truth) it.truth = AlbedoErrors(groups, albedo, observed.seen);
     run.Progress("reflectance", iteration, knobs.iterations);
   };
   const radiosity::ReflectanceResult result = radiosity::EstimateReflectance(h, *geo.caster, observed.patches, options);
@@ -1178,28 +1168,24 @@ void ComputeReflectance(PipelineRun& run, const fs::path& dir, const Knobs& knob
   const radiosity::RadiositySummary summary =
       solver.Solve(result.albedo, direct.irradiance, h.LeafEmission(), &solution);
   const double relative_rms = WriteBracket0Solution(dir, geo, solution, bracket0);
-  nlohmann::json model_gap;
-  if (knobs.compare_truth) model_gap = ModelGap(geo, groups, solver, direct, bracket0, options.direct);
   WriteConvergence(dir, result, per_iteration, knobs.compare_truth);
 
-  nlohmann::json m = ReflectanceMetrics(result, per_iteration);
+  RadiosityReflectanceRecord m = ReflectanceRecord(result, per_iteration);
   if (knobs.compare_truth && !per_iteration.empty()) {
-    m["truth_before"] = per_iteration.front()["truth"];
-    m["truth_after"] = per_iteration.back()["truth"];
-    m["truth_pixels"] = PixelAlbedoErrors(groups, geo.ids, albedo_image);
+    m.truth_before = per_iteration.front().truth;
+    m.truth_after = per_iteration.back().truth;
+    m.truth_pixels = PixelAlbedoErrors(groups, geo.ids, albedo_image);
+    m.model_gap_true_albedo_vs_bracket0 = ModelGap(geo, groups, solver, direct, bracket0, options.direct);
   }
-  m["solution"] = {{"summary", summary.BriefReport()},
-                   {"converged", summary.converged},
-                   {"links", summary.links},
-                   {"relative_rms_vs_bracket0", relative_rms}};
-  if (!model_gap.is_null()) m["model_gap_true_albedo_vs_bracket0"] = model_gap;
-  WriteJson(dir / "metrics.json", m);
+  m.solution = {summary.BriefReport(), summary.converged, summary.links, relative_rms};
+  WriteRecord(dir / "metrics.json", m);
 }
 
 // The radiosity-reflectance stage's result.
 struct ReflectanceStage {
   StageKey key;
   fs::path dir;
+  RadiosityReflectanceRecord record;
 };
 
 // Stage radiosity-reflectance: albedo per patch (iterated with radiosity unless the planner
@@ -1221,11 +1207,11 @@ ReflectanceStage RunReflectanceStage(PipelineRun& run, const RadiosityInputs& in
     ComputeReflectance(run, dir, in.knobs, geo, groups, observed, scale.k, skip);
   });
   out.dir = stage.dir;
-  const nlohmann::json refl = ReadJson(out.dir / "metrics.json");
-  run.metrics()["reflectance"] = refl;
-  run.Decide("radiosity-reflectance", refl["converged"].get<bool>() ? "note" : "warn",
-             std::string(refl["converged"].get<bool>() ? "converged" : "not converged") + " after " +
-                 std::to_string(refl["iterations"].get<int>()) + " iteration(s): " + refl["reason"].get<std::string>());
+  out.record = ReadRecord<RadiosityReflectanceRecord>(out.dir / "metrics.json");
+  const RadiosityReflectanceRecord& refl = out.record;
+  run.Decide("radiosity-reflectance", refl.converged ? "note" : "warn",
+             std::string(refl.converged ? "converged" : "not converged") + " after " + std::to_string(refl.iterations) +
+                 " iteration(s): " + refl.reason);
   run.AddOutput(out.dir / "albedo.csv", "albedo per patch (and iteration 0's)");
   run.AddOutput(out.dir / "reflectance.png",
                 "reflectance map per pixel (each pixel's own direct light, its patch's indirect light)");
@@ -1298,7 +1284,8 @@ std::optional<RadianceImage> RelitTruth(const RadiosityInputs& in, UtcTime utc, 
     *why = "the external truth has no relit.exr + relit.json";
     return std::nullopt;
   }
-  const nlohmann::json lamp = ReadJson(dir / "relit.json");
+  const nlohmann::json lamp = ReadJsonFile(
+      dir / "relit.json", "--set truth_dir needs relit.json with the lamp of relit.exr: docs/radiosity.md");
   const Eigen::Vector3d at(lamp.at("light_m").at(0).get<double>(), lamp.at("light_m").at(1).get<double>(),
                            lamp.at("light_m").at(2).get<double>());
   const double intensity = lamp.at("light_intensity_w_sr").get<double>();
@@ -1316,12 +1303,12 @@ std::optional<RadianceImage> RelitTruth(const RadiosityInputs& in, UtcTime utc, 
 }
 
 void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const RadianceImage& relit, UtcTime utc,
-                           const fs::path& dir, nlohmann::json* m) {
+                           const fs::path& dir, RadiosityRelightRecord* m) {
   const int n = geo.hierarchy->LeafCount();
   std::string why;
   const std::optional<RadianceImage> truth_image = RelitTruth(in, utc, &why);
   if (!truth_image) {
-    (*m)["truth_not_compared"] = why;
+    m->truth_not_compared = why;
     return;
   }
   const RadianceImage& truth = *truth_image;
@@ -1353,17 +1340,17 @@ void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const
     truth_total += t.sum();
     ++patches;
   }
-  (*m)["truth_relative_rms_per_patch"] = den > 0.0 ? std::sqrt(num / den) : 0.0;
-  (*m)["truth_relative_rms_per_pixel"] = pixel_den > 0.0 ? std::sqrt(pixel_num / pixel_den) : 0.0;
-  (*m)["truth_mean_ratio"] = truth_total > 0.0 ? model / truth_total : 0.0;
-  (*m)["truth_patches"] = patches;
+  m->truth_relative_rms_per_patch = den > 0.0 ? std::sqrt(num / den) : 0.0;
+  m->truth_relative_rms_per_pixel = pixel_den > 0.0 ? std::sqrt(pixel_num / pixel_den) : 0.0;
+  m->truth_mean_ratio = truth_total > 0.0 ? model / truth_total : 0.0;
+  m->truth_patches = patches;
   calibration::SaveImage(RadiancePreview(truth), (dir / "relit_truth.png").string());
 }
 
 // Stage radiosity-relight: every recorded lamp off, one point lamp where the command line puts
 // it; the radiosity solution with the estimated albedo, rendered per pixel.
-void RunRelightStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo, const ReflectanceStage& refl,
-                     bool skip, UtcTime bracket0_utc) {
+RadiosityRelightRecord RunRelightStage(PipelineRun& run, const RadiosityInputs& in, const Geometry& geo,
+                                       const ReflectanceStage& refl, bool skip, UtcTime bracket0_utc) {
   const Knobs& knobs = in.knobs;
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   StageKey relight_key;
@@ -1389,18 +1376,22 @@ void RunRelightStage(PipelineRun& run, const RadiosityInputs& in, const Geometry
     calibration::SaveRadianceExr(relit, (dir / "relit.exr").string());
     calibration::SaveImage(RadiancePreview(relit), (dir / "relit.png").string());
     WritePatchRgb(dir / "relit_radiosity.csv", "radiosity_w_m2", solution.radiosity);
-    nlohmann::json m = {{"light_m", {knobs.light_m.x(), knobs.light_m.y(), knobs.light_m.z()}},
-                        {"light_intensity_w_sr", knobs.light_intensity_w_sr},
-                        {"solution", summary.BriefReport()}};
+    RadiosityRelightRecord m;
+    m.light_m = knobs.light_m;
+    m.light_intensity_w_sr = knobs.light_intensity_w_sr;
+    m.solution = summary.BriefReport();
     if (knobs.compare_truth) CompareRelitWithTruth(in, geo, relit, bracket0_utc, dir, &m);
-    WriteJson(dir / "metrics.json", m);
+    WriteRecord(dir / "metrics.json", m);
   });
-  run.metrics()["relight"] = ReadJson(stage.dir / "metrics.json");
   run.AddOutput(stage.dir / "relit.png", "relit rendering under the new lamp");
   run.AddOutput(stage.dir / "relit.exr", "relit radiance, W m^-2 sr^-1");
+  return ReadRecord<RadiosityRelightRecord>(stage.dir / "metrics.json");
 }
 
-void RunRadiosityPipeline(PipelineRun& run) {
+}  // namespace
+
+RadiosityPipelineSummary RunRadiosityPipeline(PipelineRun& run) {
+  RadiosityPipelineSummary summary;
   const RadiosityInputs in = ReadRadiosityInputs(run);
   const Knobs& knobs = in.knobs;
   run.Decide("radiosity", "plan",
@@ -1409,7 +1400,7 @@ void RunRadiosityPipeline(PipelineRun& run) {
                  " iteration(s) at most, tolerance " + std::to_string(knobs.tolerance));
   if (run.request().explain) {
     run.Decide("radiosity", "note", "the indirect-share test (skip or run radiosity) needs the radiance: not run here");
-    return;
+    return summary;
   }
   if (in.world != nullptr && in.world->IndirectBounces() == 0) {
     run.Decide("radiosity", "note",
@@ -1417,67 +1408,63 @@ void RunRadiosityPipeline(PipelineRun& run) {
                "interreflection, so albedo from a radiosity model is biased low; compare with the skipped result");
   }
   const Geometry geo = RunGeometryStage(run, in);
+  summary.patches = geo.hierarchy->LeafCount();
+  summary.mesh_triangles = geo.hierarchy->mesh().TriangleCount();
   Observations observed = ObserveBrackets(run, in, geo);
+  summary.patches_seen = std::count(observed.seen.begin(), observed.seen.end(), true);
   const AbsoluteScale scale = RunScaleStage(run, in, geo, observed);
+  summary.absolute_scale = scale.record;
   for (auto& obs : observed.patches) {
     for (Rgb& v : obs.radiance) v *= scale.k;
   }
-  const bool skip = DecideSkipRadiosity(run, knobs, geo, observed.patches.front());
+  summary.indirect_share.emplace();
+  const bool skip = DecideSkipRadiosity(run, knobs, geo, observed.patches.front(), &*summary.indirect_share);
   const ReflectanceStage reflectance = RunReflectanceStage(run, in, geo, observed, scale, skip);
-  RunRelightStage(run, in, geo, reflectance, skip, observed.radiance.front().utc);
+  summary.reflectance = reflectance.record;
+  summary.relight = RunRelightStage(run, in, geo, reflectance, skip, observed.radiance.front().utc);
+  return summary;
 }
-
-}  // namespace
 
 namespace {
 
-std::string RadiosityHeadline(const nlohmann::json& m) {
-  if (!m.contains("reflectance")) return "";
-  const nlohmann::json& r = Field(m, "reflectance");
-  std::string text = std::to_string(m.value("patches", 0)) + " patches, " +
-                     (r.value("converged", false) ? "converged" : "NOT converged") + " after " +
-                     std::to_string(r.value("iterations", 0)) + " iteration(s)";
-  if (r.contains("truth_after") && r["truth_after"].contains("materials")) {
+std::string RadiosityHeadline(const RadiosityPipelineSummary& s) {
+  if (!s.reflectance) return "";
+  const RadiosityReflectanceRecord& r = *s.reflectance;
+  std::string text = std::to_string(s.patches.value_or(0)) + " patches, " +
+                     (r.converged ? "converged" : "NOT converged") + " after " + std::to_string(r.iterations) +
+                     " iteration(s)";
+  if (r.truth_after && !r.truth_after->materials.empty()) {
     double sum = 0.0, worst = 0.0;
-    int n = 0;
-    for (const nlohmann::json& mat : Field(Field(r, "truth_after"), "materials")) {
-      if (!Field(mat, "error_of_mean").is_number()) continue;
-      sum += Field(mat, "error_of_mean").get<double>();
-      worst = std::max(worst, Field(mat, "error_of_mean").get<double>());
-      ++n;
+    for (const MaterialAlbedoError& m : r.truth_after->materials) {
+      sum += m.error_of_mean;
+      worst = std::max(worst, m.error_of_mean);
     }
-    if (n > 0) {
-      char text_buffer[120];
-      std::snprintf(text_buffer, sizeof(text_buffer),
-                    "; albedo error of the mean per material: mean %.3f, worst %.3f (%d materials)", sum / n, worst, n);
-      text += text_buffer;
-    }
+    const int n = static_cast<int>(r.truth_after->materials.size());
+    char text_buffer[120];
+    std::snprintf(text_buffer, sizeof(text_buffer),
+                  "; albedo error of the mean per material: mean %.3f, worst %.3f (%d materials)", sum / n, worst, n);
+    text += text_buffer;
   }
   return text;
 }
 
-std::vector<Figure> RadiosityFigures(const nlohmann::json& m) {
+std::vector<Figure> RadiosityFigures(const RadiosityPipelineSummary& s) {
   std::vector<Figure> f;
-  AddFigure(f, "patches", m.value("patches", nlohmann::json()), "", 9);
-  if (m.contains("indirect_share")) {
-    AddFigure(f, "indirect light, estimated share of the direct", Field(Field(m, "indirect_share"), "estimate"), "%");
-  }
-  if (m.contains("reflectance")) {
-    const nlohmann::json& r = Field(m, "reflectance");
-    AddFigure(f, "reflectance iterations", r.value("iterations", nlohmann::json()), "", 4);
-    AddFigure(f, "converged", r.value("converged", nlohmann::json()), "");
-    if (r.contains("truth_after") && r["truth_after"].contains("materials")) {
-      for (const nlohmann::json& mat : Field(Field(r, "truth_after"), "materials")) {
-        AddFigure(f, "albedo error of the mean, " + mat.value("material", std::string("?")),
-                  mat.value("error_of_mean", nlohmann::json()), "(albedo)", 3);
+  if (s.patches) AddFigure(f, "patches", static_cast<double>(*s.patches), "", 9);
+  if (s.indirect_share) AddFigure(f, "indirect light, estimated share of the direct", s.indirect_share->estimate, "%");
+  if (s.reflectance) {
+    const RadiosityReflectanceRecord& r = *s.reflectance;
+    AddFigure(f, "reflectance iterations", static_cast<double>(r.iterations), "", 4);
+    AddYesNoFigure(f, "converged", r.converged);
+    if (r.truth_after) {
+      for (const MaterialAlbedoError& m : r.truth_after->materials) {
+        AddFigure(f, "albedo error of the mean, " + m.material, m.error_of_mean, "(albedo)", 3);
       }
     }
   }
-  if (m.contains("relight")) {
-    AddFigure(f, "relit vs truth, per pixel (relative RMS)",
-              Field(m, "relight").value("truth_relative_rms_per_pixel", nlohmann::json()), "%");
-    AddFigure(f, "relit vs truth, per patch",
-              Field(m, "relight").value("truth_relative_rms_per_patch", nlohmann::json()), "%");
+  if (s.relight) {
+    AddFigure(f, "relit vs truth, per pixel (relative RMS)", s.relight->truth_relative_rms_per_pixel, "%");
+    AddFigure(f, "relit vs truth, per patch", s.relight->truth_relative_rms_per_patch, "%");
   }
   return f;
 }
@@ -1485,14 +1472,15 @@ std::vector<Figure> RadiosityFigures(const nlohmann::json& m) {
 }  // namespace
 
 PipelineEntry RadiosityPipelineEntry() {
-  return {"radiosity",
-          "per-patch albedo of a room under a moving lamp (Loscos: EV-only HDR, consistency scales, reflectance "
-          "iterated with radiosity), radiosity solution, relighting (--set light_x=..,light_y=..,light_z=..)",
-          RunRadiosityPipeline,
-          WithRadianceKnobs(DescribeKnobs<Knobs>()),
-          RadiosityHeadline,
-          RadiosityFigures,
-          {"radiance", "geometry", "observe", "scale", "reflectance", "relight"}};
+  return MakePipelineEntry(TypedPipeline<RadiosityPipelineSummary>{
+      "radiosity",
+      "per-patch albedo of a room under a moving lamp (Loscos: EV-only HDR, consistency scales, reflectance "
+      "iterated with radiosity), radiosity solution, relighting (--set light_x=..,light_y=..,light_z=..)",
+      RunRadiosityPipeline,
+      WithRadianceKnobs(DescribeKnobs<Knobs>()),
+      RadiosityHeadline,
+      RadiosityFigures,
+      {"radiance", "geometry", "observe", "scale", "reflectance", "relight"}});
 }
 
 }  // namespace relume::pipeline

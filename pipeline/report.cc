@@ -397,7 +397,13 @@ void WriteFigures(std::ostringstream& html, const PipelineReport& p) {
   // Key figures, labelled, with units (the pipeline's own selection of its metrics).
   for (const PipelineEntry& entry : Pipelines()) {
     if (entry.name != p.name || !entry.figures) continue;
-    const std::vector<Figure> key_figures = entry.figures(p.summary["metrics"]);
+    std::vector<Figure> key_figures;
+    try {
+      key_figures = entry.figures(p.summary["metrics"]);
+    } catch (const IoError& e) {  // a summary.json another version of relume wrote
+      html << "<p class=\"warn\">key figures not shown: " << Escape(e.what()) << "</p>\n";
+      break;
+    }
     if (key_figures.empty()) break;
     html << "<table class=\"key-figures\"><tr><th>figure</th><th>value</th><th>unit</th></tr>\n";
     for (const Figure& kf : key_figures) {

@@ -342,12 +342,6 @@ PinholeCamera ColorCamera(PipelineRun& run, const RgbdPair& pair, std::string* h
   return camera;
 }
 
-void WriteJson(const fs::path& path, const nlohmann::json& json) {
-  std::ofstream out(path);
-  out << json.dump(2) << "\n";
-  if (!out) throw IoError(path.string(), "cannot be written");
-}
-
 nlohmann::json ReadJson(const fs::path& path) {
   std::ifstream in = OpenInputFile(path);
   try {
@@ -457,6 +451,31 @@ FrameRadiance ColorRadiance(PipelineRun& run, const RgbdPair& pair, const Record
 
 // ---- geometry: depth filter + normals -----------------------------------------------------
 
+// Stage geometry-<id>'s record (geometry.json): the frames, the temporal filter, where the
+// normals came from and the mask.
+struct GeometryRecord {
+  std::int64_t depth_frame = 0, color_frame = 0;
+  int temporal_blended = 0;                      // pixels blended with the previous frame's depth
+  std::optional<double> depth_changed_fraction;  // normals_reuse: against the previous frame
+  std::int64_t normals_from_frame = 0;
+  std::optional<bool> normals_from_truth;                                        // true_normals (a diagnostic)
+  std::optional<std::int64_t> normals_integral, normals_cross, normals_invalid;  // computed here
+  std::int64_t mask_pixels = 0;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("depth_frame", depth_frame);
+    v.Field("color_frame", color_frame);
+    v.Field("temporal_blended", temporal_blended);
+    v.Field("depth_changed_fraction", depth_changed_fraction);
+    v.Field("normals_from_frame", normals_from_frame);
+    v.Field("normals_from_truth", normals_from_truth);
+    v.Field("normals_integral", normals_integral);
+    v.Field("normals_cross", normals_cross);
+    v.Field("normals_invalid", normals_invalid);
+    v.Field("mask_pixels", mask_pixels);
+  }
+};
+
 struct FrameGeometry {
   fs::path dir;
   StageKey key;
@@ -563,51 +582,53 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
       filtered =
           processing::TemporalFilterDepth(bilateral, LoadFloat(previous->dir / "bilateral.exr"), k.temporal, &blended);
     }
-    nlohmann::json info = {
-        {"depth_frame", pair.depth.id}, {"color_frame", pair.color.id}, {"temporal_blended", blended}};
+    GeometryRecord info;
+    info.depth_frame = pair.depth.id;
+    info.color_frame = pair.color.id;
+    info.temporal_blended = blended;
     bool reuse = false;
     if (k.normals_reuse && previous != nullptr) {
       const double changed = ChangedFraction(filtered, LoadFloat(previous->dir / "depth.exr"),
                                              k.bilateral.range_sigma_at_1m_m, k.reuse_sigmas);
-      info["depth_changed_fraction"] = changed;
+      info.depth_changed_fraction = changed;
       reuse = changed <= k.reuse_max_changed_fraction;
     }
     cv::Mat normals, valid;
     if (k.true_normals) {
       TrueNormalsInCamera(*run.truth(), camera, pair.color.utc, &normals, &valid);
-      info["normals_from_frame"] = pair.color.id;
-      info["normals_from_truth"] = true;
+      info.normals_from_frame = pair.color.id;
+      info.normals_from_truth = true;
     } else if (reuse) {
       normals = LoadFloat(previous->dir / "normals.exr");
       valid = LoadMask(previous->dir / "valid.png");
-      info["normals_from_frame"] = previous->normals_from_frame;
+      info.normals_from_frame = previous->normals_from_frame;
     } else {
       const processing::NormalMap map = processing::EstimateNormals(filtered, K, k.normals);
       normals = map.normal_in_camera;
       valid = map.valid;
-      info["normals_from_frame"] = pair.color.id;
-      info["normals_integral"] = map.integral_count;
-      info["normals_cross"] = map.cross_count;
-      info["normals_invalid"] = map.invalid_count;
+      info.normals_from_frame = pair.color.id;
+      info.normals_integral = map.integral_count;
+      info.normals_cross = map.cross_count;
+      info.normals_invalid = map.invalid_count;
     }
     const cv::Mat mask = MaskWithDepth(valid, filtered);
-    info["mask_pixels"] = cv::countNonZero(mask);
+    info.mask_pixels = cv::countNonZero(mask);
     SaveFloat(bilateral, dir / "bilateral.exr");
     SaveFloat(filtered, dir / "depth.exr");
     SaveFloat(normals, dir / "normals.exr");
     calibration::SaveImage(valid, (dir / "valid.png").string());
     calibration::SaveImage(mask, (dir / "mask.png").string());
-    WriteJson(dir / "geometry.json", info);
+    WriteRecord(dir / "geometry.json", info);
   });
   g.dir = stage.dir;
-  const nlohmann::json info = ReadJson(g.dir / "geometry.json");
+  const auto info = ReadRecord<GeometryRecord>(g.dir / "geometry.json");
   g.normals = Lazy<cv::Mat>([path = g.dir / "normals.exr"] { return LoadFloat(path); });
   g.mask = Lazy<cv::Mat>([path = g.dir / "mask.png"] { return LoadMask(path); });
-  g.normals_from_frame = info["normals_from_frame"].get<std::int64_t>();
-  if (info.contains("normals_from_truth")) {
+  g.normals_from_frame = info.normals_from_frame;
+  if (info.normals_from_truth.value_or(false)) {
     run.Decide("normals", "choose", "frame " + id + ": the world's true normals (diagnostic: --set true_normals=true)");
-  } else if (info.contains("depth_changed_fraction")) {
-    const double changed = info["depth_changed_fraction"].get<double>();
+  } else if (info.depth_changed_fraction) {
+    const double changed = *info.depth_changed_fraction;
     if (g.normals_from_frame != pair.color.id) {
       run.Decide("normals", "skip",
                  "frame " + id + ": depth unchanged (" + Percent(changed) + " of pixels moved beyond " +
@@ -628,7 +649,7 @@ struct FrameFit {
   fs::path dir;
   StageKey key;
   ShRgb light = ShRgb::Zero();
-  nlohmann::json summary;
+  ShFitFigures summary;  // light.json "fit"
 };
 
 FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair& pair, const PinholeCamera& camera,
@@ -652,7 +673,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
       }
     }
     processing::ShFitSummary summary;
-    nlohmann::json extra;
+    ShFitFigures figures;
     if (known_albedo) {
       const cv::Mat albedo = run.truth()->Render(camera, pair.color.utc).albedo;
       processing::SamplePointSelector selector(k.samples);
@@ -662,7 +683,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
           k.fit.fit);
       f.light = fit.light;
       summary = fit.summary;
-      extra["albedo"] = "truth (the simulated world's; an evaluation oracle)";
+      figures.albedo = "truth (the simulated world's; an evaluation oracle)";
     } else {
       const processing::Segmentation seg =
           processing::SegmentByColor(radiance.radiance.get(), allowed, geometry.normals.get(), k.segmentation);
@@ -673,24 +694,24 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
           k.fit);
       f.light = fit.light;
       summary = fit.summary;
-      extra["albedo"] = "unknown (k-means segments, alternating fit; scale fixed by the largest segment = 0.5)";
-      extra["segments"] = seg.segment_count();
-      for (const Eigen::Vector3d& a : fit.segment_albedo) extra["segment_albedo"].push_back({a.x(), a.y(), a.z()});
+      figures.albedo = "unknown (k-means segments, alternating fit; scale fixed by the largest segment = 0.5)";
+      figures.segments = seg.segment_count();
+      figures.segment_albedo = fit.segment_albedo;
     }
+    figures.usable = summary.usable;
+    figures.order_used = summary.order_used;
+    figures.order_reduced = summary.order_reduced;
+    figures.observations = summary.observation_count;
+    figures.condition_number = summary.condition_number;
+    figures.condition_number_order2 = summary.condition_number_order2;
+    figures.normal_solid_angle_sr = summary.normal_solid_angle_sr;
+    figures.relative_rms_residual = summary.relative_rms_residual;
+    figures.iterations = summary.iterations;
+    figures.converged = summary.converged;
+    figures.message = summary.message;
     nlohmann::json light = ShLightToJson(f.light, summary.order_used);
-    light["fit"] = {{"usable", summary.usable},
-                    {"order_used", summary.order_used},
-                    {"order_reduced", summary.order_reduced},
-                    {"observations", summary.observation_count},
-                    {"condition_number", summary.condition_number},
-                    {"condition_number_order2", summary.condition_number_order2},
-                    {"normal_solid_angle_sr", summary.normal_solid_angle_sr},
-                    {"relative_rms_residual", summary.relative_rms_residual},
-                    {"iterations", summary.iterations},
-                    {"converged", summary.converged},
-                    {"message", summary.message}};
-    light["fit"].update(extra);
-    WriteJson(dir / "light.json", light);
+    light["fit"] = FieldsToJson(figures);
+    WriteJsonFile(dir / "light.json", light);
     const cv::Mat latlong =
         processing::ShToLatLong(f.light, 128, 64, processing::ShDisplayQuantity::kRadiance,
                                 camera.world_from_camera.rotation().transpose());  // map +z = world up
@@ -703,18 +724,18 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
     calibration::SaveImage(RadiancePreview(c), (dir / "cube.png").string());
   });
   f.dir = stage.dir;
-  const nlohmann::json light = ReadJson(f.dir / "light.json");
-  f.light = ShLightFromJson(light, (f.dir / "light.json").string());
-  f.summary = light["fit"];
-  if (!f.summary["usable"].get<bool>()) {
-    throw InvalidArgumentError("frame " + id +
-                               ": no SH light could be estimated: " + f.summary["message"].get<std::string>() +
+  const fs::path light_path = f.dir / "light.json";
+  const nlohmann::json light = ReadJsonFile(light_path);
+  f.light = ShLightFromJson(light, light_path.string());
+  f.summary = FieldsFromJson<ShFitFigures>(Field(light, "fit"), light_path.string());
+  if (!f.summary.usable) {
+    throw InvalidArgumentError("frame " + id + ": no SH light could be estimated: " + f.summary.message +
                                " (the object mask has too few pixels with depth and normals?)");
   }
-  if (f.summary["order_reduced"].get<bool>()) {
+  if (f.summary.order_reduced) {
     run.Decide("sh-order", "choose",
-               "frame " + id + ": order " + std::to_string(f.summary["order_used"].get<int>()) + " instead of " +
-                   std::to_string(k.fit.fit.max_order) + ": " + f.summary["message"].get<std::string>());
+               "frame " + id + ": order " + std::to_string(f.summary.order_used) + " instead of " +
+                   std::to_string(k.fit.fit.max_order) + ": " + f.summary.message);
   }
   return f;
 }
@@ -799,8 +820,9 @@ double Srgb8(double v) {
 // The relit frame and the unrelit source against the truth under the destination light, on the
 // same pixels (relit, source and truth finite): signal-relative RMS (processing/metrics.h, as
 // `relume bench` measures SH relighting), and the RMS in 8-bit sRGB steps with `white` as 1.
-nlohmann::json CompareFrame(const processing::RelightResult& relit, const RadianceImage& source, const cv::Mat& truth,
-                            double white) {
+// Into `out`'s relit, baseline and compared fields.
+void CompareFrame(const processing::RelightResult& relit, const RadianceImage& source, const cv::Mat& truth,
+                  double white, ShTruthFigures* out) {
   cv::Mat compared = relit.valid.clone();
   double relit8 = 0.0, base8 = 0.0;
   for (int y = 0; y < truth.rows; ++y) {
@@ -829,18 +851,19 @@ nlohmann::json CompareFrame(const processing::RelightResult& relit, const Radian
       metrics::SignalRelativeRms(source.pixels, truth, compared, metrics::Scale::kAbsolute);
   const bool any = relit_error.pixels > 0;
   const double n = std::max<double>(1.0, 3.0 * static_cast<double>(relit_error.pixels));
-  return {{"relit_relative_rms", any ? relit_error.relative_rms : 0.0},
-          {"baseline_relative_rms", any ? base_error.relative_rms : 0.0},
-          {"relit_rms_8bit", std::sqrt(relit8 / n)},
-          {"baseline_rms_8bit", std::sqrt(base8 / n)},
-          {"compared_pixels", relit_error.pixels}};
+  out->relit_relative_rms = any ? relit_error.relative_rms : 0.0;
+  out->baseline_relative_rms = any ? base_error.relative_rms : 0.0;
+  out->relit_rms_8bit = std::sqrt(relit8 / n);
+  out->baseline_rms_8bit = std::sqrt(base8 / n);
+  out->compared_pixels = relit_error.pixels;
 }
 
 // Fitted irradiance at the true normals against the true irradiance, over the mask. With
 // `fit_scale` (unknown albedo: the light carries a per-channel scale) one least-squares scale
 // per channel is taken out first.
-nlohmann::json IrradianceError(const ShRgb& light, const GroundTruth& truth, const Eigen::Matrix3d& camera_from_world,
-                               const cv::Mat& mask, bool fit_scale) {
+// Into `t`'s irradiance fields; no irradiance_relative_rms when no pixel was compared.
+void IrradianceError(const ShRgb& light, const GroundTruth& truth, const Eigen::Matrix3d& camera_from_world,
+                     const cv::Mat& mask, bool fit_scale, ShTruthFigures* t) {
   std::vector<Eigen::Vector3d> fitted, real;
   for (int y = 0; y < mask.rows; ++y) {
     for (int x = 0; x < mask.cols; ++x) {
@@ -867,9 +890,9 @@ nlohmann::json IrradianceError(const ShRgb& light, const GroundTruth& truth, con
     diff += (fitted[i].cwiseProduct(scale) - real[i]).squaredNorm();
     sum += real[i].squaredNorm();
   }
-  return {{"irradiance_relative_rms", sum > 0.0 ? std::sqrt(diff / sum) : 0.0},
-          {"irradiance_pixels", static_cast<int>(fitted.size())},
-          {"irradiance_scale_removed", fit_scale}};
+  if (!fitted.empty()) t->irradiance_relative_rms = sum > 0.0 ? std::sqrt(diff / sum) : 0.0;
+  t->irradiance_pixels = static_cast<int>(fitted.size());
+  t->irradiance_scale_removed = fit_scale;
 }
 
 // The source geometry under the destination light, from the world's truth. Returns an empty
@@ -923,7 +946,7 @@ cv::Mat DestinationTruth(PipelineRun& run, const Destination& dst, const std::ve
 struct Relit {
   fs::path dir;
   StageKey key;
-  nlohmann::json summary;  // relight.json
+  ShRelightFigures summary;  // relight.json
 };
 
 Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const FrameRadiance& radiance,
@@ -945,17 +968,15 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
     calibration::SaveRadianceExr(composite, (dir / "composite.exr").string());
     calibration::SaveImage(RadiancePreview(composite), (dir / "composite.png").string());
     calibration::SaveImage(RadiancePreview(source), (dir / "source.png").string());
-    WriteJson(dir / "relight.json", {{"requested", r.summary.requested_pixel_count},
-                                     {"relit", r.summary.relit_pixel_count},
-                                     {"guarded", r.summary.guarded_pixel_count},
-                                     {"invalid_input", r.summary.invalid_input_count},
-                                     {"message", r.summary.message}});
+    WriteRecord(dir / "relight.json",
+                ShRelightFigures{r.summary.requested_pixel_count, r.summary.relit_pixel_count,
+                                 r.summary.guarded_pixel_count, r.summary.invalid_input_count, r.summary.message});
   });
   out.dir = stage.dir;
-  out.summary = ReadJson(stage.dir / "relight.json");
-  if (out.summary["guarded"].get<int>() > 0) {
+  out.summary = ReadRecord<ShRelightFigures>(stage.dir / "relight.json");
+  if (out.summary.guarded > 0) {
     run.Decide("relight", "skip",
-               "frame " + id + ": " + std::to_string(out.summary["guarded"].get<int>()) +
+               "frame " + id + ": " + std::to_string(out.summary.guarded) +
                    " pixel(s) not divided (source irradiance below " + Percent(k.relight.min_irradiance_fraction) +
                    " of its mean over the object): masked, kept from the source in the composite");
   }
@@ -968,10 +989,10 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
 // residual above k.max_fit_residual means light SH cannot represent (the cast shadows of a
 // distant sun or lamp; the SH model has no visibility), and every relit frame carries that error.
 // Said as a warning with what to run instead; recorded in the metrics either way.
-void CheckShFitsTheScene(PipelineRun& run, const Knobs& k, const std::vector<FrameFit>& fits,
-                         double cast_shadow_share) {
+void CheckShFitsTheScene(PipelineRun& run, const Knobs& k, const std::vector<FrameFit>& fits, double cast_shadow_share,
+                         ShPipelineSummary* out) {
   if (cast_shadow_share > k.max_cast_shadow_share) {
-    run.metrics()["sh_fits_scene"] = false;
+    out->sh_fits_scene = false;
     run.Decide("sh-model", "warn",
                "SH does not fit this scene's light: the main light's cast shadows, found by marching the depth "
                "toward it, remove a median " +
@@ -983,8 +1004,7 @@ void CheckShFitsTheScene(PipelineRun& run, const Knobs& k, const std::vector<Fra
   }
   std::vector<double> residuals;
   for (const FrameFit& f : fits) {
-    const nlohmann::json& r = f.summary["relative_rms_residual"];
-    if (r.is_number()) residuals.push_back(r.get<double>());
+    if (std::isfinite(f.summary.relative_rms_residual)) residuals.push_back(f.summary.relative_rms_residual);
   }
   if (residuals.empty()) return;
   std::sort(residuals.begin(), residuals.end());
@@ -993,9 +1013,8 @@ void CheckShFitsTheScene(PipelineRun& run, const Knobs& k, const std::vector<Fra
   const auto above =
       std::count_if(residuals.begin(), residuals.end(), [&](double r) { return r > k.max_fit_residual; });
   const bool fits_scene = median <= k.max_fit_residual;
-  run.metrics()["fit_residual_median"] = median;
-  if (!run.metrics().contains("sh_fits_scene")) run.metrics()["sh_fits_scene"] = fits_scene;
-  if (!fits_scene) run.metrics()["sh_fits_scene"] = false;
+  out->fit_residual_median = median;
+  out->sh_fits_scene = out->sh_fits_scene.value_or(true) && fits_scene;
   if (fits_scene) return;
   run.Decide("sh-model", "warn",
              "SH does not fit this scene's light: the fits leave a median " + Percent(median) +
@@ -1019,7 +1038,7 @@ struct TruthInputs {
 // and, when the frame was relit, the relit image against the source geometry under the
 // destination light. A cached stage keyed by what it compares and by the stored world, so a
 // rerun does not render the world again (rendering was 85 % of an unchanged rerun).
-nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::size_t i, const FrameRadiance& radiance,
+ShTruthFigures CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::size_t i, const FrameRadiance& radiance,
                                 const FrameGeometry& geometry, const FrameFit& fit, const Relit* relit) {
   const RgbdPair& pair = (*in.pairs)[i];
   const Destination& dst = *in.dst;
@@ -1041,13 +1060,12 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
         const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
         const GroundTruth truth = run.truth()->Render(camera, pair.color.utc);
         const cv::Mat& mask = geometry.mask.get();
-        nlohmann::json t = IrradianceError(fit.light, truth, camera_from_world, mask, !in.known_albedo);
-        if (t["irradiance_pixels"].get<int>() == 0)
-          t.erase("irradiance_relative_rms");  // nothing to compare: no figure
+        ShTruthFigures t;
+        IrradianceError(fit.light, truth, camera_from_world, mask, !in.known_albedo, &t);
         if (relit != nullptr) {
           std::string how;
           const cv::Mat dst_truth = DestinationTruth(run, dst, *in.pairs, camera, truth, in.dst_frame_truth, &how);
-          t["truth_under_destination"] = how;
+          t.truth_under_destination = how;
           if (!dst_truth.empty()) {
             std::vector<float> lum;
             for (int y = 0; y < dst_truth.rows; ++y)
@@ -1063,14 +1081,13 @@ nlohmann::json CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
             processing::RelightResult image;
             image.relit = calibration::LoadRadianceExr((relit->dir / "relit.exr").string());
             image.valid = LoadMask(relit->dir / "valid.png");
-            t.update(CompareFrame(image, radiance.radiance.get(), dst_truth, white));
-            if (t["compared_pixels"].get<int>() == 0)
-              t["truth_under_destination"] = how + "; no relit pixel to compare";
+            CompareFrame(image, radiance.radiance.get(), dst_truth, white, &t);
+            if (t.compared_pixels == 0) t.truth_under_destination = how + "; no relit pixel to compare";
           }
         }
-        WriteJson(dir / "truth.json", t);
+        WriteRecord(dir / "truth.json", t);
       });
-  return ReadJson(stage.dir / "truth.json");
+  return ReadRecord<ShTruthFigures>(stage.dir / "truth.json");
 }
 
 // What the SH stages share: the RGB-D pairs, the colour camera, the frames to relight and the
@@ -1197,8 +1214,8 @@ FrameStages FitFrames(PipelineRun& run, const Knobs& k, const ShInputs& in) {
 
 // One frame's cast shadows (processing/cast_shadow.h): a stage keyed by the frame's geometry
 // and fit, so an unchanged rerun reads them back instead of marching the rays again.
-nlohmann::json FrameCastShadows(PipelineRun& run, const ShInputs& in, const RgbdPair& pair, const FrameGeometry& g,
-                                const FrameFit& fit) {
+ShCastShadowFigures FrameCastShadows(PipelineRun& run, const ShInputs& in, const RgbdPair& pair, const FrameGeometry& g,
+                                     const FrameFit& fit) {
   const processing::CastShadowOptions options;
   StageKey key;
   key.Add("stage", "sh-cast-shadows-v1").AddKey("geometry", g.key).AddKey("fit", fit.key);
@@ -1219,29 +1236,26 @@ nlohmann::json FrameCastShadows(PipelineRun& run, const ShInputs& in, const Rgbd
         }
         const processing::CastShadowEstimate e =
             processing::EstimateCastShadows(depth1, g.normals.get(), g.mask.get(), k, fit.light, options);
-        WriteJson(dir / "shadows.json", {{"color_frame", pair.color.id},
-                                         {"shadowed_fraction", e.shadowed_fraction()},
-                                         {"directional_share", e.directional_share},
-                                         {"removed_share_rms", e.removed_share_rms}});
+        WriteRecord(dir / "shadows.json", ShCastShadowFigures{pair.color.id, e.shadowed_fraction(), e.directional_share,
+                                                              e.removed_share_rms});
       });
-  return ReadJson(stage.dir / "shadows.json");
+  return ReadRecord<ShCastShadowFigures>(stage.dir / "shadows.json");
 }
 
-// Cast shadows the fitted lights throw within each frame's depth: the median over frames of the
-// irradiance share the SH model misses there.
-double CastShadowShare(PipelineRun& run, const ShInputs& in, const FrameStages& f) {
+// Cast shadows the fitted lights throw within each frame's depth, per frame and the median over
+// frames of the irradiance share the SH model misses there.
+ShCastShadowsSummary CastShadows(PipelineRun& run, const ShInputs& in, const FrameStages& f) {
+  ShCastShadowsSummary out;
   std::vector<double> shares;
-  nlohmann::json per_frame = nlohmann::json::array();
   for (std::size_t i = 0; i < f.fits.size(); ++i) {
-    const nlohmann::json frame = FrameCastShadows(run, in, in.pairs[i], f.geometry[i], f.fits[i]);
-    shares.push_back(frame.at("removed_share_rms").get<double>());
-    per_frame.push_back(frame);
+    out.frames.push_back(FrameCastShadows(run, in, in.pairs[i], f.geometry[i], f.fits[i]));
+    shares.push_back(out.frames.back().removed_share_rms);
   }
   std::sort(shares.begin(), shares.end());
   const std::size_t n = shares.size();
   const double median = n == 0 ? 0.0 : n % 2 == 1 ? shares[n / 2] : 0.5 * (shares[n / 2 - 1] + shares[n / 2]);
-  run.metrics()["cast_shadows"] = {{"removed_share_median", median}, {"frames", per_frame}};
-  return median;
+  out.removed_share_median = median;
+  return out;
 }
 
 // The figures over all frames that the run's metrics report.
@@ -1284,14 +1298,14 @@ class ExternalShTruth {
 // scale is fitted (the renderer's units are not the photographs'). The floor: the destination
 // frame's own photograph, linearised, against the same render on the same pixels (its encoding
 // and noise, which a relit image cannot beat).
-nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth& truth, double range_sigma_at_1m_m,
+ShTruthFigures CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth& truth, double range_sigma_at_1m_m,
                                         const std::vector<RgbdPair>& pairs, const PinholeCamera& camera,
                                         const Destination& dst, std::size_t i, const FrameStages& f,
                                         const Relit& relit) {
-  nlohmann::json t;
-  t["truth"] = "external: " + truth.dir().string();
+  ShTruthFigures t;
+  t.truth = "external: " + truth.dir().string();
   if (dst.kind != "frame") {
-    t["truth_under_destination"] =
+    t.truth_under_destination =
         "none: the external truth holds renders at the frames' times, not under " + dst.description;
     return t;
   }
@@ -1301,21 +1315,19 @@ nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
   const double moved = ChangedFraction(run.session().LoadDepth(pairs[i].depth), run.session().LoadDepth(pairs[d].depth),
                                        range_sigma_at_1m_m, 3.0);
   if (moved > 0.02) {
-    t["truth_under_destination"] = "none: the scene moved between the source and destination frames (" +
-                                   Percent(moved) +
-                                   " of depth pixels), so no render shows the source geometry "
-                                   "under the destination light";
+    t.truth_under_destination = "none: the scene moved between the source and destination frames (" + Percent(moved) +
+                                " of depth pixels), so no render shows the source geometry "
+                                "under the destination light";
     return t;
   }
   const cv::Mat dst_truth = truth.At(pairs[d].color.utc, camera.intrinsics);
   if (dst_truth.empty()) {
-    t["truth_under_destination"] = "none: " + (truth.dir() / "rgb.txt").string() + " lists no render at frame " +
-                                   std::to_string(pairs[d].color.id) + "'s time";
+    t.truth_under_destination = "none: " + (truth.dir() / "rgb.txt").string() + " lists no render at frame " +
+                                std::to_string(pairs[d].color.id) + "'s time";
     return t;
   }
-  t["truth_under_destination"] =
-      "the external render at the destination frame's time (static scene: " + Percent(moved) +
-      " of depth pixels moved)";
+  t.truth_under_destination = "the external render at the destination frame's time (static scene: " + Percent(moved) +
+                              " of depth pixels moved)";
   const RadianceImage relit_image = calibration::LoadRadianceExr((relit.dir / "relit.exr").string());
   const cv::Mat valid = LoadMask(relit.dir / "valid.png");
   const metrics::SignalError e =
@@ -1324,14 +1336,14 @@ nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
       metrics::SignalRelativeRms(f.radiance[i].radiance.get().pixels, dst_truth, valid, metrics::Scale::kFitted);
   const metrics::SignalError floor =
       metrics::SignalRelativeRms(f.radiance[d].radiance.get().pixels, dst_truth, valid, metrics::Scale::kFitted);
-  t["compared_pixels"] = e.pixels;
+  t.compared_pixels = e.pixels;
   if (e.pixels > 0) {
-    t["relit_relative_rms"] = e.relative_rms;
-    t["baseline_relative_rms"] = base.relative_rms;
-    t["floor_relative_rms"] = floor.relative_rms;
-    t["scale_to_truth"] = e.scale;
+    t.relit_relative_rms = e.relative_rms;
+    t.baseline_relative_rms = base.relative_rms;
+    t.floor_relative_rms = floor.relative_rms;
+    t.scale_to_truth = e.scale;
   } else {
-    t["truth_under_destination"] = t["truth_under_destination"].get<std::string>() + "; no relit pixel to compare";
+    *t.truth_under_destination += "; no relit pixel to compare";
   }
   return t;
 }
@@ -1339,75 +1351,79 @@ nlohmann::json CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
 // Frame i's entry in the metrics' "frames": its fit, its relighting to the destination light (a
 // source frame other than the destination's own) and, with compare_truth, its errors against the
 // world's truth; adds its figures to `totals`.
-nlohmann::json RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in, const FrameStages& f, std::size_t i,
+ShFrameFigures RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in, const FrameStages& f, std::size_t i,
                             const Destination& dst, const ShRgb& dst_light, std::optional<GroundTruth>* dst_frame_truth,
                             const ExternalShTruth* external, FrameTotals* totals) {
   const std::string id = std::to_string(in.pairs[i].color.id);
-  nlohmann::json m = {{"color_frame", in.pairs[i].color.id},
-                      {"depth_frame", in.pairs[i].depth.id},
-                      {"fit", f.fits[i].summary},
-                      {"normals_from_frame", f.geometry[i].normals_from_frame}};
+  ShFrameFigures m;
+  m.color_frame = in.pairs[i].color.id;
+  m.depth_frame = in.pairs[i].depth.id;
+  m.fit = f.fits[i].summary;
+  m.normals_from_frame = f.geometry[i].normals_from_frame;
   const bool is_destination = dst.kind == "frame" && *dst.frame_index == i;
   if (in.is_source[i] && is_destination)
     run.Decide("relight", "skip", "frame " + id + " is the destination light's own frame");
   std::optional<Relit> relit;
   if (in.is_source[i] && !is_destination) {
     relit = Relight(run, k, in.pairs[i], f.radiance[i], f.geometry[i], f.fits[i], dst_light);
-    m["relight"] = relit->summary;
-    totals->guarded += relit->summary["guarded"].get<std::int64_t>();
-    totals->relit_pixels += relit->summary["relit"].get<std::int64_t>();
+    m.relight = relit->summary;
+    totals->guarded += relit->summary.guarded;
+    totals->relit_pixels += relit->summary.relit;
   }
   if (external != nullptr) {
     if (relit) {
-      m.update(CompareWithExternalTruth(run, *external, k.bilateral.range_sigma_at_1m_m, in.pairs, in.camera, dst, i, f,
-                                        *relit));
-      if (m.contains("relit_relative_rms")) {
-        totals->relit_errors.push_back(m["relit_relative_rms"].get<double>());
-        totals->baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
-        totals->floor_errors.push_back(m["floor_relative_rms"].get<double>());
+      m.truth = CompareWithExternalTruth(run, *external, k.bilateral.range_sigma_at_1m_m, in.pairs, in.camera, dst, i,
+                                         f, *relit);
+      const ShTruthFigures& t = m.truth;
+      if (t.relit_relative_rms && t.baseline_relative_rms && t.floor_relative_rms) {
+        totals->relit_errors.push_back(*t.relit_relative_rms);
+        totals->baseline_errors.push_back(*t.baseline_relative_rms);
+        totals->floor_errors.push_back(*t.floor_relative_rms);
       }
     }
   } else if (k.compare_truth && in.has_world) {
     const TruthInputs truth{&in.pairs, &in.camera, &dst, dst_frame_truth, in.known_albedo};
-    m.update(CompareWithTruth(run, truth, i, f.radiance[i], f.geometry[i], f.fits[i], relit ? &*relit : nullptr));
-    if (m.contains("irradiance_relative_rms"))
-      totals->irradiance_errors.push_back(m["irradiance_relative_rms"].get<double>());
-    if (m.contains("compared_pixels") && m["compared_pixels"].get<int>() > 0) {
-      totals->relit_errors.push_back(m["relit_relative_rms"].get<double>());
-      totals->baseline_errors.push_back(m["baseline_relative_rms"].get<double>());
-      totals->relit8.push_back(m["relit_rms_8bit"].get<double>());
-      totals->base8.push_back(m["baseline_rms_8bit"].get<double>());
+    m.truth = CompareWithTruth(run, truth, i, f.radiance[i], f.geometry[i], f.fits[i], relit ? &*relit : nullptr);
+    const ShTruthFigures& t = m.truth;
+    if (t.irradiance_relative_rms) totals->irradiance_errors.push_back(*t.irradiance_relative_rms);
+    if (t.compared_pixels.value_or(0) > 0) {
+      totals->relit_errors.push_back(t.relit_relative_rms.value_or(std::numeric_limits<double>::quiet_NaN()));
+      totals->baseline_errors.push_back(t.baseline_relative_rms.value_or(std::numeric_limits<double>::quiet_NaN()));
+      totals->relit8.push_back(t.relit_rms_8bit.value_or(std::numeric_limits<double>::quiet_NaN()));
+      totals->base8.push_back(t.baseline_rms_8bit.value_or(std::numeric_limits<double>::quiet_NaN()));
     }
   }
   return m;
 }
 
-// The run's summary metrics: the destination, the albedo choice, pixel counts and mean errors.
-void AddShMetrics(PipelineRun& run, const Destination& dst, bool known_albedo, const FrameTotals& t) {
+// The run's summary figures: the destination, the albedo choice, pixel counts and mean errors.
+void AddShMetrics(const Destination& dst, bool known_albedo, const FrameTotals& t, ShPipelineSummary* out) {
   const auto mean = [](const std::vector<double>& v) {
     double s = 0.0;
     for (double x : v) s += x;
     return v.empty() ? 0.0 : s / static_cast<double>(v.size());
   };
-  nlohmann::json& metrics = run.metrics();
-  metrics["destination"] = dst.description;
-  metrics["albedo"] = known_albedo ? "truth" : "unknown";
-  metrics["guarded_pixels"] = t.guarded;
-  metrics["relit_pixels"] = t.relit_pixels;
-  if (!t.irradiance_errors.empty()) metrics["irradiance_relative_rms_mean"] = mean(t.irradiance_errors);
+  out->destination = dst.description;
+  out->albedo = known_albedo ? "truth" : "unknown";
+  out->guarded_pixels = t.guarded;
+  out->relit_pixels = t.relit_pixels;
+  if (!t.irradiance_errors.empty()) out->irradiance_relative_rms_mean = mean(t.irradiance_errors);
   if (!t.relit_errors.empty()) {
-    metrics["relit_relative_rms_mean"] = mean(t.relit_errors);
-    metrics["baseline_relative_rms_mean"] = mean(t.baseline_errors);
+    out->relit_relative_rms_mean = mean(t.relit_errors);
+    out->baseline_relative_rms_mean = mean(t.baseline_errors);
     if (!t.relit8.empty()) {
-      metrics["relit_rms_8bit_mean"] = mean(t.relit8);
-      metrics["baseline_rms_8bit_mean"] = mean(t.base8);
+      out->relit_rms_8bit_mean = mean(t.relit8);
+      out->baseline_rms_8bit_mean = mean(t.base8);
     }
-    if (!t.floor_errors.empty()) metrics["floor_relative_rms_mean"] = mean(t.floor_errors);
-    metrics["compared_frames"] = static_cast<int>(t.relit_errors.size());
+    if (!t.floor_errors.empty()) out->floor_relative_rms_mean = mean(t.floor_errors);
+    out->compared_frames = static_cast<int>(t.relit_errors.size());
   }
 }
 
-void RunShPipeline(PipelineRun& run) {
+}  // namespace
+
+ShPipelineSummary RunShPipeline(PipelineRun& run) {
+  ShPipelineSummary summary;
   Knobs k = ReadKnobs(run);
   ShInputs in = ReadShInputs(run, k);
   in.known_albedo = ChooseAlbedo(run, k, in.has_world);
@@ -1415,19 +1431,19 @@ void RunShPipeline(PipelineRun& run) {
   run.Decide("sh", "plan", std::to_string(in.pairs.size()) + " RGB-D frame pair(s) of " + in.device);
   if (k.filter_depth && k.depth_noise_skip_below_m > 0.0) DecideDenoise(run, in.pairs.front(), &k);
   const Destination dst = ChooseDestination(run, in.pairs, in.camera);
-  if (run.request().explain) return;
+  if (run.request().explain) return summary;
 
   const FrameStages frames = FitFrames(run, k, in);
-  CheckShFitsTheScene(run, k, frames.fits, CastShadowShare(run, in, frames));
+  summary.cast_shadows = CastShadows(run, in, frames);
+  CheckShFitsTheScene(run, k, frames.fits, summary.cast_shadows->removed_share_median, &summary);
   const ShRgb dst_light = dst.kind == "frame" ? frames.fits[*dst.frame_index].light : dst.light;
   {
     nlohmann::json dst_json = ShLightToJson(dst_light, 2);
     dst_json["source"] = dst.description;
-    WriteJson(run.out_dir() / "target_light.json", dst_json);
+    WriteJsonFile(run.out_dir() / "target_light.json", dst_json);
     run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
   }
-  nlohmann::json& frames_json = run.metrics()["frames"];
-  frames_json = nlohmann::json::array();
+  summary.frames.emplace();
   std::optional<GroundTruth> dst_frame_truth;
   std::optional<ExternalShTruth> external;
   if (!k.truth_dir.empty()) {
@@ -1436,64 +1452,68 @@ void RunShPipeline(PipelineRun& run) {
   }
   FrameTotals totals;
   for (std::size_t i = 0; i < in.pairs.size(); ++i) {
-    frames_json.push_back(RelightFrame(run, k, in, frames, i, dst, dst_light, &dst_frame_truth,
-                                       external ? &*external : nullptr, &totals));
+    summary.frames->push_back(RelightFrame(run, k, in, frames, i, dst, dst_light, &dst_frame_truth,
+                                           external ? &*external : nullptr, &totals));
   }
-  AddShMetrics(run, dst, in.known_albedo, totals);
-  if (external) run.metrics()["truth"] = "external: " + k.truth_dir;
+  AddShMetrics(dst, in.known_albedo, totals, &summary);
+  if (external) summary.truth = "external: " + k.truth_dir;
+  return summary;
 }
 
-std::string ShHeadline(const nlohmann::json& m) {
-  if (!m.contains("frames")) return "";
-  std::string text = std::to_string(Field(m, "frames").size()) + " frame(s), relit to " + m.value("destination", "?");
-  if (!m.value("sh_fits_scene", true)) {
-    text += "; SH DOES NOT FIT this scene (fit residual " + PercentText(Field(m, "fit_residual_median"));
-    if (m.contains("cast_shadows"))
-      text += ", cast shadows " + PercentText(Field(m["cast_shadows"], "removed_share_median")) + " of the irradiance";
+namespace {
+
+std::string ShHeadline(const ShPipelineSummary& s) {
+  if (!s.frames) return "";
+  std::string text = std::to_string(s.frames->size()) + " frame(s), relit to " + s.destination.value_or("?");
+  if (!s.sh_fits_scene.value_or(true)) {
+    text += "; SH DOES NOT FIT this scene (fit residual " + PercentText(s.fit_residual_median);
+    if (s.cast_shadows)
+      text += ", cast shadows " + PercentText(s.cast_shadows->removed_share_median) + " of the irradiance";
     text += "; see the warning)";
   }
-  if (m.contains("relit_relative_rms_mean")) {
-    text += "; against the truth (" + std::to_string(m.value("compared_frames", 0)) + " frames): relit " +
-            PercentText(Field(m, "relit_relative_rms_mean")) + " (not relit " +
-            PercentText(Field(m, "baseline_relative_rms_mean")) + ")";
-    if (m.contains("floor_relative_rms_mean"))
-      text += ", the destination photograph itself " + PercentText(Field(m, "floor_relative_rms_mean"));
+  if (s.relit_relative_rms_mean) {
+    text += "; against the truth (" + std::to_string(s.compared_frames.value_or(0)) + " frames): relit " +
+            PercentText(s.relit_relative_rms_mean) + " (not relit " + PercentText(s.baseline_relative_rms_mean) + ")";
+    if (s.floor_relative_rms_mean)
+      text += ", the destination photograph itself " + PercentText(s.floor_relative_rms_mean);
   }
-  if (m.contains("irradiance_relative_rms_mean")) {
-    text += ", fitted irradiance " + PercentText(Field(m, "irradiance_relative_rms_mean"));
-  }
+  if (s.irradiance_relative_rms_mean) text += ", fitted irradiance " + PercentText(s.irradiance_relative_rms_mean);
   return text;
 }
 
-std::vector<Figure> ShFigures(const nlohmann::json& m) {
+std::vector<Figure> ShFigures(const ShPipelineSummary& s) {
   std::vector<Figure> f;
-  const auto get = [&](const char* key) { return Field(m, key); };
-  AddFigure(f, "relit vs truth (mean over frames, signal-relative RMS)", get("relit_relative_rms_mean"), "%");
-  AddFigure(f, "not relit vs truth (the same frames)", get("baseline_relative_rms_mean"), "%");
-  AddFigure(f, "destination photograph vs truth (the floor, external truth)", get("floor_relative_rms_mean"), "%");
-  AddFigure(f, "fitted irradiance vs truth (mean)", get("irradiance_relative_rms_mean"), "%");
-  AddFigure(f, "fit residual (median over frames)", get("fit_residual_median"), "%");
-  if (m.contains("cast_shadows")) {
+  const auto count = [](const auto& value) -> std::optional<double> {
+    if (!value) return std::nullopt;
+    return static_cast<double>(*value);
+  };
+  AddFigure(f, "relit vs truth (mean over frames, signal-relative RMS)", s.relit_relative_rms_mean, "%");
+  AddFigure(f, "not relit vs truth (the same frames)", s.baseline_relative_rms_mean, "%");
+  AddFigure(f, "destination photograph vs truth (the floor, external truth)", s.floor_relative_rms_mean, "%");
+  AddFigure(f, "fitted irradiance vs truth (mean)", s.irradiance_relative_rms_mean, "%");
+  AddFigure(f, "fit residual (median over frames)", s.fit_residual_median, "%");
+  if (s.cast_shadows) {
     AddFigure(f, "irradiance the main light's cast shadows remove (median over frames, RMS)",
-              Field(m["cast_shadows"], "removed_share_median"), "%");
+              s.cast_shadows->removed_share_median, "%");
   }
-  AddFigure(f, "SH describes the scene's light", get("sh_fits_scene"), "");
-  AddFigure(f, "frames compared with the truth", get("compared_frames"), "", 6);
-  AddFigure(f, "pixels relit", get("relit_pixels"), "", 9);
-  AddFigure(f, "pixels not divided (irradiance too low)", get("guarded_pixels"), "", 9);
+  if (s.sh_fits_scene) AddYesNoFigure(f, "SH describes the scene's light", *s.sh_fits_scene);
+  AddFigure(f, "frames compared with the truth", count(s.compared_frames), "", 6);
+  AddFigure(f, "pixels relit", count(s.relit_pixels), "", 9);
+  AddFigure(f, "pixels not divided (irradiance too low)", count(s.guarded_pixels), "", 9);
   return f;
 }
 
 }  // namespace
 
 PipelineEntry ShPipelineEntry() {
-  return {"sh",
-          "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
-          RunShPipeline,
-          WithRadianceKnobs(DescribeKnobs<Knobs>()),
-          ShHeadline,
-          ShFigures,
-          {"radiance", "geometry", "registration", "fit", "relight"}};
+  return MakePipelineEntry(TypedPipeline<ShPipelineSummary>{
+      "sh",
+      "SH lighting estimates and relighting of RGB-D frames (--target-light FRAME|SH.json|ENVMAP.exr)",
+      RunShPipeline,
+      WithRadianceKnobs(DescribeKnobs<Knobs>()),
+      ShHeadline,
+      ShFigures,
+      {"radiance", "geometry", "registration", "fit", "relight"}});
 }
 
 }  // namespace relume::pipeline

@@ -15,8 +15,12 @@
 //    "coefficients": [[R, G, B] x 9]}   rows k = l (l + 1) + m, processing/sh.h's basis.
 #pragma once
 
+#include <Eigen/Core>
+#include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "pipeline/pipeline.h"
 #include "processing/sh.h"
@@ -26,6 +30,175 @@ namespace relume::pipeline {
 nlohmann::json ShLightToJson(const processing::ShRgb& light, int order);
 // Throws InvalidArgumentError naming `what` when the JSON is not an SH light.
 processing::ShRgb ShLightFromJson(const nlohmann::json& json, const std::string& what);
+
+// The library's fit summary (processing/sh_fit.h) and how the albedo was found: light.json "fit"
+// (stage fit-<id>).
+struct ShFitFigures {
+  bool usable = false;
+  int order_used = -1;
+  bool order_reduced = false;
+  int observations = 0;
+  double condition_number = 0.0;
+  double condition_number_order2 = 0.0;
+  double normal_solid_angle_sr = 0.0;
+  double relative_rms_residual = 0.0;
+  int iterations = 0;
+  bool converged = false;
+  std::string message;
+  std::string albedo;  // truth (an oracle) or unknown (k-means segments)
+  std::optional<int> segments;
+  std::optional<std::vector<Eigen::Vector3d>> segment_albedo;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("usable", usable);
+    v.Field("order_used", order_used);
+    v.Field("order_reduced", order_reduced);
+    v.Field("observations", observations);
+    v.Field("condition_number", condition_number);
+    v.Field("condition_number_order2", condition_number_order2);
+    v.Field("normal_solid_angle_sr", normal_solid_angle_sr);
+    v.Field("relative_rms_residual", relative_rms_residual);
+    v.Field("iterations", iterations);
+    v.Field("converged", converged);
+    v.Field("message", message);
+    v.Field("albedo", albedo);
+    v.Field("segments", segments);
+    v.Field("segment_albedo", segment_albedo);
+  }
+};
+
+// Stage relight-<id>'s record (relight.json): pixels asked for, relit, not divided (irradiance
+// too low) and without valid input.
+struct ShRelightFigures {
+  std::int64_t requested = 0, relit = 0, guarded = 0, invalid_input = 0;
+  std::string message;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("requested", requested);
+    v.Field("relit", relit);
+    v.Field("guarded", guarded);
+    v.Field("invalid_input", invalid_input);
+    v.Field("message", message);
+  }
+};
+
+// Stage shadows-<id>'s record (shadows.json): the cast shadows the fitted light throws within the
+// frame's depth (processing/cast_shadow.h).
+struct ShCastShadowFigures {
+  std::int64_t color_frame = 0;
+  double shadowed_fraction = 0.0;
+  double directional_share = 0.0;
+  double removed_share_rms = 0.0;  // the irradiance share the SH model misses, RMS over the image
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("color_frame", color_frame);
+    v.Field("shadowed_fraction", shadowed_fraction);
+    v.Field("directional_share", directional_share);
+    v.Field("removed_share_rms", removed_share_rms);
+  }
+};
+
+struct ShCastShadowsSummary {
+  double removed_share_median = 0.0;  // over frames
+  std::vector<ShCastShadowFigures> frames;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("removed_share_median", removed_share_median);
+    v.Field("frames", frames);
+  }
+};
+
+// A frame against the truth (stage truth-<id>'s truth.json for the simulated world; computed for
+// an external truth): the fitted irradiance at the true normals, and the relit frame against the
+// source geometry under the destination light (signal-relative RMS), or why it was not compared.
+struct ShTruthFigures {
+  std::optional<std::string> truth;  // "external: DIR"
+  std::optional<double> irradiance_relative_rms;
+  std::optional<int> irradiance_pixels;
+  std::optional<bool> irradiance_scale_removed;  // unknown albedo: a scale per channel taken out first
+  std::optional<std::string> truth_under_destination;
+  std::optional<double> relit_relative_rms, baseline_relative_rms;
+  std::optional<double> relit_rms_8bit, baseline_rms_8bit;  // in 8-bit levels of the preview
+  std::optional<std::int64_t> compared_pixels;
+  std::optional<double> floor_relative_rms;  // external truth: the destination photograph itself
+  std::optional<double> scale_to_truth;      // external truth: the fitted scale to its units
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("truth", truth);
+    v.Field("irradiance_relative_rms", irradiance_relative_rms);
+    v.Field("irradiance_pixels", irradiance_pixels);
+    v.Field("irradiance_scale_removed", irradiance_scale_removed);
+    v.Field("truth_under_destination", truth_under_destination);
+    v.Field("relit_relative_rms", relit_relative_rms);
+    v.Field("baseline_relative_rms", baseline_relative_rms);
+    v.Field("relit_rms_8bit", relit_rms_8bit);
+    v.Field("baseline_rms_8bit", baseline_rms_8bit);
+    v.Field("compared_pixels", compared_pixels);
+    v.Field("floor_relative_rms", floor_relative_rms);
+    v.Field("scale_to_truth", scale_to_truth);
+  }
+};
+
+// One RGB-D pair: its fit, where its normals came from, its relighting (a source frame other than
+// the destination's own) and its errors against a truth.
+struct ShFrameFigures {
+  std::int64_t color_frame = 0, depth_frame = 0;
+  ShFitFigures fit;
+  std::int64_t normals_from_frame = 0;
+  std::optional<ShRelightFigures> relight;
+  ShTruthFigures truth;  // its fields at this level
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("color_frame", color_frame);
+    v.Field("depth_frame", depth_frame);
+    v.Field("fit", fit);
+    v.Field("normals_from_frame", normals_from_frame);
+    v.Field("relight", relight);
+    truth.VisitFields(v);
+  }
+};
+
+// The sh pipeline's summary (summary.json "metrics"); absent: the run did not reach it (planned
+// only) or had nothing to compare.
+struct ShPipelineSummary {
+  std::optional<std::vector<ShFrameFigures>> frames;
+  std::optional<std::string> destination;  // the destination light, in words
+  std::optional<std::string> albedo;       // truth or unknown
+  std::optional<std::int64_t> guarded_pixels, relit_pixels;
+  // Means over frames against the truth.
+  std::optional<double> irradiance_relative_rms_mean;
+  std::optional<double> relit_relative_rms_mean, baseline_relative_rms_mean;
+  std::optional<double> relit_rms_8bit_mean, baseline_rms_8bit_mean;
+  std::optional<double> floor_relative_rms_mean;  // external truth
+  std::optional<int> compared_frames;
+  // Whether SH describes the scene's light (fit residuals, cast shadows; CheckShFitsTheScene).
+  std::optional<bool> sh_fits_scene;
+  std::optional<double> fit_residual_median;
+  std::optional<ShCastShadowsSummary> cast_shadows;
+  std::optional<std::string> truth;  // "external: DIR"
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("frames", frames);
+    v.Field("destination", destination);
+    v.Field("albedo", albedo);
+    v.Field("guarded_pixels", guarded_pixels);
+    v.Field("relit_pixels", relit_pixels);
+    v.Field("irradiance_relative_rms_mean", irradiance_relative_rms_mean);
+    v.Field("relit_relative_rms_mean", relit_relative_rms_mean);
+    v.Field("baseline_relative_rms_mean", baseline_relative_rms_mean);
+    v.Field("relit_rms_8bit_mean", relit_rms_8bit_mean);
+    v.Field("baseline_rms_8bit_mean", baseline_rms_8bit_mean);
+    v.Field("floor_relative_rms_mean", floor_relative_rms_mean);
+    v.Field("compared_frames", compared_frames);
+    v.Field("sh_fits_scene", sh_fits_scene);
+    v.Field("fit_residual_median", fit_residual_median);
+    v.Field("cast_shadows", cast_shadows);
+    v.Field("truth", truth);
+  }
+};
+
+// Runs the pipeline on `run`'s session and returns what it measured.
+ShPipelineSummary RunShPipeline(PipelineRun& run);
 
 // The pipeline as `relume process` lists it: name, description, run function and knobs.
 PipelineEntry ShPipelineEntry();
