@@ -537,44 +537,60 @@ cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth) {
   return mask;
 }
 
+// Stage geometry-<id>'s key: the depth frame, the cameras, the knobs, the previous frame's
+// geometry (the temporal filter and normals reuse chain them) and, for true_normals, the truth.
+StageKey GeometryKey(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeIntrinsics& K,
+                     const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
+  StageKey key;
+  key.Add("stage", "sh-geometry-v2").Add("depth", pair.depth.sha256);
+  key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
+  AddLensToKey(key, recorded);
+  if (!recorded.registered) {  // registered here, from the recorded geometry
+    const PinholeIntrinsics& D = recorded.depth_intrinsics;
+    key.Add("depth_fx", D.fx).Add("depth_fy", D.fy).Add("depth_cx", D.cx).Add("depth_cy", D.cy);
+    const Eigen::Matrix4d m = recorded.color_from_depth.matrix();
+    for (int i = 0; i < 12; ++i) key.Add("color_from_depth", m(i / 4, i % 4));
+    AddKnobsToKey(key, k, "registration");  // only depth registered here depends on how
+  }
+  AddKnobsToKey(key, k, "geometry");  // filter_depth as decided (the noise check may turn it off)
+  if (previous != nullptr) key.AddKey("previous", previous->key);
+  if (k.true_normals) {
+    if (run.truth() == nullptr) throw InvalidArgumentError("--set true_normals=true needs a session with ground truth");
+    key.Add("true_normals", run.truth()->Key());
+    key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
+  }
+  return key;
+}
+
+// The pair's depth in the colour camera: undistorted with the colour lens when recorded
+// registered, else registered here from the recorded geometry.
+cv::Mat DepthInColorCamera(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeIntrinsics& K,
+                           const RecordedColorGeometry& recorded) {
+  cv::Mat depth = run.session().LoadDepth(pair.depth);
+  if (recorded.registered && !recorded.distortion.empty()) {
+    depth = run.LensUndistorter(recorded.intrinsics, recorded.distortion).ApplyDepth(depth);
+  } else if (!recorded.registered) {
+    depth = RegisterDepthToColor(
+        depth, recorded.depth_intrinsics, K, recorded.color_from_depth,
+        k.depth_registration == "interpolated" ? Registration::kInterpolated : Registration::kNearest);
+  }
+  if (depth.cols != K.width || depth.rows != K.height) {
+    throw InvalidArgumentError("depth frame " + std::to_string(pair.depth.id) + " is " + std::to_string(depth.cols) +
+                               "x" + std::to_string(depth.rows) + " but its colour frame is " +
+                               std::to_string(K.width) + "x" + std::to_string(K.height) +
+                               ": the SH pipeline needs depth registered to colour");
+  }
+  return depth;
+}
+
 FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeCamera& camera,
                        const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
   FrameGeometry g;
   const PinholeIntrinsics& K = camera.intrinsics;
-  g.key.Add("stage", "sh-geometry-v2").Add("depth", pair.depth.sha256);
-  g.key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
-  AddLensToKey(g.key, recorded);
-  if (!recorded.registered) {  // registered here, from the recorded geometry
-    const PinholeIntrinsics& D = recorded.depth_intrinsics;
-    g.key.Add("depth_fx", D.fx).Add("depth_fy", D.fy).Add("depth_cx", D.cx).Add("depth_cy", D.cy);
-    const Eigen::Matrix4d m = recorded.color_from_depth.matrix();
-    for (int i = 0; i < 12; ++i) g.key.Add("color_from_depth", m(i / 4, i % 4));
-    AddKnobsToKey(g.key, k, "registration");  // only depth registered here depends on how
-  }
-  AddKnobsToKey(g.key, k, "geometry");  // filter_depth as decided (the noise check may turn it off)
-  if (previous != nullptr) g.key.AddKey("previous", previous->key);
-  if (k.true_normals) {
-    if (run.truth() == nullptr) throw InvalidArgumentError("--set true_normals=true needs a session with ground truth");
-    g.key.Add("true_normals", run.truth()->Key());
-    g.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
-  }
-
+  g.key = GeometryKey(run, k, pair, K, recorded, previous);
   const std::string id = std::to_string(pair.color.id);
   const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
-    cv::Mat depth = run.session().LoadDepth(pair.depth);
-    if (recorded.registered && !recorded.distortion.empty()) {
-      depth = run.LensUndistorter(recorded.intrinsics, recorded.distortion).ApplyDepth(depth);
-    } else if (!recorded.registered) {
-      depth = RegisterDepthToColor(
-          depth, recorded.depth_intrinsics, K, recorded.color_from_depth,
-          k.depth_registration == "interpolated" ? Registration::kInterpolated : Registration::kNearest);
-    }
-    if (depth.cols != K.width || depth.rows != K.height) {
-      throw InvalidArgumentError("depth frame " + std::to_string(pair.depth.id) + " is " + std::to_string(depth.cols) +
-                                 "x" + std::to_string(depth.rows) + " but its colour frame is " +
-                                 std::to_string(K.width) + "x" + std::to_string(K.height) +
-                                 ": the SH pipeline needs depth registered to colour");
-    }
+    const cv::Mat depth = DepthInColorCamera(run, k, pair, K, recorded);
     cv::Mat bilateral = k.filter_depth ? processing::BilateralFilterDepth(depth, k.bilateral) : depth.clone();
     cv::Mat filtered = bilateral;
     int blended = 0;
