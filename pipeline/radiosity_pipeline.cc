@@ -29,6 +29,7 @@
 #include "processing/radiosity/direct_light.h"
 #include "processing/radiosity/reference_scale.h"
 #include "processing/radiosity/reflectance.h"
+#include "processing/radiosity/relight.h"
 
 namespace relume::pipeline {
 namespace fs = std::filesystem;
@@ -1241,37 +1242,6 @@ std::vector<Rgb> ReadAlbedoCsv(const fs::path& path, int n) {
   return albedo;
 }
 
-// Per pixel: the patch's albedo times the new lamp's direct light at the pixel's own point plus
-// the patch's indirect light from the solution (what the patches average, the pixels resolve:
-// the lamp's falloff and its shadow edges).
-RadianceImage RelitPixels(const Geometry& geo, const radiosity::Lighting& lighting, const std::vector<Rgb>& albedo,
-                          const radiosity::RadiositySolution& solution,
-                          const radiosity::DirectLightOptions& direct_options) {
-  const radiosity::PatchHierarchy& h = *geo.hierarchy;
-  RadianceImage relit = MakeRadianceImage(geo.ids.cols, geo.ids.rows);
-  relit.unit = RadianceUnit::kWattsPerSqmPerSr;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (int y = 0; y < geo.ids.rows; ++y) {
-    for (int x = 0; x < geo.ids.cols; ++x) {
-      const int p = geo.ids.at<int>(y, x);
-      const cv::Vec3f xyz = geo.points_m.at<cv::Vec3f>(y, x);
-      Rgb v = Rgb::Constant(nan);
-      if (p >= 0 && std::isfinite(xyz[0])) {
-        const Rgb e = radiosity::DirectIrradianceAtPoint(*geo.caster, lighting, Eigen::Vector3d(xyz[0], xyz[1], xyz[2]),
-                                                         h.leaf(p).normal, direct_options);
-        v = albedo[p].cwiseProduct(e + solution.indirect_irradiance[p]) / std::numbers::pi;
-      }
-      relit.pixels.at<cv::Vec3f>(y, x) =
-          cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
-    }
-  }
-  return relit;
-}
-
-// The relit rendering against the same lamp in the simulated world (its renderer, its
-// interreflection settings) at bracket 0's time, into `m`; writes relit_truth.png. Per patch (the
-// means of the relit and the truth's pixels on it): pixels carry the renderer's Monte Carlo
-// noise, patches average it. Per pixel as well.
 // The relighting truth: the simulated world rendered with the relighting lamp, or an external
 // truth's relit.exr when its relit.json names the same lamp (nullopt, with `why`, otherwise).
 std::optional<RadianceImage> RelitTruth(const RadiosityInputs& in, UtcTime utc, std::string* why) {
@@ -1302,6 +1272,10 @@ std::optional<RadianceImage> RelitTruth(const RadiosityInputs& in, UtcTime utc, 
   return image;
 }
 
+// The relit rendering against the same lamp in the truth (RelitTruth: the simulated
+// world's renderer with its interreflection settings, or an external render) at bracket 0's time, into `m`; writes
+// relit_truth.png. Per patch (the means of the relit and the truth's pixels on it): pixels carry the renderer's Monte
+// Carlo noise, patches average it. Per pixel as well.
 void CompareRelitWithTruth(const RadiosityInputs& in, const Geometry& geo, const RadianceImage& relit, UtcTime utc,
                            const fs::path& dir, RadiosityRelightRecord* m) {
   const int n = geo.hierarchy->LeafCount();
@@ -1366,21 +1340,19 @@ RadiosityRelightRecord RunRelightStage(PipelineRun& run, const RadiosityInputs& 
     const std::vector<Rgb> albedo = ReadAlbedoCsv(refl.dir / "albedo.csv", h.LeafCount());
     radiosity::Lighting lighting;
     lighting.point_lights.push_back({knobs.light_m, Rgb::Constant(knobs.light_intensity_w_sr)});
-    const radiosity::DirectLight direct =
-        radiosity::ComputeDirectLight(h, *geo.caster, lighting, ReflectanceOptionsFrom(knobs, skip).direct);
-    radiosity::RadiositySolver solver(h, *geo.caster, SolverOptionsFrom(knobs));
-    radiosity::RadiositySolution solution;
-    const radiosity::RadiositySummary summary = solver.Solve(albedo, direct.irradiance, h.LeafEmission(), &solution);
-    const RadianceImage relit =
-        RelitPixels(geo, lighting, albedo, solution, ReflectanceOptionsFrom(knobs, skip).direct);
-    calibration::SaveRadianceExr(relit, (dir / "relit.exr").string());
-    calibration::SaveImage(RadiancePreview(relit), (dir / "relit.png").string());
-    WritePatchRgb(dir / "relit_radiosity.csv", "radiosity_w_m2", solution.radiosity);
+    radiosity::RoomRelightOptions options;
+    options.direct = ReflectanceOptionsFrom(knobs, skip).direct;
+    options.radiosity = SolverOptionsFrom(knobs);
+    const radiosity::RoomRelightResult r =
+        radiosity::RelightRoom(h, *geo.caster, albedo, lighting, {geo.ids, geo.points_m}, options);
+    calibration::SaveRadianceExr(r.relit, (dir / "relit.exr").string());
+    calibration::SaveImage(RadiancePreview(r.relit), (dir / "relit.png").string());
+    WritePatchRgb(dir / "relit_radiosity.csv", "radiosity_w_m2", r.radiosity);
     RadiosityRelightRecord m;
     m.light_m = knobs.light_m;
     m.light_intensity_w_sr = knobs.light_intensity_w_sr;
-    m.solution = summary.BriefReport();
-    if (knobs.compare_truth) CompareRelitWithTruth(in, geo, relit, bracket0_utc, dir, &m);
+    m.solution = r.solution.BriefReport();
+    if (knobs.compare_truth) CompareRelitWithTruth(in, geo, r.relit, bracket0_utc, dir, &m);
     WriteRecord(dir / "metrics.json", m);
   });
   run.AddOutput(stage.dir / "relit.png", "relit rendering under the new lamp");
