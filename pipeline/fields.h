@@ -151,8 +151,9 @@ nlohmann::json Encode(const T& value) {
     static_assert(HasFields<T>, "a summary field must be a number, bool, text, vector, map, optional or fields");
     nlohmann::json out = nlohmann::json::object();
     Writer writer{out};
-    T copy = value;  // VisitFields takes its fields by reference; the writer only reads them
-    VisitFieldsOf(writer, copy);
+    // VisitFields takes its fields by reference; the writer only reads them (no copy of a large
+    // record such as an IRM set).
+    VisitFieldsOf(writer, const_cast<T&>(value));
     return out;
   }
 }

@@ -114,9 +114,22 @@ void VisitFields(V& v, IndirectShare& s) {
   v.Field("target_shadow_samples", s.target_shadow_samples);
 }
 
+// One map of an IrmSet with its kind's name ("lit_to_lit", ...), so irms.json says which is which.
+struct NamedRatioMap {
+  std::string kind;
+  RatioMap* map = nullptr;
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("kind", kind);
+    irm::VisitFields(v, *map);
+  }
+};
+
 template <typename V>
 void VisitFields(V& v, IrmSet& s) {
-  v.Field("maps", s.maps);
+  std::array<NamedRatioMap, 4> maps;
+  for (std::size_t k = 0; k < maps.size(); ++k) maps[k] = {ToString(static_cast<MapKind>(k)), &s.maps[k]};
+  v.Field("maps", maps);  // read in place: each entry fills its own map
   v.Field("model", s.model);
   v.Field("single_map", s.single_map);
   v.Field("samples_used", s.samples_used);

@@ -63,7 +63,7 @@ def test_irm_relight_in_python_gives_the_numbers_relume_process_writes(tiny_sess
     for stored_map in stored["maps"]:
         ours = result["irms"]["maps"][stored_map["kind"]]
         bins = stored_map["bins"]
-        ratio = np.array([r if r is not None else [np.nan] * 3 for r in stored_map["ratio"]], np.float32)
+        ratio = np.array([[np.nan if c is None else c for c in r] for r in stored_map["ratio"]], np.float32)
         assert np.array_equal(ours["ratio"], ratio.reshape(bins, bins, 3), equal_nan=True), stored_map["kind"]
         assert np.array_equal(ours["count"].ravel(), stored_map["count"])
         assert np.array_equal(ours["source"].ravel(), stored_map["source"])
