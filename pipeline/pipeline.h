@@ -112,9 +112,6 @@ class PipelineRun {
   // done / total, rate, time elapsed and left); nothing when stderr is not a terminal.
   void Progress(const std::string& stage, std::int64_t done, std::int64_t total);
 
-  // Seconds each stage took in this run (0 when reused), by stage: summary.json "metrics"
-  // "stage_seconds" beside the pipeline's own summary.
-  const std::map<std::string, double>& stage_seconds() const { return stage_seconds_; }
   void AddOutput(const std::filesystem::path& path, const std::string& what);
 
   // summary.json: the request, knobs, decisions, outputs and, as "metrics", the pipeline's summary
@@ -132,7 +129,7 @@ class PipelineRun {
   std::string scene_model_json_;
   std::string scene_model_row_;  // "calibration row N", for messages
   std::vector<Decision> decisions_;
-  std::map<std::string, double> stage_seconds_;
+  std::map<std::string, double> stage_seconds_;  // by stage, 0 when reused: metrics.stage_seconds
   nlohmann::json knobs_json_ = nlohmann::json::object();
   std::vector<std::pair<std::string, std::string>> outputs_;
   std::map<std::string, bool> settings_read_;
