@@ -222,8 +222,10 @@ TEST(FieldsTest, EveryPipelineSummaryRoundTrips) {
   frame.fit.segment_albedo = std::vector<Eigen::Vector3d>{{0.5, 0.4, 0.3}};
   frame.relight = ShRelightFigures{10, 9, 1, 0, "ok"};
   frame.truth.relit_relative_rms = 0.05;
-  sh.cast_shadows = ShCastShadowsSummary{0.2, {ShCastShadowFigures{3, 0.1, 0.8, 0.2}}};
+  ShCastShadowFigures shadows{3, 0.1, 0.8, 0.2, 20.5, 0.48, 2.8, 4120};
+  sh.cast_shadows = ShCastShadowsSummary{0.2, 0.48, 2.8, {shadows}};
   sh.sh_fits_scene = false;
+  sh.misfit_reasons = std::vector<std::string>{kResidualReason, kSunShadowsReason};
   ExpectRoundTrip(sh);
 
   RadiosityPipelineSummary radiosity;

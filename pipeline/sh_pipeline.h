@@ -42,6 +42,7 @@ struct ShFitFigures {
   double condition_number_order2 = 0.0;
   double normal_solid_angle_sr = 0.0;
   double relative_rms_residual = 0.0;
+  std::optional<double> albedo_light_condition_number;  // unknown albedo only
   int iterations = 0;
   bool converged = false;
   std::string message;
@@ -58,6 +59,7 @@ struct ShFitFigures {
     v.Field("condition_number_order2", condition_number_order2);
     v.Field("normal_solid_angle_sr", normal_solid_angle_sr);
     v.Field("relative_rms_residual", relative_rms_residual);
+    v.Field("albedo_light_condition_number", albedo_light_condition_number);
     v.Field("iterations", iterations);
     v.Field("converged", converged);
     v.Field("message", message);
@@ -89,21 +91,34 @@ struct ShCastShadowFigures {
   double shadowed_fraction = 0.0;
   double directional_share = 0.0;
   double removed_share_rms = 0.0;  // the irradiance share the SH model misses, RMS over the image
+  // Toward the sun the session recorded for the frame (when it has a site and the camera a
+  // pose, with the sun up; processing::EstimateShadowsToward): the share of the pixels facing it
+  // the depth shadows, and how much brighter the lit ones are (NaN: too few on either side).
+  std::optional<double> sun_elevation_deg, sun_shadowed_fraction, sun_shadow_contrast;
+  std::optional<int> sun_facing_pixels;
   template <typename V>
   void VisitFields(V& v) {
     v.Field("color_frame", color_frame);
     v.Field("shadowed_fraction", shadowed_fraction);
     v.Field("directional_share", directional_share);
     v.Field("removed_share_rms", removed_share_rms);
+    v.Field("sun_elevation_deg", sun_elevation_deg);
+    v.Field("sun_shadowed_fraction", sun_shadowed_fraction);
+    v.Field("sun_shadow_contrast", sun_shadow_contrast);
+    v.Field("sun_facing_pixels", sun_facing_pixels);
   }
 };
 
 struct ShCastShadowsSummary {
   double removed_share_median = 0.0;  // over frames
+  // Medians over the frames assessed toward the recorded sun (absent: none was).
+  std::optional<double> sun_shadowed_fraction_median, sun_shadow_contrast_median;
   std::vector<ShCastShadowFigures> frames;
   template <typename V>
   void VisitFields(V& v) {
     v.Field("removed_share_median", removed_share_median);
+    v.Field("sun_shadowed_fraction_median", sun_shadowed_fraction_median);
+    v.Field("sun_shadow_contrast_median", sun_shadow_contrast_median);
     v.Field("frames", frames);
   }
 };
@@ -158,6 +173,11 @@ struct ShFrameFigures {
   }
 };
 
+// Why SH does not fit a scene (ShPipelineSummary::misfit_reasons).
+inline constexpr const char* kResidualReason = "fit residual";
+inline constexpr const char* kFittedShadowsReason = "cast shadows of the fitted light";
+inline constexpr const char* kSunShadowsReason = "cast shadows of the recorded sun";
+
 // The sh pipeline's summary (summary.json "metrics"); absent: the run did not reach it (planned
 // only) or had nothing to compare.
 struct ShPipelineSummary {
@@ -171,8 +191,10 @@ struct ShPipelineSummary {
   std::optional<double> relit_rms_8bit_mean, baseline_rms_8bit_mean;
   std::optional<double> floor_relative_rms_mean;  // external truth
   std::optional<int> compared_frames;
-  // Whether SH describes the scene's light (fit residuals, cast shadows; CheckShFitsTheScene).
+  // Whether SH describes the scene's light (fit residuals, cast shadows; CheckShFitsTheScene),
+  // and when not, which checks said so (kResidualReason, kFittedShadowsReason, kSunShadowsReason).
   std::optional<bool> sh_fits_scene;
+  std::optional<std::vector<std::string>> misfit_reasons;
   std::optional<double> fit_residual_median;
   std::optional<ShCastShadowsSummary> cast_shadows;
   std::optional<std::string> truth;  // "external: DIR"
@@ -191,6 +213,7 @@ struct ShPipelineSummary {
     v.Field("floor_relative_rms_mean", floor_relative_rms_mean);
     v.Field("compared_frames", compared_frames);
     v.Field("sh_fits_scene", sh_fits_scene);
+    v.Field("misfit_reasons", misfit_reasons);
     v.Field("fit_residual_median", fit_residual_median);
     v.Field("cast_shadows", cast_shadows);
     v.Field("truth", truth);

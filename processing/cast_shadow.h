@@ -14,7 +14,9 @@
 //  - A ray from the point P (lifted by `surface_bias_m` along its normal) is occluded when a
 //    sample Q on it projects onto a pixel whose depth is nearer the camera than Q by more than
 //    the tolerance (`depth_tolerance_m` + `depth_tolerance_per_m` Q.z) and by less than
-//    `thickness_m` (further behind, the ray passes behind the surface). Samples leaving the
+//    max(`thickness_m`, `thickness_per_m` Q.z) (further behind, the ray passes behind the
+//    surface). The ray goes max(`max_distance_m`, `max_distance_per_m` P.z) in `steps` equal
+//    steps. Samples leaving the
 //    image or reaching pixels without depth end the ray unoccluded: occluders the camera does
 //    not see are missed, so the estimate is a lower bound.
 //  - The removed share at a shadowed pixel is E_d max(0, n . d) / E_sh(n) (luminance); the
@@ -22,9 +24,11 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <opencv2/core/mat.hpp>
 #include <string>
 
+#include "core/image.h"
 #include "core/pinhole.h"
 #include "processing/sh.h"
 
@@ -37,6 +41,15 @@ struct CastShadowOptions {
   double depth_tolerance_m = 0.005;
   double depth_tolerance_per_m = 0.01;  // grows with distance, as depth noise does
   double thickness_m = 0.5;
+  // Scenes larger than a table top: a ray goes at least max_distance_per_m times its point's
+  // depth, and an occluder stands up to thickness_per_m times the sample's depth (at least
+  // thickness_m) in front of it (a building 30 m away hides the sun from a wall behind it).
+  double max_distance_per_m = 1.0;
+  double thickness_per_m = 0.2;
+  // EstimateShadowsToward: pixels facing the light at least this much (n . d) are assessed, and
+  // each side (lit, shadowed) needs min_evidence_pixels for a contrast.
+  double min_facing = 0.25;
+  int min_evidence_pixels = 10;
   // Below this directional share of the irradiance at the light's direction, the light is
   // taken as diffuse and no ray is marched (nothing to shadow).
   double min_directional_share = 0.05;
@@ -65,5 +78,33 @@ struct CastShadowEstimate {
 CastShadowEstimate EstimateCastShadows(const cv::Mat& depth_m, const cv::Mat& normals, const cv::Mat& mask,
                                        const PinholeIntrinsics& intrinsics, const ShRgb& light,
                                        const CastShadowOptions& options = {});
+
+// Shadows toward a light whose direction is known without the fit (the sun, from the session's
+// ephemeris and the camera's pose), and whether the image shows them. The fitted light cannot
+// be asked: with unknown albedo, segments of one colour split into sunlit and shadowed ones, their
+// albedos absorb the sun, and the fit is mostly ambient with a small residual (the demo's
+// outdoor stream). The pixels facing the light (n . d >= min_facing) are split into occluded and
+// not; the ratio of their median luminances is the evidence: several times 1 under a shining
+// sun, near 1 under an overcast sky (albedo differences between the two groups blur it).
+struct DirectionalShadowEvidence {
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();  // camera frame, toward the light
+  int facing_pixels = 0;
+  int shadowed_pixels = 0;
+  double lit_luminance_median = std::numeric_limits<double>::quiet_NaN();
+  double shadowed_luminance_median = std::numeric_limits<double>::quiet_NaN();
+  // lit / shadowed median luminance; NaN when either side has fewer than min_evidence_pixels.
+  double contrast = std::numeric_limits<double>::quiet_NaN();
+
+  double shadowed_fraction() const {
+    return facing_pixels > 0 ? static_cast<double>(shadowed_pixels) / facing_pixels : 0.0;
+  }
+  std::string Describe() const;
+};
+
+// As EstimateCastShadows, with the light's direction (camera frame, need not be unit) and the
+// frame's linear radiance (CV_32FC3, the depth's size).
+DirectionalShadowEvidence EstimateShadowsToward(const cv::Mat& depth_m, const cv::Mat& normals, const cv::Mat& mask,
+                                                const PinholeIntrinsics& intrinsics, const Eigen::Vector3d& direction,
+                                                const RadianceImage& radiance, const CastShadowOptions& options = {});
 
 }  // namespace relume::processing

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include "core/error.h"
 
@@ -18,14 +19,39 @@ struct Scene {
   cv::Mat normals = cv::Mat(200, 200, CV_32FC3, cv::Scalar(0.0f, 0.0f, -1.0f));
   cv::Mat mask = cv::Mat(200, 200, CV_8UC1, cv::Scalar(255));
 
-  explicit Scene(bool card) {
+  // scale: every length times this (20: a wall 40 m away, a 4 m card 30 m away).
+  explicit Scene(bool card, double scale = 1.0) {
     for (int v = 0; v < 200; ++v) {
       for (int u = 0; u < 200; ++u) {
         const Eigen::Vector3d ray = k.Unproject({u + 0.5, v + 0.5});
         const bool on_card = card && std::abs(ray.x() * 1.5) <= 0.1 && std::abs(ray.y() * 1.5) <= 0.1;
-        depth.at<float>(v, u) = on_card ? 1.5f : 2.0f;
+        depth.at<float>(v, u) = static_cast<float>(scale * (on_card ? 1.5 : 2.0));
       }
     }
+  }
+
+  // The scene's radiance (albedo 1, grey) under a distant light from d (camera frame) of
+  // irradiance e_d and an ambient irradiance: the card's true (thin) shadow on the wall is where
+  // the ray from the wall point toward d crosses the card's plane within the card.
+  RadianceImage Render(const Eigen::Vector3d& d, double e_d, double ambient_irradiance, double scale = 1.0) const {
+    const Eigen::Vector3d toward = d.normalized();
+    RadianceImage image;
+    image.pixels = cv::Mat(200, 200, CV_32FC3);
+    for (int v = 0; v < 200; ++v) {
+      for (int u = 0; u < 200; ++u) {
+        const Eigen::Vector3d p = k.Unproject({u + 0.5, v + 0.5}) * depth.at<float>(v, u);
+        bool shadowed = false;
+        if (p.z() > 1.75 * scale && toward.z() < 0.0) {
+          const Eigen::Vector3d at_card = p + toward * ((1.5 * scale - p.z()) / toward.z());
+          shadowed = std::abs(at_card.x()) <= 0.1 * scale && std::abs(at_card.y()) <= 0.1 * scale;
+        }
+        const double cosine = std::max(0.0, -toward.z());  // every normal is (0, 0, -1)
+        const double e = ambient_irradiance + (shadowed ? 0.0 : e_d * cosine);
+        const float radiance = static_cast<float>(e / std::numbers::pi);
+        image.pixels.at<cv::Vec3f>(v, u) = cv::Vec3f(radiance, radiance, radiance);
+      }
+    }
+    return image;
   }
 };
 
@@ -46,6 +72,7 @@ TEST(CastShadowTest, FindsTheCardsShadowOnTheWall) {
   // 3 cm steps sample the slab twice, and those two slices cover 21-22 rows of it.
   CastShadowOptions thin;
   thin.thickness_m = 0.05;
+  thin.thickness_per_m = thin.max_distance_per_m = 0.0;  // fixed 1.5 m rays, 0.05 m occluders
   thin.depth_tolerance_m = thin.depth_tolerance_per_m = 0.0;
   const CastShadowEstimate e =
       EstimateCastShadows(scene.depth, scene.normals, scene.mask, scene.k, Light(d, 1.0, 0.05), thin);
@@ -82,6 +109,69 @@ TEST(CastShadowTest, NoOccluderOrADiffuseLightCastsNothing) {
       EstimateCastShadows(card.depth, card.normals, card.mask, card.k, Light(Eigen::Vector3d(0, 0, 1), 1.0, 0.05));
   EXPECT_EQ(behind.facing_pixels, 0);
   EXPECT_EQ(behind.shadowed_pixels, 0);
+}
+
+TEST(CastShadowTest, ShadowsTowardAKnownSunAndWhetherItShone) {
+  const Eigen::Vector3d d(0.0, -0.6, -0.8);
+  const Scene scene(true);
+  // Sunny: lit 0.8 + 0.1, shadowed 0.1 (irradiance). With the card taken 0.05 m thick (as in
+  // the test above: 440 pixels, y 0.2375..0.475 m on the wall) the marched shadow is mostly the
+  // true one (y 0.275..0.475 m, 420 pixels), so the shadowed side's median is the true shadow's
+  // radiance: the contrast is exactly 9. (Thicker occluders mark more lit pixels shadowed and
+  // dilute the contrast: the 0.5 m default marks y 0.133..0.46 m, half of it truly lit.)
+  CastShadowOptions thin;
+  thin.thickness_m = 0.05;
+  thin.thickness_per_m = thin.max_distance_per_m = 0.0;
+  thin.depth_tolerance_m = thin.depth_tolerance_per_m = 0.0;
+  const DirectionalShadowEvidence sunny =
+      EstimateShadowsToward(scene.depth, scene.normals, scene.mask, scene.k, d, scene.Render(d, 1.0, 0.1), thin);
+  EXPECT_NEAR(sunny.direction.dot(d.normalized()), 1.0, 1e-12);
+  EXPECT_EQ(sunny.facing_pixels, 200 * 200);
+  EXPECT_NEAR(sunny.shadowed_pixels, 440, 40);
+  EXPECT_NEAR(sunny.contrast, 9.0, 1e-5) << sunny.Describe();
+  // Overcast (the same geometry, no direct light): the same pixels are marched as shadowed, but
+  // the image shows no difference.
+  const DirectionalShadowEvidence overcast =
+      EstimateShadowsToward(scene.depth, scene.normals, scene.mask, scene.k, d, scene.Render(d, 0.0, 0.5), thin);
+  EXPECT_EQ(overcast.shadowed_pixels, sunny.shadowed_pixels);
+  EXPECT_NEAR(overcast.contrast, 1.0, 1e-6);
+  // No occluder: no shadowed side, so no contrast.
+  const Scene wall(false);
+  const DirectionalShadowEvidence open =
+      EstimateShadowsToward(wall.depth, wall.normals, wall.mask, wall.k, d, wall.Render(d, 1.0, 0.1));
+  EXPECT_EQ(open.shadowed_pixels, 0);
+  EXPECT_TRUE(std::isnan(open.contrast));
+  // A light behind the wall: nothing faces it.
+  const Eigen::Vector3d behind(0.0, 0.0, 1.0);
+  EXPECT_EQ(EstimateShadowsToward(scene.depth, scene.normals, scene.mask, scene.k, behind, scene.Render(d, 1.0, 0.1))
+                .facing_pixels,
+            0);
+  EXPECT_THROW(EstimateShadowsToward(scene.depth, scene.normals, scene.mask, scene.k, Eigen::Vector3d::Zero(),
+                                     scene.Render(d, 1.0, 0.1)),
+               InvalidArgumentError);
+}
+
+// The same card and wall 20 times larger (30 m and 40 m away: a building in front of another).
+// Rays of a fixed 1.5 m, set for a table top, stop short of the card (12.5 m toward the light
+// from the wall); rays as long as their point's depth (the default max_distance_per_m) reach it
+// and find the shadow. Occluders 1 m thick (0.05 m scaled), as above.
+TEST(CastShadowTest, RaysScaleWithTheScene) {
+  const Eigen::Vector3d d(0.0, -0.6, -0.8);
+  const double scale = 20.0;
+  const Scene scene(true, scale);
+  const RadianceImage sunny = scene.Render(d, 1.0, 0.1, scale);
+  CastShadowOptions scaled;
+  scaled.thickness_m = 0.05 * scale;
+  scaled.thickness_per_m = 0.0;
+  scaled.depth_tolerance_m = scaled.depth_tolerance_per_m = 0.0;
+  CastShadowOptions table_top = scaled;
+  table_top.max_distance_per_m = 0.0;
+  EXPECT_EQ(EstimateShadowsToward(scene.depth, scene.normals, scene.mask, scene.k, d, sunny, table_top).shadowed_pixels,
+            0);
+  const DirectionalShadowEvidence found =
+      EstimateShadowsToward(scene.depth, scene.normals, scene.mask, scene.k, d, sunny, scaled);
+  EXPECT_NEAR(found.shadowed_pixels, 440, 40) << found.Describe();
+  EXPECT_NEAR(found.contrast, 9.0, 1e-5) << found.Describe();
 }
 
 TEST(CastShadowTest, RejectsMismatchedInputsAndBadOptions) {

@@ -112,6 +112,52 @@ std::vector<ShVector> Kernels(const std::vector<ShObservation>& observations) {
   return kernels;
 }
 
+// The joint problem's conditioning at a solution of the unknown-albedo fit (sh_fit.h,
+// ShFitSummary::albedo_light_condition_number). Per channel, the Gauss-Newton matrix of
+// I_i = a_s(i) k_i.L / pi over the light's n coefficients and every used segment's albedo but
+// the reference's (fixed: that removes the scale both share) is, with G_s = sum_i k_i k_i^T
+// and the common 1/pi^2 dropped:
+//   H_LL = sum_s a_s^2 G_s,  H_L,a_s = a_s G_s L,  H_a_s,a_s = L^T G_s L.
+// Scaled to a unit diagonal (Jacobi), its condition number is the worst channel's
+// sqrt(largest / smallest eigenvalue); infinite when a direction of the light can be traded
+// for the albedos without changing any pixel (a flat segment: its albedo absorbs whatever
+// irradiance its one normal receives).
+double AlbedoLightCondition(const std::vector<Gram>& gram, const std::vector<bool>& used, int reference,
+                            const std::vector<Eigen::Vector3d>& albedo, const ShRgb& light, int order) {
+  const int n = ShCountForOrder(order);
+  std::vector<int> free_segments;
+  for (int s = 0; s < static_cast<int>(used.size()); ++s) {
+    if (used[s] && s != reference) free_segments.push_back(s);
+  }
+  const int m = n + static_cast<int>(free_segments.size());
+  double worst = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const Eigen::VectorXd l = light.col(c).head(n);
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(m, m);
+    for (int s = 0; s < static_cast<int>(used.size()); ++s) {
+      if (used[s]) h.topLeftCorner(n, n) += albedo[s](c) * albedo[s](c) * gram[s].topLeftCorner(n, n);
+    }
+    for (int j = 0; j < static_cast<int>(free_segments.size()); ++j) {
+      const int s = free_segments[j];
+      const Eigen::VectorXd gl = gram[s].topLeftCorner(n, n) * l;
+      h.block(0, n + j, n, 1) = albedo[s](c) * gl;
+      h.block(n + j, 0, 1, n) = albedo[s](c) * gl.transpose();
+      h(n + j, n + j) = l.dot(gl);
+    }
+    Eigen::VectorXd scale(m);
+    for (int i = 0; i < m; ++i) {
+      if (!(h(i, i) > 0.0) || !std::isfinite(h(i, i))) return std::numeric_limits<double>::infinity();
+      scale(i) = 1.0 / std::sqrt(h(i, i));
+    }
+    const Eigen::MatrixXd scaled = scale.asDiagonal() * h * scale.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
+    const double lo = eig.eigenvalues()(0), hi = eig.eigenvalues()(m - 1);
+    if (!(lo > hi * 1e-24)) return std::numeric_limits<double>::infinity();
+    worst = std::max(worst, std::sqrt(hi / lo));
+  }
+  return worst;
+}
+
 }  // namespace
 
 std::vector<ShObservation> GatherObservations(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
@@ -347,6 +393,10 @@ ShAlbedoFitResult FitShUnknownAlbedo(const std::vector<ShObservation>& observati
   if (!order_note.empty()) message << "; " << order_note;
   summary.message = message.str();
   summary.relative_rms_residual = RelativeResidual(used, kernels, result.light, &result.segment_albedo);
+  if (summary.usable) {
+    summary.albedo_light_condition_number =
+        AlbedoLightCondition(gram, result.segment_used, reference, result.segment_albedo, result.light, order);
+  }
   return result;
 }
 

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <vector>
@@ -60,7 +61,14 @@ struct ShFitSummary {
   double condition_number_order2 = 0.0;  // for the record, even when order 2 was dropped
   double normal_solid_angle_sr = 0.0;
   double relative_rms_residual = 0.0;  // rms(I - model) / rms(I) over the observations
-  int iterations = 0;                  // unknown albedo: alternations done (1 for known albedo)
+  // Unknown albedo only (NaN otherwise): how well the pixels tell the light apart from the
+  // segments' albedos, as the condition number of the joint least-squares problem at the
+  // solution (reference albedo fixed, unit-diagonal scaling, worst channel). Infinite or huge
+  // when segments show too few orientations (flat walls and ground): a segment's albedo then
+  // absorbs whatever irradiance its normals receive, the light's direction is not determined
+  // by the data, and the fit returns its starting guess (mostly ambient light).
+  double albedo_light_condition_number = std::numeric_limits<double>::quiet_NaN();
+  int iterations = 0;  // unknown albedo: alternations done (1 for known albedo)
   bool converged = false;
   std::string message;  // how the fit ended, in words
   std::string BriefReport() const;

@@ -56,7 +56,8 @@ py::dict SummaryToPython(const processing::ShFitSummary& s) {
                   "observation_count"_a = s.observation_count, "condition_number"_a = s.condition_number,
                   "condition_number_order2"_a = s.condition_number_order2,
                   "normal_solid_angle_sr"_a = s.normal_solid_angle_sr,
-                  "relative_rms_residual"_a = s.relative_rms_residual, "iterations"_a = s.iterations,
+                  "relative_rms_residual"_a = s.relative_rms_residual,
+                  "albedo_light_condition_number"_a = s.albedo_light_condition_number, "iterations"_a = s.iterations,
                   "converged"_a = s.converged, "message"_a = s.message, "brief"_a = s.BriefReport());
 }
 
@@ -305,7 +306,9 @@ Args:
 Returns:
     (light, segment_albedo, summary): light float64 (9, 3) as fit_sh's; segment_albedo
     float64 (segments, 3) (zero for segments left out); summary as fit_sh's plus
-    reference_segment and segment_used (bool per segment).
+    reference_segment and segment_used (bool per segment). Its
+    albedo_light_condition_number says how well the pixels tell the light from the albedos
+    (large: segments show too few orientations; NaN for fit_sh).
 )doc")
             .c_str());
   const processing::SegmentationOptions g;
