@@ -28,6 +28,7 @@
 #include "processing/segmentation.h"
 #include "processing/sh_display.h"
 #include "processing/sh_fit.h"
+#include "processing/sh_pipeline.h"
 
 namespace relume::pipeline {
 namespace fs = std::filesystem;
@@ -502,30 +503,8 @@ struct FrameGeometry {
   Lazy<cv::Mat> normals;  // CV_32FC3, camera frame
   Lazy<cv::Mat> mask;     // CV_8UC1: depth, a valid normal
   std::int64_t normals_from_frame = 0;
+  int temporal_blended = 0;  // depth pixels the temporal filter blended with the previous frame
 };
-
-// Fraction of pixels (with depth in either frame) whose depth appeared, vanished, or moved by
-// more than `sigmas` range sigmas (sigma grows as z^2, like the sensor's noise).
-double ChangedFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas) {
-  int considered = 0, changed = 0;
-  for (int y = 0; y < a.rows; ++y) {
-    const float* pa = a.ptr<float>(y);
-    const float* pb = b.ptr<float>(y);
-    for (int x = 0; x < a.cols; ++x) {
-      const bool va = std::isfinite(pa[x]) && pa[x] > 0.0f;
-      const bool vb = std::isfinite(pb[x]) && pb[x] > 0.0f;
-      if (!va && !vb) continue;
-      ++considered;
-      if (va != vb) {
-        ++changed;
-        continue;
-      }
-      const double z = pa[x];
-      if (std::abs(pa[x] - pb[x]) > sigmas * sigma_at_1m * z * z) ++changed;
-    }
-  }
-  return considered == 0 ? 0.0 : static_cast<double>(changed) / considered;
-}
 
 // The world's true normals seen from `camera` at `utc`, in the camera frame, and where they are
 // valid (diagnostic: --set true_normals=true).
@@ -545,24 +524,12 @@ void TrueNormalsInCamera(const SessionTruth& world, const PinholeCamera& camera,
   }
 }
 
-// `valid` without the pixels that have no depth (not finite or not positive).
-cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth) {
-  cv::Mat mask = valid.clone();
-  for (int y = 0; y < mask.rows; ++y) {
-    const float* z = depth.ptr<float>(y);
-    for (int x = 0; x < mask.cols; ++x) {
-      if (!(std::isfinite(z[x]) && z[x] > 0.0f)) mask.at<std::uint8_t>(y, x) = 0;
-    }
-  }
-  return mask;
-}
-
 // Stage geometry-<id>'s key: the depth frame, the cameras, the knobs, the previous frame's
 // geometry (the temporal filter and normals reuse chain them) and, for true_normals, the truth.
 StageKey GeometryKey(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeIntrinsics& K,
                      const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
   StageKey key;
-  key.Add("stage", "sh-geometry-v2").Add("depth", pair.depth.sha256);
+  key.Add("stage", "sh-geometry-v3").Add("depth", pair.depth.sha256);
   key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
   AddLensToKey(key, recorded);
   if (!recorded.registered) {  // registered here, from the recorded geometry
@@ -603,6 +570,30 @@ cv::Mat DepthInColorCamera(PipelineRun& run, const Knobs& k, const RgbdPair& pai
   return depth;
 }
 
+processing::ShGeometryOptions GeometryOptions(const Knobs& k) {
+  processing::ShGeometryOptions g;
+  g.filter_depth = k.filter_depth;
+  g.bilateral = k.bilateral;
+  g.temporal = k.temporal;
+  g.normals = k.normals;
+  g.normals_reuse = k.normals_reuse;
+  g.reuse_sigmas = k.reuse_sigmas;
+  g.reuse_max_changed_fraction = k.reuse_max_changed_fraction;
+  return g;
+}
+
+// What the next frame's geometry step reads of a finished one, back from its stage folder.
+processing::ShGeometry LoadGeometryState(const FrameGeometry& stage) {
+  processing::ShGeometry g;
+  g.bilateral_m = LoadFloat(stage.dir / "bilateral.exr");
+  g.depth_m = LoadFloat(stage.dir / "depth.exr");
+  g.roi = cv::Rect(0, 0, g.depth_m.cols, g.depth_m.rows);
+  g.normals.normal_in_camera = LoadFloat(stage.dir / "normals.exr");
+  g.normals.valid = LoadMask(stage.dir / "valid.png");
+  g.temporal_blended = stage.temporal_blended;
+  return g;
+}
+
 FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeCamera& camera,
                        const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
   FrameGeometry g;
@@ -611,46 +602,32 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   const std::string id = std::to_string(pair.color.id);
   const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
     const cv::Mat depth = DepthInColorCamera(run, k, pair, K, recorded);
-    cv::Mat bilateral = k.filter_depth ? processing::BilateralFilterDepth(depth, k.bilateral) : depth.clone();
-    cv::Mat filtered = bilateral;
-    int blended = 0;
-    if (k.filter_depth && previous != nullptr && k.temporal.weight > 0.0) {
-      filtered =
-          processing::TemporalFilterDepth(bilateral, LoadFloat(previous->dir / "bilateral.exr"), k.temporal, &blended);
-    }
+    std::optional<processing::ShGeometry> before;
+    if (previous != nullptr) before = LoadGeometryState(*previous);
+    const processing::ShGeometry geometry =
+        processing::EstimateShGeometry(depth, K, {}, GeometryOptions(k), before ? &*before : nullptr);
     GeometryRecord info;
     info.depth_frame = pair.depth.id;
     info.color_frame = pair.color.id;
-    info.temporal_blended = blended;
-    bool reuse = false;
-    if (k.normals_reuse && previous != nullptr) {
-      const double changed = ChangedFraction(filtered, LoadFloat(previous->dir / "depth.exr"),
-                                             k.bilateral.range_sigma_at_1m_m, k.reuse_sigmas);
-      info.depth_changed_fraction = changed;
-      reuse = changed <= k.reuse_max_changed_fraction;
-    }
-    cv::Mat normals, valid;
+    info.temporal_blended = geometry.temporal_blended;
+    info.depth_changed_fraction = geometry.depth_changed_fraction;
+    cv::Mat normals = geometry.normals.normal_in_camera, valid = geometry.normals.valid, mask = geometry.mask;
     if (k.true_normals) {
       TrueNormalsInCamera(*run.truth(), camera, pair.color.utc, &normals, &valid);
+      mask = processing::MaskWithDepth(valid, geometry.depth_m);
       info.normals_from_frame = pair.color.id;
       info.normals_from_truth = true;
-    } else if (reuse) {
-      normals = LoadFloat(previous->dir / "normals.exr");
-      valid = LoadMask(previous->dir / "valid.png");
+    } else if (geometry.normals_reused) {
       info.normals_from_frame = previous->normals_from_frame;
     } else {
-      const processing::NormalMap map = processing::EstimateNormals(filtered, K, k.normals);
-      normals = map.normal_in_camera;
-      valid = map.valid;
       info.normals_from_frame = pair.color.id;
-      info.normals_integral = map.integral_count;
-      info.normals_cross = map.cross_count;
-      info.normals_invalid = map.invalid_count;
+      info.normals_integral = geometry.normals.integral_count;
+      info.normals_cross = geometry.normals.cross_count;
+      info.normals_invalid = geometry.normals.invalid_count;
     }
-    const cv::Mat mask = MaskWithDepth(valid, filtered);
     info.mask_pixels = cv::countNonZero(mask);
-    SaveFloat(bilateral, dir / "bilateral.exr");
-    SaveFloat(filtered, dir / "depth.exr");
+    SaveFloat(geometry.bilateral_m, dir / "bilateral.exr");
+    SaveFloat(geometry.depth_m, dir / "depth.exr");
     SaveFloat(normals, dir / "normals.exr");
     calibration::SaveImage(valid, (dir / "valid.png").string());
     calibration::SaveImage(mask, (dir / "mask.png").string());
@@ -661,6 +638,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   g.normals = Lazy<cv::Mat>([path = g.dir / "normals.exr"] { return LoadFloat(path); });
   g.mask = Lazy<cv::Mat>([path = g.dir / "mask.png"] { return LoadMask(path); });
   g.normals_from_frame = info.normals_from_frame;
+  g.temporal_blended = info.temporal_blended;
   if (info.normals_from_truth.value_or(false)) {
     run.Decide("normals", "choose", "frame " + id + ": the world's true normals (diagnostic: --set true_normals=true)");
   } else if (info.depth_changed_fraction) {
@@ -670,6 +648,11 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
                  "frame " + id + ": depth unchanged (" + Percent(changed) + " of pixels moved beyond " +
                      Number(k.reuse_sigmas) + " range sigmas, tolerance " + Percent(k.reuse_max_changed_fraction) +
                      "); normals of frame " + std::to_string(g.normals_from_frame) + " reused");
+    } else if (changed <= k.reuse_max_changed_fraction) {
+      run.Decide("normals", "run",
+                 "frame " + id + ": depth unchanged (" + Percent(changed) +
+                     " of pixels moved) but the previous frame's depth was not blended by the temporal filter (a "
+                     "stream's first frame): its normals are noisier; normals recomputed");
     } else {
       run.Decide("normals", "run",
                  "frame " + id + ": depth changed in " + Percent(changed) + " of pixels (tolerance " +
@@ -708,33 +691,24 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
           allowed.at<std::uint8_t>(y, x) = 0;
       }
     }
-    processing::ShFitSummary summary;
     ShFitFigures figures;
+    processing::SamplePointSelector selector(k.samples);  // fresh: the stage depends on its frame only
+    processing::ShFrameFit fit;
     if (known_albedo) {
       const cv::Mat albedo = run.truth()->Render(camera, pair.color.utc).albedo;
-      processing::SamplePointSelector selector(k.samples);
-      const std::vector<cv::Point>& points = selector.Update(allowed);
-      const processing::ShFitResult fit = processing::FitShKnownAlbedo(
-          processing::GatherObservations(radiance.radiance.get(), geometry.normals.get(), albedo, {}, points),
-          k.fit.fit);
-      f.light = fit.light;
-      summary = fit.summary;
+      fit = processing::FitShFrameKnownAlbedo(radiance.radiance.get(), geometry.normals.get(), allowed, albedo,
+                                              k.fit.fit, selector);
       figures.albedo = "truth (the simulated world's; an evaluation oracle)";
     } else {
-      const processing::Segmentation seg =
-          processing::SegmentByColor(radiance.radiance.get(), allowed, geometry.normals.get(), k.segmentation);
-      processing::SamplePointSelector selector(k.samples);
-      const std::vector<cv::Point>& points = selector.Update(seg.labels >= 0);
-      const processing::ShAlbedoFitResult fit = processing::FitShUnknownAlbedo(
-          processing::GatherObservations(radiance.radiance.get(), geometry.normals.get(), {}, seg.labels, points),
-          k.fit);
-      f.light = fit.light;
-      summary = fit.summary;
+      fit = processing::FitShFrameUnknownAlbedo(radiance.radiance.get(), geometry.normals.get(), allowed,
+                                                k.segmentation, k.fit, selector);
       figures.albedo = "unknown (k-means segments, alternating fit; scale fixed by the largest segment = 0.5)";
-      figures.segments = seg.segment_count();
+      figures.segments = fit.segmentation.segment_count();
       figures.segment_albedo = fit.segment_albedo;
       figures.albedo_light_condition_number = fit.summary.albedo_light_condition_number;
     }
+    f.light = fit.light;
+    const processing::ShFitSummary& summary = fit.summary;
     figures.usable = summary.usable;
     figures.order_used = summary.order_used;
     figures.order_reduced = summary.order_reduced;
@@ -1416,8 +1390,8 @@ ShTruthFigures CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
   const std::size_t d = *dst.frame_index;
   // The scene is static when under 2 % of the depth pixels changed beyond 3 range sigmas of the
   // sensor's noise (the normals-reuse test's measure).
-  const double moved = ChangedFraction(run.session().LoadDepth(pairs[i].depth), run.session().LoadDepth(pairs[d].depth),
-                                       range_sigma_at_1m_m, 3.0);
+  const double moved = processing::ChangedDepthFraction(
+      run.session().LoadDepth(pairs[i].depth), run.session().LoadDepth(pairs[d].depth), range_sigma_at_1m_m, 3.0);
   if (moved > 0.02) {
     t.truth_under_destination = "none: the scene moved between the source and destination frames (" + Percent(moved) +
                                 " of depth pixels), so no render shows the source geometry "

@@ -1,6 +1,7 @@
 #include "processing/sh_pipeline.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
 
@@ -25,18 +26,183 @@ cv::Rect MaskBounds(const cv::Mat& mask) {
   return x1 < 0 ? cv::Rect() : cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
 }
 
+// Normals on the crop, with the principal point moved to it, pasted into full-size maps.
+NormalMap NormalsOnRoi(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsics, const cv::Rect& roi,
+                       const NormalOptions& options) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const cv::Rect full(0, 0, depth_m.cols, depth_m.rows);
+  if (roi == full) return EstimateNormals(depth_m, intrinsics, options);
+  NormalMap normals;
+  normals.normal_in_camera = cv::Mat(depth_m.size(), CV_32FC3, cv::Scalar(nan, nan, nan));
+  normals.valid = cv::Mat::zeros(depth_m.size(), CV_8UC1);
+  normals.method = cv::Mat::zeros(depth_m.size(), CV_8UC1);
+  if (roi.empty()) return normals;
+  PinholeIntrinsics crop = intrinsics;
+  crop.width = roi.width;
+  crop.height = roi.height;
+  crop.cx -= roi.x;
+  crop.cy -= roi.y;
+  const NormalMap part = EstimateNormals(depth_m(roi), crop, options);
+  part.normal_in_camera.copyTo(normals.normal_in_camera(roi));
+  part.valid.copyTo(normals.valid(roi));
+  part.method.copyTo(normals.method(roi));
+  normals.integral_count = part.integral_count;
+  normals.cross_count = part.cross_count;
+  normals.invalid_count = part.invalid_count;
+  return normals;
+}
+
 }  // namespace
 
+bool ShGeometryOptions::IsValid(std::string* why) const {
+  if (!bilateral.IsValid(why) || !temporal.IsValid(why) || !normals.IsValid(why)) return false;
+  if (!(reuse_sigmas > 0.0) || !(reuse_max_changed_fraction >= 0.0 && reuse_max_changed_fraction <= 1.0)) {
+    if (why) *why = "reuse_sigmas must be > 0 and reuse_max_changed_fraction within [0, 1]";
+    return false;
+  }
+  return true;
+}
+
+cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth_m) {
+  cv::Mat mask = valid.clone();
+  for (int y = 0; y < mask.rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (!(std::isfinite(z[x]) && z[x] > 0.0f)) mask.at<std::uint8_t>(y, x) = 0;
+    }
+  }
+  return mask;
+}
+
+double ChangedDepthFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas) {
+  RELUME_CHECK(a.type() == CV_32FC1 && b.type() == CV_32FC1 && a.size() == b.size());
+  int considered = 0, changed = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    for (int x = 0; x < a.cols; ++x) {
+      const bool va = std::isfinite(pa[x]) && pa[x] > 0.0f;
+      const bool vb = std::isfinite(pb[x]) && pb[x] > 0.0f;
+      if (!va && !vb) continue;
+      ++considered;
+      if (va != vb) {
+        ++changed;
+        continue;
+      }
+      const double z = pa[x];
+      if (std::abs(pa[x] - pb[x]) > sigmas * sigma_at_1m * z * z) ++changed;
+    }
+  }
+  return considered == 0 ? 0.0 : static_cast<double>(changed) / considered;
+}
+
+ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsics, const cv::Mat& region,
+                              const ShGeometryOptions& options, const ShGeometry* previous) {
+  ThrowIfInvalid(options, "SH geometry options");
+  ThrowIfInvalid(intrinsics, "SH geometry intrinsics");
+  if (depth_m.type() != CV_32FC1 || intrinsics.width != depth_m.cols || intrinsics.height != depth_m.rows) {
+    throw InvalidArgumentError("SH geometry: depth must be CV_32FC1 of the intrinsics' size");
+  }
+  if (!region.empty() && (region.type() != CV_8UC1 || region.size() != depth_m.size())) {
+    throw InvalidArgumentError("SH geometry: the region must be CV_8UC1 of the depth map's size");
+  }
+  if (previous != nullptr && previous->depth_m.size() != depth_m.size()) previous = nullptr;  // a new stream
+  ShGeometry g;
+  const cv::Rect full(0, 0, depth_m.cols, depth_m.rows);
+  cv::Rect roi = full;
+  if (!region.empty()) {
+    roi = MaskBounds(region);
+    const int margin = options.bilateral.radius_px + options.normals.window_radius_px + 2;
+    if (!roi.empty())
+      roi = cv::Rect(roi.x - margin, roi.y - margin, roi.width + 2 * margin, roi.height + 2 * margin) & full;
+  }
+  g.roi = roi;
+
+  // Depth: bilateral on the crop, temporal on the full frame (NaN outside the crop).
+  if (roi == full) {
+    g.bilateral_m = options.filter_depth ? BilateralFilterDepth(depth_m, options.bilateral) : depth_m.clone();
+  } else {
+    g.bilateral_m = cv::Mat(depth_m.size(), CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    if (!roi.empty()) {
+      (options.filter_depth ? BilateralFilterDepth(depth_m(roi), options.bilateral) : depth_m(roi))
+          .copyTo(g.bilateral_m(roi));
+    }
+  }
+  g.depth_m = g.bilateral_m;
+  if (options.filter_depth && previous != nullptr && options.temporal.weight > 0.0) {
+    g.depth_m = TemporalFilterDepth(g.bilateral_m, previous->bilateral_m, options.temporal, &g.temporal_blended);
+  }
+
+  // Normals: the previous frame's when its depth did not change, else estimated.
+  // Normals computed from an unblended first frame are not lent to a blended one: its depth
+  // is noisier than the frame's own (the Kinect-noise suite: 17.3 -> 20.0 % median relit error).
+  const bool temporal = options.filter_depth && options.temporal.weight > 0.0;
+  if (options.normals_reuse && previous != nullptr) {
+    g.depth_changed_fraction =
+        ChangedDepthFraction(g.depth_m, previous->depth_m, options.bilateral.range_sigma_at_1m_m, options.reuse_sigmas);
+    g.normals_reused = *g.depth_changed_fraction <= options.reuse_max_changed_fraction && previous->roi == roi &&
+                       (!temporal || previous->temporal_blended > 0);
+  }
+  if (g.normals_reused) {
+    g.normals = previous->normals;
+    g.normals.integral_count = g.normals.cross_count = g.normals.invalid_count = 0;  // none computed
+  } else {
+    g.normals = NormalsOnRoi(g.depth_m, intrinsics, roi, options.normals);
+  }
+  g.mask = MaskWithDepth(g.normals.valid, g.depth_m);
+  return g;
+}
+
+ShFrameFit FitShFrameKnownAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera, const cv::Mat& allowed,
+                                 const cv::Mat& albedo, const ShFitOptions& options, SamplePointSelector& selector) {
+  ShFrameFit out;
+  out.samples = selector.Update(allowed);
+  out.samples_kept = selector.kept_count();
+  out.samples_reselected = selector.reselected_count();
+  const ShFitResult fit =
+      FitShKnownAlbedo(GatherObservations(radiance, normal_in_camera, albedo, {}, out.samples), options);
+  out.light = fit.light;
+  out.summary = fit.summary;
+  return out;
+}
+
+ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
+                                   const cv::Mat& allowed, const SegmentationOptions& segmentation,
+                                   const ShAlbedoFitOptions& options, SamplePointSelector& selector) {
+  ShFrameFit out;
+  out.segmentation = SegmentByColor(radiance, allowed, normal_in_camera, segmentation);
+  out.samples = selector.Update(out.segmentation.labels >= 0);
+  out.samples_kept = selector.kept_count();
+  out.samples_reselected = selector.reselected_count();
+  const ShAlbedoFitResult fit = FitShUnknownAlbedo(
+      GatherObservations(radiance, normal_in_camera, {}, out.segmentation.labels, out.samples), options);
+  out.light = fit.light;
+  out.segment_albedo = fit.segment_albedo;
+  out.summary = fit.summary;
+  return out;
+}
+
 bool ShEstimatorOptions::IsValid(std::string* why) const {
-  return bilateral.IsValid(why) && temporal.IsValid(why) && normals.IsValid(why) && segmentation.IsValid(why) &&
-         samples.IsValid(why) && fit.IsValid(why);
+  return geometry_options().IsValid(why) && segmentation.IsValid(why) && samples.IsValid(why) && fit.IsValid(why);
+}
+
+ShGeometryOptions ShEstimatorOptions::geometry_options() const {
+  ShGeometryOptions g;
+  g.filter_depth = filter_depth;
+  g.bilateral = bilateral;
+  g.temporal = temporal;
+  g.normals = normals;
+  g.normals_reuse = normals_reuse;
+  g.reuse_sigmas = reuse_sigmas;
+  g.reuse_max_changed_fraction = reuse_max_changed_fraction;
+  return g;
 }
 
 ShLightEstimator::ShLightEstimator(const ShEstimatorOptions& options)
     : options_((ThrowIfInvalid(options, "SH light estimator"), options)), selector_(options.samples) {}
 
 void ShLightEstimator::Reset() {
-  previous_bilateral_m_.release();
+  previous_.reset();
   selector_ = SamplePointSelector(options_.samples);
 }
 
@@ -52,68 +218,34 @@ ShFrameEstimate ShLightEstimator::Prepare(const RadianceImage& radiance, const c
   if (intrinsics.width != depth_m.cols || intrinsics.height != depth_m.rows) {
     throw InvalidArgumentError("SH light estimator: intrinsics and depth map differ in size");
   }
+  ShGeometry geometry =
+      EstimateShGeometry(depth_m, intrinsics, mask, options_.geometry_options(), previous_ ? &*previous_ : nullptr);
   ShFrameEstimate estimate;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  const cv::Rect full(0, 0, depth_m.cols, depth_m.rows);
-  cv::Rect roi = MaskBounds(mask);
-  const int margin = options_.bilateral.radius_px + options_.normals.window_radius_px + 2;
-  if (!roi.empty())
-    roi = cv::Rect(roi.x - margin, roi.y - margin, roi.width + 2 * margin, roi.height + 2 * margin) & full;
-  estimate.roi = roi;
-
-  // Depth: bilateral on the crop, temporal on the full frame (cheap; NaN outside the crop).
-  estimate.depth_m = cv::Mat(depth_m.size(), CV_32FC1, cv::Scalar(nan));
-  if (!roi.empty()) {
-    if (options_.filter_depth) {
-      BilateralFilterDepth(depth_m(roi), options_.bilateral).copyTo(estimate.depth_m(roi));
-    } else {
-      depth_m(roi).copyTo(estimate.depth_m(roi));
-    }
-  }
-  if (options_.filter_depth) {
-    const cv::Mat bilateral = estimate.depth_m;
-    if (previous_bilateral_m_.size() != bilateral.size()) previous_bilateral_m_.release();
-    estimate.depth_m = TemporalFilterDepth(bilateral, previous_bilateral_m_, options_.temporal);
-    previous_bilateral_m_ = bilateral;
-  }
-
-  // Normals on the crop, with the principal point moved to it, pasted into full-size maps.
-  NormalMap& normals = estimate.normals;
-  normals.normal_in_camera = cv::Mat(depth_m.size(), CV_32FC3, cv::Scalar(nan, nan, nan));
-  normals.valid = cv::Mat::zeros(depth_m.size(), CV_8UC1);
-  normals.method = cv::Mat::zeros(depth_m.size(), CV_8UC1);
-  if (!roi.empty()) {
-    PinholeIntrinsics crop = intrinsics;
-    crop.width = roi.width;
-    crop.height = roi.height;
-    crop.cx -= roi.x;
-    crop.cy -= roi.y;
-    const NormalMap part = EstimateNormals(estimate.depth_m(roi), crop, options_.normals);
-    part.normal_in_camera.copyTo(normals.normal_in_camera(roi));
-    part.valid.copyTo(normals.valid(roi));
-    part.method.copyTo(normals.method(roi));
-    normals.integral_count = part.integral_count;
-    normals.cross_count = part.cross_count;
-    normals.invalid_count = part.invalid_count;
-  }
+  estimate.depth_m = geometry.depth_m;
+  estimate.roi = geometry.roi;
+  estimate.normals = geometry.normals;
+  estimate.normals_reused = geometry.normals_reused;
+  previous_ = std::move(geometry);
   return estimate;
 }
 
-void ShLightEstimator::Sample(const cv::Mat& allowed, ShFrameEstimate* estimate) {
-  estimate->samples = selector_.Update(allowed);
-  estimate->samples_kept = selector_.kept_count();
-  estimate->samples_reselected = selector_.reselected_count();
+void ShLightEstimator::Take(ShFrameFit fit, ShFrameEstimate* estimate) {
+  estimate->samples = std::move(fit.samples);
+  estimate->samples_kept = fit.samples_kept;
+  estimate->samples_reselected = fit.samples_reselected;
+  estimate->segmentation = std::move(fit.segmentation);
+  estimate->segment_albedo = std::move(fit.segment_albedo);
+  estimate->light = fit.light;
+  estimate->summary = fit.summary;
 }
 
 ShFrameEstimate ShLightEstimator::EstimateKnownAlbedo(const RadianceImage& radiance, const cv::Mat& depth_m,
                                                       const PinholeIntrinsics& intrinsics, const cv::Mat& mask,
                                                       const cv::Mat& albedo) {
   ShFrameEstimate estimate = Prepare(radiance, depth_m, intrinsics, mask);
-  Sample(mask & estimate.normals.valid, &estimate);
-  const ShFitResult fit = FitShKnownAlbedo(
-      GatherObservations(radiance, estimate.normals.normal_in_camera, albedo, {}, estimate.samples), options_.fit.fit);
-  estimate.light = fit.light;
-  estimate.summary = fit.summary;
+  Take(FitShFrameKnownAlbedo(radiance, estimate.normals.normal_in_camera, mask & estimate.normals.valid, albedo,
+                             options_.fit.fit, selector_),
+       &estimate);
   return estimate;
 }
 
@@ -127,7 +259,9 @@ ShFrameEstimate ShLightEstimator::EstimateWithReferenceSegment(const RadianceIma
     estimate.summary.message = "no usable pixels in the mask to segment";
     return estimate;
   }
-  Sample(SegmentMask(estimate.segmentation, 0), &estimate);
+  estimate.samples = selector_.Update(SegmentMask(estimate.segmentation, 0));
+  estimate.samples_kept = selector_.kept_count();
+  estimate.samples_reselected = selector_.reselected_count();
   std::vector<ShObservation> observations =
       GatherObservations(radiance, estimate.normals.normal_in_camera, {}, {}, estimate.samples);
   for (ShObservation& o : observations) o.albedo = reference_albedo;
@@ -140,15 +274,9 @@ ShFrameEstimate ShLightEstimator::EstimateWithReferenceSegment(const RadianceIma
 ShFrameEstimate ShLightEstimator::EstimateUnknownAlbedo(const RadianceImage& radiance, const cv::Mat& depth_m,
                                                         const PinholeIntrinsics& intrinsics, const cv::Mat& mask) {
   ShFrameEstimate estimate = Prepare(radiance, depth_m, intrinsics, mask);
-  estimate.segmentation =
-      SegmentByColor(radiance, mask & estimate.normals.valid, estimate.normals.normal_in_camera, options_.segmentation);
-  Sample(estimate.segmentation.labels >= 0, &estimate);
-  const ShAlbedoFitResult fit = FitShUnknownAlbedo(GatherObservations(radiance, estimate.normals.normal_in_camera, {},
-                                                                      estimate.segmentation.labels, estimate.samples),
-                                                   options_.fit);
-  estimate.light = fit.light;
-  estimate.segment_albedo = fit.segment_albedo;
-  estimate.summary = fit.summary;
+  Take(FitShFrameUnknownAlbedo(radiance, estimate.normals.normal_in_camera, mask & estimate.normals.valid,
+                               options_.segmentation, options_.fit, selector_),
+       &estimate);
   return estimate;
 }
 

@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,22 +32,97 @@
 
 namespace relume::processing {
 
+// ---- The chain's steps ---------------------------------------------------------------------
+// Each step is a function of its inputs and, where a stream needs it, the previous frame's
+// result. ShLightEstimator strings them together for a stream held in memory; `relume process
+// --pipeline sh` (pipeline/sh_pipeline.cc) runs each as a cached stage whose previous frame it
+// reads back from disk. Both run this code, so what `relume bench` measures is what a session
+// is processed with.
+
+struct ShGeometryOptions {
+  bool filter_depth = true;  // bilateral, then temporal against the previous frame's bilateral
+  BilateralDepthOptions bilateral;
+  TemporalDepthOptions temporal;
+  NormalOptions normals;
+  // The previous frame's normals are kept when at most reuse_max_changed_fraction of the pixels
+  // with depth in either frame appeared, vanished or moved by more than reuse_sigmas range
+  // sigmas (bilateral.range_sigma_at_1m_m z^2): a static camera on a static scene. With the
+  // temporal filter on, only a frame the filter blended lends its normals (the stream's first
+  // frame has nothing to blend with, and its normals are noisier).
+  bool normals_reuse = true;
+  double reuse_sigmas = 3.0;
+  double reuse_max_changed_fraction = 0.005;
+  bool IsValid(std::string* why) const;
+};
+
+// One frame's geometry, and the state the next frame's step reads.
+struct ShGeometry {
+  cv::Mat bilateral_m;  // the bilateral filter's output (the input when not filtering): D_b(t)
+  cv::Mat depth_m;      // after both filters; NaN outside roi
+  cv::Rect roi;         // where depth was filtered and normals estimated
+  NormalMap normals;    // full-frame maps (the previous frame's when reused)
+  cv::Mat mask;         // CV_8UC1: a valid normal and depth
+  int temporal_blended = 0;
+  std::optional<double> depth_changed_fraction;  // normals_reuse with a previous frame
+  bool normals_reused = false;
+};
+
+// depth_m: CV_32FC1 metres in the colour camera (intrinsics' size). region: CV_8UC1, the pixels
+// that need normals (empty: the whole frame): filtering and normals run on its bounding
+// rectangle grown by the filter's and the normal window's reach (see the top of this file).
+// previous: the previous frame's result (nullptr for the first frame of a stream).
+ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsics, const cv::Mat& region,
+                              const ShGeometryOptions& options, const ShGeometry* previous);
+
+// `valid` (CV_8UC1) without the pixels that have no depth (not finite or not positive).
+cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth_m);
+
+// The fraction of the pixels with depth in either map whose depth appeared, vanished or moved
+// by more than `sigmas` range sigmas (sigma_at_1m z^2, as a sensor's noise grows).
+double ChangedDepthFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas);
+
+struct ShFrameFit {
+  ShRgb light = ShRgb::Zero();                  // camera frame
+  std::vector<Eigen::Vector3d> segment_albedo;  // unknown albedo only
+  Segmentation segmentation;                    // unknown albedo only
+  std::vector<cv::Point> samples;
+  int samples_kept = 0;  // from the selector's previous frame
+  int samples_reselected = 0;
+  ShFitSummary summary;
+};
+
+// The fit step. allowed: CV_8UC1, pixels that may be sampled (a valid normal, finite radiance);
+// the selector keeps its sample points from frame to frame (a fresh one per frame for a step
+// that must not depend on the frames before it). albedo: CV_32FC3 per-pixel albedo.
+ShFrameFit FitShFrameKnownAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera, const cv::Mat& allowed,
+                                 const cv::Mat& albedo, const ShFitOptions& options, SamplePointSelector& selector);
+ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
+                                   const cv::Mat& allowed, const SegmentationOptions& segmentation,
+                                   const ShAlbedoFitOptions& options, SamplePointSelector& selector);
+
+// ---- A stream in memory --------------------------------------------------------------------
+
 struct ShEstimatorOptions {
   bool filter_depth = true;
   BilateralDepthOptions bilateral;
   TemporalDepthOptions temporal;
   NormalOptions normals;
+  bool normals_reuse = true;  // ShGeometryOptions
+  double reuse_sigmas = 3.0;
+  double reuse_max_changed_fraction = 0.005;
   SegmentationOptions segmentation;
   SamplePointOptions samples;
   ShAlbedoFitOptions fit;  // fit.fit is used by the known-albedo paths
   bool IsValid(std::string* why) const;
+  ShGeometryOptions geometry_options() const;
 };
 
 struct ShFrameEstimate {
   cv::Mat depth_m;  // after denoising (or the input when filter_depth is false); NaN outside roi
   cv::Rect roi;     // where depth was filtered and normals estimated
   NormalMap normals;
-  Segmentation segmentation;  // empty for EstimateKnownAlbedo
+  bool normals_reused = false;  // the previous frame's (its depth did not change)
+  Segmentation segmentation;    // empty for EstimateKnownAlbedo
   std::vector<cv::Point> samples;
   int samples_kept = 0;  // from the previous frame
   int samples_reselected = 0;
@@ -72,10 +148,10 @@ class ShLightEstimator {
  private:
   ShFrameEstimate Prepare(const RadianceImage& radiance, const cv::Mat& depth_m, const PinholeIntrinsics& intrinsics,
                           const cv::Mat& mask);
-  void Sample(const cv::Mat& allowed, ShFrameEstimate* estimate);
+  static void Take(ShFrameFit fit, ShFrameEstimate* estimate);
 
   ShEstimatorOptions options_;
-  cv::Mat previous_bilateral_m_;  // D_b(t-1) for the temporal filter, full frame
+  std::optional<ShGeometry> previous_;  // the previous frame's geometry (temporal filter, normals reuse)
   SamplePointSelector selector_;
 };
 

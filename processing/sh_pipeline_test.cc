@@ -44,6 +44,55 @@ TEST(ShPipelineTest, WorksOnTheRegionOfInterestOnly) {
   EXPECT_GT(cv::countNonZero(e.normals.valid & frame.object_mask), 0.98 * cv::countNonZero(frame.object_mask));
 }
 
+// The geometry step over a stream of one static view (the chain's state made explicit): with
+// the temporal filter on, the first frame's normals (nothing to blend with) are not lent; the
+// second frame's are, to the third; depth that moves is estimated again; the whole frame is
+// worked on without a region, the region's neighbourhood with one.
+TEST(ShPipelineTest, GeometryStepCarriesItsStateFromFrameToFrame) {
+  const testing::SceneOptions scene;
+  const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
+  ShGeometryOptions options;
+  const ShGeometry first = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, nullptr);
+  EXPECT_EQ(first.roi, cv::Rect(0, 0, frame.depth_m.cols, frame.depth_m.rows));
+  EXPECT_EQ(first.temporal_blended, 0);
+  EXPECT_FALSE(first.depth_changed_fraction.has_value());
+  EXPECT_GT(first.normals.integral_count + first.normals.cross_count, 0);
+  const ShGeometry second = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &first);
+  EXPECT_GT(second.temporal_blended, 0);
+  ASSERT_TRUE(second.depth_changed_fraction.has_value());
+  EXPECT_EQ(*second.depth_changed_fraction, 0.0);
+  EXPECT_FALSE(second.normals_reused);  // the first frame was not blended
+  const ShGeometry third = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &second);
+  EXPECT_TRUE(third.normals_reused);
+  EXPECT_EQ(third.normals.normal_in_camera.data, second.normals.normal_in_camera.data);  // shared, not copied
+  EXPECT_EQ(cv::countNonZero(third.mask), cv::countNonZero(second.mask));
+  // Without the temporal filter the first frame lends its normals.
+  ShGeometryOptions no_temporal = options;
+  no_temporal.temporal.weight = 0.0;
+  const ShGeometry plain = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, no_temporal, nullptr);
+  EXPECT_TRUE(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, no_temporal, &plain).normals_reused);
+  // The scene 5 cm further away: every pixel moved.
+  const cv::Mat moved = frame.depth_m + 0.05;
+  const ShGeometry after = EstimateShGeometry(moved, scene.intrinsics, {}, options, &third);
+  EXPECT_GT(*after.depth_changed_fraction, 0.9);
+  EXPECT_FALSE(after.normals_reused);
+  // A region: filtering and normals on its grown bounding rectangle only.
+  const ShGeometry region = EstimateShGeometry(frame.depth_m, scene.intrinsics, frame.object_mask, options, nullptr);
+  EXPECT_LT(region.roi.area(), first.roi.area());
+  EXPECT_EQ(cv::countNonZero(region.normals.valid(region.roi)), cv::countNonZero(region.normals.valid));
+  // A frame of another size starts a new stream.
+  PinholeIntrinsics k = scene.intrinsics;  // the top-left quarter, as a camera of its own
+  k.width /= 2;
+  k.height /= 2;
+  const cv::Mat half = frame.depth_m(cv::Rect(0, 0, k.width, k.height)).clone();
+  const ShGeometry other = EstimateShGeometry(half, k, {}, options, &third);
+  EXPECT_EQ(other.temporal_blended, 0);
+  EXPECT_FALSE(other.depth_changed_fraction.has_value());
+  ShGeometryOptions bad = options;
+  bad.reuse_sigmas = 0.0;
+  EXPECT_THROW(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, bad, nullptr), InvalidArgumentError);
+}
+
 TEST(ShPipelineTest, RejectsMismatchedIntrinsics) {
   const testing::SceneOptions scene;
   const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
