@@ -242,7 +242,7 @@ TriangleMesh ReadMeshFile(const fs::path& path) {
 
 MeshStage RunMeshStage(PipelineRun& run, const SceneGeometry& g) {
   std::shared_ptr<TriangleMesh> made;
-  const StageCache::Result stage = run.RunStage("irm-mesh", g.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("irm-mesh", g.key, [&](const fs::path& dir) {
     made = std::make_shared<TriangleMesh>(g.make());
     if (made->triangles.empty()) throw InvalidArgumentError("the scene geometry (" + g.origin + ") has no triangles");
     std::ofstream out(dir / "mesh.bin", std::ios::binary);
@@ -308,7 +308,7 @@ irm::ViewGeometry ViewStage(PipelineRun& run, const std::string& role, const Laz
   key->Add("with_sky_view", with_sky_view);
   irm::ViewGeometry geometry;
   bool computed = false;
-  const StageCache::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("irm-view-" + role, *key, [&](const fs::path& dir) {
     geometry = irm::ComputeViewGeometry(caster.get(), view, options, with_sky_view);
     computed = true;
     std::ofstream out(dir / "vertices.bin", std::ios::binary);
@@ -372,7 +372,7 @@ irm::SkyShape SkyShapeStage(PipelineRun& run, const std::string& role, const Laz
   key.Add("max_rays", o.max_rays).Add("sun_exclusion_rad", static_cast<double>(o.sun_exclusion_rad));
   key.Add("min_span_rad", static_cast<double>(o.min_elevation_span_rad)).Add("min_pixels", o.min_pixels);
   key.Add("trim", static_cast<double>(o.trim_fraction)).Add("max_gradient", static_cast<double>(o.max_abs_gradient));
-  const StageCache::Result stage = run.RunStage("irm-sky-" + role, key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("irm-sky-" + role, key, [&](const fs::path& dir) {
     const irm::SkyShape shape =
         irm::FitSkyShape(caster.get(), view.image->pixels, view.camera, view.mask, view.sun_dir.normalized(), o);
     WriteRecord(dir / "sky.json", shape);
@@ -770,7 +770,7 @@ BuildStage RunBuildStage(PipelineRun& run, const IrmKnobs& knobs, const ViewPair
   b.key.Add("min_samples", options.irm.min_samples_per_bin).Add("trim", static_cast<double>(options.irm.trim_fraction));
   b.key.Add("fill", irm::ToString(options.irm.fill));
   b.summary.preprocess_s = v.source_geometry.seconds + v.target_geometry.seconds;
-  const StageCache::Result build = run.RunStage("irm-build", b.key, [&](const fs::path& dir) {
+  const StageStore::Result build = run.RunStage("irm-build", b.key, [&](const fs::path& dir) {
     b.irms = irm::BuildIrmsFromViews(v.caster.get(), v.source, v.target, v.source_geometry, v.target_geometry, options,
                                      &b.summary);
     WriteJsonFile(dir / "irms.json", IrmSetToJson(b.irms));
@@ -818,7 +818,7 @@ RelightStage RunRelightStage(PipelineRun& run, const IrmKnobs& knobs, const View
   RelightStage r;
   r.key.Add("stage", "irm-relight-v3").AddKey("build", b.key);
   AddKnobsToKey(r.key, knobs, "relight");
-  const StageCache::Result relight = run.RunStage("irm-relight", r.key, [&](const fs::path& dir) {
+  const StageStore::Result relight = run.RunStage("irm-relight", r.key, [&](const fs::path& dir) {
     const irm::RelightResult result = irm::RelightPixels(v.caster.get(), v.source, v.target, v.source_geometry,
                                                          v.target_geometry, b.irms, knobs.relight, b.summary);
     const double white = WhiteOf(*v.target.image);
@@ -905,7 +905,7 @@ IrmTruthRecord RunTruthStage(PipelineRun& run, const ViewPair& v, const RelightS
     truth_key.Add("source_sun", static_cast<double>(v.source.sun_dir[k]));
     truth_key.Add("target_sun", static_cast<double>(v.target.sun_dir[k]));
   }
-  const StageCache::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
+  const StageStore::Result truth = run.RunStage("irm-truth", truth_key, [&](const fs::path& dir) {
     WriteRecord(dir / "truth.json",
                 truth_dir.empty()
                     ? CompareIrmWithTruth(*run.truth(), v.caster.get(), v.source, v.target, v.source_radiance.utc,

@@ -26,7 +26,7 @@ PipelineRun::PipelineRun(const PipelineRequest& request, const capture::SessionR
     : request_(request),
       session_(session),
       truth_(std::move(truth)),
-      cache_(request.out_dir / "stages", request.reuse) {
+      store_(request.store ? request.store : std::make_shared<StageCache>(request.out_dir / "stages", request.reuse)) {
   for (const auto& [key, value] : request_.settings) settings_read_[key] = false;
 }
 
@@ -114,10 +114,10 @@ void PipelineRun::Decide(const std::string& stage, const std::string& action, co
   spdlog::debug("{} {} {}", stage, action, reason);
 }
 
-StageCache::Result PipelineRun::RunStage(const std::string& stage, const StageKey& key,
+StageStore::Result PipelineRun::RunStage(const std::string& stage, const StageKey& key,
                                          const std::function<void(const fs::path&)>& produce) {
   const auto start = std::chrono::steady_clock::now();
-  StageCache::Result result = cache_.Run(stage, key, produce);
+  StageStore::Result result = store_->Run(stage, key, produce);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (result.reused) {
     Decide(stage, "reuse", "inputs and settings unchanged (key " + result.key.substr(0, 12) + ")");
@@ -148,7 +148,10 @@ void PipelineRun::Progress(const std::string& stage, std::int64_t done, std::int
 }
 
 void PipelineRun::AddOutput(const fs::path& path, const std::string& what) {
-  outputs_.emplace_back(fs::relative(path, request_.out_dir).string(), what);
+  // Relative to the output folder when inside it; absolute otherwise (a store elsewhere).
+  const fs::path relative = fs::relative(path, request_.out_dir);
+  const bool inside = !relative.empty() && *relative.begin() != "..";
+  outputs_.emplace_back(inside ? relative.string() : fs::absolute(path).string(), what);
 }
 
 nlohmann::json PipelineRun::Summary(double seconds, nlohmann::json metrics) const {
@@ -157,6 +160,7 @@ nlohmann::json PipelineRun::Summary(double seconds, nlohmann::json metrics) cons
   summary["session"] = fs::absolute(request_.session_dir).string();
   summary["explain"] = request_.explain;
   summary["seconds"] = seconds;
+  summary["stages"] = store_->Describe();
   summary["settings"] = request_.settings;
   summary["knobs"] = knobs_json_;
   summary["decisions"] = nlohmann::json::array();

@@ -1,11 +1,10 @@
 // `relume process SESSION --pipeline NAME`: the frame a processing pipeline runs in.
 //
-// A pipeline is a function that reads a recorded session, runs its stages through the
-// StageCache (so unchanged stages are reused), records what it decided in a PipelineRun and
-// returns what it measured as its typed summary (fields.h). The command writes the run's
-// summary (summary.json, the typed summary as "metrics") and prints its decisions.
-// Each pipeline lives in its own file under pipeline/ and is listed once in
-// Pipelines() (pipelines.cc).
+// A pipeline is a function that reads a recorded session, runs its stages through a StageStore
+// (by default the StageCache in OUT/stages, so unchanged stages are reused), records what it decided in a PipelineRun
+// and returns what it measured as its typed summary (fields.h). The command writes the run's summary (summary.json, the
+// typed summary as "metrics") and prints its decisions. Each pipeline lives in its own file under pipeline/ and is
+// listed once in Pipelines() (pipelines.cc).
 #pragma once
 
 #include <chrono>
@@ -44,6 +43,10 @@ struct PipelineRequest {
   std::map<std::string, std::string> settings;  // --set key=value: the pipeline's quality knobs
   bool explain = false;                         // plan only: decide and print, run nothing expensive
   bool reuse = true;                            // false: recompute every stage (--force)
+  // Where the stages live (stage_cache.h). Null: a StageCache in out_dir/stages (kept and reused
+  // by later runs, `reuse` as above); a TemporaryStageStore keeps nothing after the run. Shared:
+  // when every pipeline runs, they all use this one store.
+  std::shared_ptr<StageStore> store;
   // Evaluation only: loads the session's ground truth (core/truth.h), which compare_truth and the
   // floors (input=truth, true_normals, ...) use. Empty, or returning null: the session has none,
   // as real captures do. The CLI, batch and Python set rig::LoadSessionTruth (rig/session_truth.h),
@@ -72,7 +75,7 @@ class PipelineRun {
   // The session's ground truth, for evaluation only (PipelineRequest::load_truth); null for real
   // captures and when the request loads none.
   const SessionTruth* truth() const { return truth_.get(); }
-  StageCache& cache() { return cache_; }
+  StageStore& store() { return *store_; }
   // The session's scene model (its latest scene_model row, core/scene_model.h): the cameras,
   // geometry and lamps processing uses. Null when the session has none. Read once; IoError when
   // the row is unreadable.
@@ -106,7 +109,7 @@ class PipelineRun {
   void Decide(const std::string& stage, const std::string& action, const std::string& reason);
 
   // Runs a stage through the cache and records "run" or "reuse" with the key's description.
-  StageCache::Result RunStage(const std::string& stage, const StageKey& key,
+  StageStore::Result RunStage(const std::string& stage, const StageKey& key,
                               const std::function<void(const std::filesystem::path&)>& produce);
   // Progress of long work on stderr, one line rewritten in place on a terminal (stage, items
   // done / total, rate, time elapsed and left); nothing when stderr is not a terminal.
@@ -123,7 +126,7 @@ class PipelineRun {
   const PipelineRequest& request_;
   const capture::SessionReader& session_;
   std::shared_ptr<const SessionTruth> truth_;
-  StageCache cache_;
+  std::shared_ptr<StageStore> store_;
   bool scene_model_read_ = false;
   std::optional<SceneModel> scene_model_;
   std::string scene_model_json_;

@@ -125,7 +125,7 @@ RadianceSummary RunRadiancePipeline(PipelineRun& run) {
       StageKey key;
       key.Add("stage", "radiance-truth-v1").AddKey("radiance", r.key);
       key.Add("truth", run.truth()->Key()).Add("device", r.device_id).Add("utc", FormatIso8601(r.utc));
-      const StageCache::Result stage = run.RunStage("radiance-truth", key, [&](const std::filesystem::path& dir) {
+      const StageStore::Result stage = run.RunStage("radiance-truth", key, [&](const std::filesystem::path& dir) {
         const GroundTruth gt = run.truth()->Render(*truth_camera, r.utc);
         const RadianceImage radiance = calibration::LoadRadianceExr(r.exr.string());
         const cv::Mat status = cv::imread((r.exr.parent_path() / "status.png").string(), cv::IMREAD_UNCHANGED);

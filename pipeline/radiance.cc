@@ -248,7 +248,7 @@ BracketRadiance LinearRadiance(PipelineRun& run, const std::vector<capture::Fram
     run.Decide("radiance", "choose",
                name + ": applying colour profile (calibration " + std::to_string(profile_id) + ")");
 
-  const StageCache::Result stage = run.RunStage("radiance", key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiance", key, [&](const fs::path& dir) {
     LinearisedBracket linear = LineariseBracket(session, bracket, response, profile, merge, response_options);
     if (undistort) {
       const calibration::Undistorter& undistorter = run.LensUndistorter(lens->camera.intrinsics, lens->distortion);

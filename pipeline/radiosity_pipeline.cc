@@ -401,7 +401,7 @@ BracketRadiance TruthRadiance(PipelineRun& run, const std::vector<capture::Frame
       .Add("truth", run.truth()->Key())
       .Add("device", out.device_id)
       .Add("utc", FormatIso8601(out.utc));
-  const StageCache::Result stage = run.RunStage("truth-radiance", out.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("truth-radiance", out.key, [&](const fs::path& dir) {
     const GroundTruth truth = run.truth()->Render(camera, out.utc);
     calibration::SaveRadianceExr(truth.radiance, (dir / "radiance.exr").string());
   });
@@ -654,7 +654,7 @@ Geometry RunGeometryStage(PipelineRun& run, const RadiosityInputs& in) {
   const radiosity::PatchHierarchy& h = *geo.hierarchy;
   geo.key.Add("stage", "radiosity-geometry-v4").Add("scene_model", run.scene_model_json()).Add("device", in.device);
   AddKnobsToKey(geo.key, in.knobs, "geometry");
-  const StageCache::Result stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiosity-geometry", geo.key, [&](const fs::path& dir) {
     cv::Mat points_m;
     WritePixelMap(dir / "patch_ids.bin", PatchIdImage(h, *geo.caster, in.camera, &points_m));
     WritePixelMap(dir / "pixel_points_m.bin", points_m);
@@ -684,7 +684,7 @@ radiosity::RadianceObservation ObserveBracket(PipelineRun& run, const RadiosityI
   const int n = geo.hierarchy->LeafCount();
   key->Add("stage", "radiosity-observe-v2").AddKey("radiance", r.key).AddKey("geometry", geo.key);
   AddKnobsToKey(*key, in.knobs, "observe");
-  const StageCache::Result stage = run.RunStage("radiosity-observe", *key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiosity-observe", *key, [&](const fs::path& dir) {
     std::vector<Rgb> sum(n, Rgb::Zero());
     std::vector<int> count(n, 0);
     for (int y = 0; y < geo.ids.rows; ++y) {
@@ -890,7 +890,7 @@ AbsoluteScale RunScaleStage(PipelineRun& run, const RadiosityInputs& in, const G
     for (const StageKey& k : observed.keys) out.key.AddKey("observe", k);
     AddKnobsToKey(out.key, knobs, "reflectance");
   }
-  const StageCache::Result stage = run.RunStage("radiosity-scale", out.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiosity-scale", out.key, [&](const fs::path& dir) {
     RadiosityScaleRecord j;
     j.mode = mode;
     if (mode == "input=truth") {
@@ -1204,7 +1204,7 @@ ReflectanceStage RunReflectanceStage(PipelineRun& run, const RadiosityInputs& in
     out.key.AddKey("observation", observed.keys[s]).Add("utc", FormatIso8601(observed.radiance[s].utc));
   }
   AddKnobsToKey(out.key, in.knobs, "reflectance").Add("skip_radiosity", skip);
-  const StageCache::Result stage = run.RunStage("radiosity-reflectance", out.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiosity-reflectance", out.key, [&](const fs::path& dir) {
     ComputeReflectance(run, dir, in.knobs, geo, groups, observed, scale.k, skip);
   });
   out.dir = stage.dir;
@@ -1336,7 +1336,7 @@ RadiosityRelightRecord RunRelightStage(PipelineRun& run, const RadiosityInputs& 
       if (fs::exists(path)) relight_key.AddFileContent(name, path);
     }
   }
-  const StageCache::Result stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiosity-relight", relight_key, [&](const fs::path& dir) {
     const std::vector<Rgb> albedo = ReadAlbedoCsv(refl.dir / "albedo.csv", h.LeafCount());
     radiosity::Lighting lighting;
     lighting.point_lights.push_back({knobs.light_m, Rgb::Constant(knobs.light_intensity_w_sr)});

@@ -427,7 +427,7 @@ FrameRadiance SrgbColorRadiance(PipelineRun& run, const capture::FrameRecord& f,
   const double iso = std::isfinite(f.exposure.iso) && f.exposure.iso > 0.0 ? f.exposure.iso : 100.0;
   out.key.Add("stage", "sh-color-radiance-srgb-v1").Add("frame", f.sha256).Add("t", t).Add("iso", iso);
   AddLensToKey(out.key, recorded);
-  const StageCache::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("radiance-" + std::to_string(f.id), out.key, [&](const fs::path& dir) {
     const CameraImage image = run.session().LoadImage(f);
     if (image.pixels.channels() != 3 || (image.pixels.depth() != CV_8U && image.pixels.depth() != CV_16U)) {
       throw InvalidArgumentError("colour frame " + std::to_string(f.id) + " is not 8- or 16-bit RGB");
@@ -600,7 +600,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
   const PinholeIntrinsics& K = camera.intrinsics;
   g.key = GeometryKey(run, k, pair, K, recorded, previous);
   const std::string id = std::to_string(pair.color.id);
-  const StageCache::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("geometry-" + id, g.key, [&](const fs::path& dir) {
     const cv::Mat depth = DepthInColorCamera(run, k, pair, K, recorded);
     std::optional<processing::ShGeometry> before;
     if (previous != nullptr) before = LoadGeometryState(*previous);
@@ -682,7 +682,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
     f.key.Add("utc_ns", static_cast<std::int64_t>(pair.color.utc.time_since_epoch().count()));
   }
   const std::string id = std::to_string(pair.color.id);
-  const StageCache::Result stage = run.RunStage("fit-" + id, f.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("fit-" + id, f.key, [&](const fs::path& dir) {
     cv::Mat allowed = geometry.mask.get().clone();
     for (int y = 0; y < allowed.rows; ++y) {
       const auto* p = radiance.radiance.get().pixels.ptr<cv::Vec3f>(y);
@@ -969,7 +969,7 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
   AddKnobsToKey(out.key, k, "relight");
   for (int row = 0; row < processing::kShCount; ++row)
     for (int c = 0; c < 3; ++c) out.key.Add("dst", dst_light(row, c));
-  const StageCache::Result stage = run.RunStage("relight-" + id, out.key, [&](const fs::path& dir) {
+  const StageStore::Result stage = run.RunStage("relight-" + id, out.key, [&](const fs::path& dir) {
     const RadianceImage& source = radiance.radiance.get();
     const processing::RelightResult r =
         processing::RelightSh(source, geometry.normals.get(), geometry.mask.get(), fit.light, dst_light, k.relight);
@@ -1085,7 +1085,7 @@ ShTruthFigures CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
     }
     if (dst.kind == "envmap") key.AddFileContent("envmap", *run.request().target_light);
   }
-  const StageCache::Result stage =
+  const StageStore::Result stage =
       run.RunStage("truth-" + std::to_string(pair.color.id), key, [&](const fs::path& dir) {
         const PinholeCamera& camera = *in.camera;
         const Eigen::Matrix3d camera_from_world = camera.world_from_camera.rotation().transpose();
@@ -1281,7 +1281,7 @@ ShCastShadowFigures FrameCastShadows(PipelineRun& run, const ShInputs& in, const
     key.Add("min_evidence_pixels", options.min_evidence_pixels);
     for (int i = 0; i < 3; ++i) key.Add("sun", (*sun)(i));
   }
-  const StageCache::Result stage =
+  const StageStore::Result stage =
       run.RunStage("shadows-" + std::to_string(pair.color.id), key, [&](const fs::path& dir) {
         const cv::Mat depth = LoadFloat(g.dir / "depth.exr");
         cv::Mat depth1;

@@ -1,9 +1,13 @@
 #include "pipeline/stage_cache.h"
 
 #include <embree3/rtcore_config.h>
+#include <unistd.h>
 
 #include <Eigen/Core>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/version.hpp>
@@ -88,7 +92,7 @@ bool StageCache::IsComplete(std::string_view stage, const StageKey& key) const {
   return fs::exists(DirFor(stage, key) / kManifest);
 }
 
-StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
+StageStore::Result StageCache::Run(std::string_view stage, const StageKey& key,
                                    const std::function<void(const fs::path&)>& produce) {
   Result result;
   result.dir = DirFor(stage, key);
@@ -119,6 +123,53 @@ StageCache::Result StageCache::Run(std::string_view stage, const StageKey& key,
   if (ec) throw IoError(result.dir.string(), "cannot move the stage folder into place: " + ec.message());
   capture::SyncDirectory(root_);
   return result;
+}
+
+std::string StageCache::Describe() const {
+  return "stage folders in " + root_.string() + ", kept and reused by later runs" +
+         (reuse_ ? "" : " (this run recomputes every stage)");
+}
+
+namespace {
+
+// A new, private folder for a TemporaryStageStore: in /dev/shm when writable, else the system's
+// temporary folder.
+fs::path MakeTemporaryRoot() {
+  std::vector<fs::path> bases;
+  std::error_code ec;
+  if (fs::is_directory("/dev/shm", ec) && ::access("/dev/shm", W_OK) == 0) bases.emplace_back("/dev/shm");
+  bases.push_back(fs::temp_directory_path(ec));
+  for (const fs::path& base : bases) {
+    std::string pattern = (base / "relume-stages-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) != nullptr) return pattern;
+  }
+  throw IoError(bases.back().string(), "cannot create a temporary stage folder: " + std::string(std::strerror(errno)) +
+                                           " (set TMPDIR to a writable folder)");
+}
+
+}  // namespace
+
+TemporaryStageStore::TemporaryStageStore(std::string code_version)
+    : root_(MakeTemporaryRoot()), folders_(std::make_unique<StageCache>(root_, true, std::move(code_version))) {}
+
+TemporaryStageStore::~TemporaryStageStore() {
+  std::error_code ec;
+  fs::remove_all(root_, ec);  // best effort: nothing in it is the user's
+}
+
+StageStore::Result TemporaryStageStore::Run(std::string_view stage, const StageKey& key,
+                                            const std::function<void(const fs::path&)>& produce) {
+  return folders_->Run(stage, key, produce);
+}
+
+bool TemporaryStageStore::IsComplete(std::string_view stage, const StageKey& key) const {
+  return folders_->IsComplete(stage, key);
+}
+
+std::string TemporaryStageStore::Describe() const {
+  const bool memory = root_.string().rfind("/dev/shm/", 0) == 0;
+  return std::string("stage folders ") + (memory ? "in memory (" : "in a temporary folder (") + root_.string() +
+         "), deleted with the store";
 }
 
 }  // namespace relume::pipeline

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -51,26 +52,43 @@ class StageKey {
 // built from the same sources).
 const std::string& CodeVersion();
 
-class StageCache {
+// Where a run's stage outputs live and how long (PipelineRequest::store). A stage is a folder of
+// files either way: stages write images and records with file writers (OpenCV, OpenEXR, JSON),
+// and the outputs a summary lists are files a user opens.
+class StageStore {
+ public:
+  struct Result {
+    std::filesystem::path dir;  // the stage's completed folder
+    bool reused = false;        // true: found complete, `produce` not called
+    std::string key;            // StageKey::Hex() with the code version
+  };
+  virtual ~StageStore() = default;
+
+  // Runs `produce(folder)` unless the store holds a completed stage for (stage, key). `produce`
+  // writes its outputs into the folder it is given (one that becomes `dir`).
+  virtual Result Run(std::string_view stage, const StageKey& key,
+                     const std::function<void(const std::filesystem::path&)>& produce) = 0;
+  virtual bool IsComplete(std::string_view stage, const StageKey& key) const = 0;
+  // Where the stages are and how long they are kept, for the summary.
+  virtual std::string Describe() const = 0;
+};
+
+// The directory store: stage folders under `root`, kept and reused across runs (`relume process`
+// uses OUT/stages).
+class StageCache final : public StageStore {
  public:
   // `root` is created when missing. With `reuse` false every stage is recomputed (and its
   // folder replaced), as `relume process --force` asks. `code_version` is added to every key.
   explicit StageCache(std::filesystem::path root, bool reuse = true, std::string code_version = CodeVersion());
 
-  struct Result {
-    std::filesystem::path dir;  // the stage's completed folder
-    bool reused = false;        // true: found complete from an earlier run, `produce` not called
-    std::string key;            // StageKey::Hex()
-  };
-
-  // Runs `produce(folder)` unless a completed folder for (stage, key) exists. `produce` writes
-  // its outputs into the folder it is given (a temporary folder that becomes `dir`).
+  // A completed folder from an earlier run is reused.
   Result Run(std::string_view stage, const StageKey& key,
-             const std::function<void(const std::filesystem::path&)>& produce);
+             const std::function<void(const std::filesystem::path&)>& produce) override;
 
   // The folder a completed stage would have, without running anything.
   std::filesystem::path DirFor(std::string_view stage, const StageKey& key) const;
-  bool IsComplete(std::string_view stage, const StageKey& key) const;
+  bool IsComplete(std::string_view stage, const StageKey& key) const override;
+  std::string Describe() const override;
 
   const std::filesystem::path& root() const { return root_; }
 
@@ -80,6 +98,30 @@ class StageCache {
   std::filesystem::path root_;
   bool reuse_;
   std::string code_version_;
+};
+
+// The in-memory store: stage folders in a private temporary folder (in /dev/shm, RAM-backed,
+// when it exists and is writable; else the system's temporary folder), deleted with the store.
+// A run leaves no cache behind; stages repeat only within the store's life (two runs through one
+// store reuse each other's). For a caller that wants a pipeline's typed summary and outputs and
+// no cache (a test, a Python session, a one-off job): the summary's outputs point into the store
+// and live as long as it does.
+class TemporaryStageStore final : public StageStore {
+ public:
+  explicit TemporaryStageStore(std::string code_version = CodeVersion());
+  ~TemporaryStageStore() override;
+  TemporaryStageStore(const TemporaryStageStore&) = delete;
+  TemporaryStageStore& operator=(const TemporaryStageStore&) = delete;
+
+  Result Run(std::string_view stage, const StageKey& key,
+             const std::function<void(const std::filesystem::path&)>& produce) override;
+  bool IsComplete(std::string_view stage, const StageKey& key) const override;
+  std::string Describe() const override;
+  const std::filesystem::path& root() const { return root_; }
+
+ private:
+  std::filesystem::path root_;
+  std::unique_ptr<StageCache> folders_;
 };
 
 }  // namespace relume::pipeline

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -45,15 +46,15 @@ TEST(StageCacheTest, ReusesCompleteStagesAndRecomputesChangedOnes) {
     std::ofstream(dir / "out.txt") << "result " << runs;
   };
   const StageKey key = StageKey().Add("input", "abc").Add("knob", 3);
-  const StageCache::Result first = cache.Run("normals", key, produce);
+  const StageStore::Result first = cache.Run("normals", key, produce);
   EXPECT_FALSE(first.reused);
   EXPECT_TRUE(fs::exists(first.dir / "out.txt"));
   EXPECT_TRUE(fs::exists(first.dir / "stage.json"));
-  const StageCache::Result second = cache.Run("normals", key, produce);
+  const StageStore::Result second = cache.Run("normals", key, produce);
   EXPECT_TRUE(second.reused);
   EXPECT_EQ(second.dir, first.dir);
   EXPECT_EQ(runs, 1);
-  const StageCache::Result changed = cache.Run("normals", StageKey().Add("input", "abc").Add("knob", 4), produce);
+  const StageStore::Result changed = cache.Run("normals", StageKey().Add("input", "abc").Add("knob", 4), produce);
   EXPECT_FALSE(changed.reused);
   EXPECT_NE(changed.dir, first.dir);
   EXPECT_EQ(runs, 2);
@@ -125,7 +126,7 @@ TEST(StageCacheTest, AStageStoppedMidwayIsRecomputedNotReused) {
   EXPECT_FALSE(cache.IsComplete("fit", key));
   EXPECT_FALSE(fs::exists(cache.DirFor("fit", key)));
   bool ran = false;
-  const StageCache::Result result = cache.Run("fit", key, [&](const fs::path& dir) {
+  const StageStore::Result result = cache.Run("fit", key, [&](const fs::path& dir) {
     ran = true;
     EXPECT_FALSE(fs::exists(dir / "half.txt"));  // the unfinished folder was cleared
   });
@@ -279,6 +280,70 @@ TEST(ProcessLibraryTest, TruthComesOnlyFromTheLoaderAndChangesNoResult) {
   const std::string relit_without = TheOneFile(dir / "without", "relit.exr");
   ASSERT_FALSE(relit_without.empty());
   EXPECT_TRUE(relit_without == TheOneFile(dir / "with", "relit.exr")) << "the truth changed a result";
+  fs::remove_all(dir);
+}
+
+// A summary's metrics without run times (keys stage_seconds and *_s), which differ run to run.
+nlohmann::json WithoutTimes(nlohmann::json j) {
+  if (!j.is_object()) return j;
+  nlohmann::json out = nlohmann::json::object();
+  for (auto& [key, value] : j.items()) {
+    const bool time = key == "stage_seconds" || (key.size() > 2 && key.compare(key.size() - 2, 2, "_s") == 0);
+    if (!time) out[key] = WithoutTimes(value);
+  }
+  return out;
+}
+
+// Issue 21: a pipeline runs against a StageStore. The in-memory store (TemporaryStageStore) gives
+// the same results as the directory store and leaves no stages/ folder; two runs through one store
+// reuse each other's stages; its outputs exist while it lives and go with it.
+TEST(ProcessLibraryTest, ATemporaryStoreGivesTheSameResultsAndKeepsNothing) {
+  const fs::path dir = TempDir("temporary_store");
+  ASSERT_NO_FATAL_FAILURE(CaptureTinyIrmSession(dir / "session"));
+  PipelineRequest request;
+  request.session_dir = dir / "session";
+  request.pipeline = "irm";
+  request.load_truth = rig::LoadSessionTruth;
+  request.out_dir = dir / "directory";
+  const ProcessResult kept = ProcessSession(request);
+  ASSERT_TRUE(kept.failed.empty());
+  EXPECT_TRUE(fs::is_directory(dir / "directory" / "stages"));
+
+  fs::path root;
+  {
+    auto store = std::make_shared<TemporaryStageStore>();
+    root = store->root();
+    request.store = store;
+    request.out_dir = dir / "memory";
+    const ProcessResult first = ProcessSession(request);
+    ASSERT_TRUE(first.failed.empty());
+    const nlohmann::json& s = first.reports[0].summary;
+    EXPECT_FALSE(fs::exists(dir / "memory" / "stages"));
+    EXPECT_EQ(s["stages"], store->Describe());
+    EXPECT_EQ(WithoutTimes(s["metrics"]), WithoutTimes(kept.reports[0].summary["metrics"]))
+        << "a store changed a result";
+    int outputs_in_store = 0;
+    for (const nlohmann::json& o : s["outputs"]) {
+      const fs::path path = fs::weakly_canonical(dir / "memory" / o["path"].get<std::string>());
+      if (path.string().rfind(fs::weakly_canonical(root).string(), 0) != 0) continue;
+      ++outputs_in_store;
+      EXPECT_TRUE(fs::exists(path)) << path;
+    }
+    EXPECT_GT(outputs_in_store, 0) << s["outputs"].dump(1);
+
+    request.out_dir = dir / "memory-again";
+    const nlohmann::json again = ProcessSession(request).reports[0].summary;
+    int runs = 0, reuses = 0;
+    for (const nlohmann::json& d : again["decisions"]) {
+      if (!d.contains("cache")) continue;  // a stage store event
+      runs += d["action"] == "run";
+      reuses += d["action"] == "reuse";
+    }
+    EXPECT_EQ(runs, 0) << again["decisions"].dump(1);
+    EXPECT_GT(reuses, 0);
+    request.store.reset();
+  }
+  EXPECT_FALSE(fs::exists(root)) << "the store's folder outlived it";
   fs::remove_all(dir);
 }
 

@@ -37,6 +37,7 @@ namespace fs = std::filesystem;
 namespace ct = calibration::testing;
 using pipeline::StageCache;
 using pipeline::StageKey;
+using pipeline::StageStore;
 
 void AddPair(std::vector<Row>& rows, const std::string& skip, const std::string& scene, double skip_s, double forced_s,
              double skip_error, double forced_error, const std::string& metric, const std::string& skip_notes,
@@ -232,7 +233,7 @@ void ReuseSkip(bool quick, std::vector<Row>& rows) {
                                                                   s.src.object_mask, r.estimate.light, s.dst_light);
     calibration::SaveRadianceExr(relit.relit, (dir / "relit.exr").string());  // NaN where not relit
   };
-  auto read_back = [&](const StageCache::Result& result) {
+  auto read_back = [&](const StageStore::Result& result) {
     processing::RelightResult r;
     r.relit = calibration::LoadRadianceExr((result.dir / "relit.exr").string());
     r.valid = cv::Mat::zeros(r.relit.pixels.size(), CV_8UC1);
@@ -253,7 +254,7 @@ void ReuseSkip(bool quick, std::vector<Row>& rows) {
   });
   const double skip_s = BestSeconds(repeats, [&] {
     StageCache cache(root, /*reuse=*/true);
-    const StageCache::Result result = cache.Run("sh-relight", key, produce);
+    const StageStore::Result result = cache.Run("sh-relight", key, produce);
     reused = reused && result.reused;
     skip_error = read_back(result);
   });
