@@ -82,18 +82,14 @@ struct RgbdPair {
 };
 
 struct Knobs {
-  bool filter_depth = true;
+  // Filters, normals and their reuse (processing::EstimateShGeometry); geometry.filter_depth may
+  // be cleared by the denoise decision.
+  processing::ShGeometryOptions geometry;
   // The filters are skipped when the first depth frame's own noise (processing::
   // EstimateDepthNoise, at 1 m) is below this: on noise-free depth they only round creases
   // and silhouettes (ideal moving-light session: relit 2.01 % filtered, 1.90 % not). Whole
   // millimetres (~0.1-0.2 mm) and Kinect noise (~1.5 mm) stay filtered. 0: always filter.
   double depth_noise_skip_below_m = processing::kDenoiseSkipBelowAt1mM;
-  processing::BilateralDepthOptions bilateral;
-  processing::TemporalDepthOptions temporal;
-  processing::NormalOptions normals;
-  bool normals_reuse = true;
-  double reuse_sigmas = 3.0;
-  double reuse_max_changed_fraction = 0.005;
   processing::ShAlbedoFitOptions fit;
   processing::SegmentationOptions segmentation;
   processing::SamplePointOptions samples;
@@ -133,21 +129,22 @@ struct Knobs {
   template <typename V>
   void VisitKnobs(V& v) {
     v.Knob("pair_max_gap_ms", pair_max_gap_ms, "largest time gap of a depth and a colour frame paired (ms)", {"plan"});
-    v.Knob("filter_depth", filter_depth, "bilateral and temporal depth filters", {"geometry"});
+    v.Knob("filter_depth", geometry.filter_depth, "bilateral and temporal depth filters", {"geometry"});
     v.Knob("depth_registration", depth_registration,
            "unregistered depth into the colour camera: nearest (as hardware) or interpolated", {"registration"});
     v.Knob("depth_noise_skip_below_m", depth_noise_skip_below_m,
            "skip the filters when the first depth frame's noise at 1 m is below this (m; 0: always filter)", {"plan"});
-    v.Knob("bilateral_radius", bilateral.radius_px, "bilateral depth filter radius (px)", {"geometry"});
-    v.Knob("range_sigma_at_1m_m", bilateral.range_sigma_at_1m_m, "depth filters' range sigma at 1 m (m)", {"geometry"});
-    v.Knob("temporal_weight", temporal.weight, "weight of the previous frame in the temporal depth filter",
+    v.Knob("bilateral_radius", geometry.bilateral.radius_px, "bilateral depth filter radius (px)", {"geometry"});
+    v.Knob("range_sigma_at_1m_m", geometry.bilateral.range_sigma_at_1m_m, "depth filters' range sigma at 1 m (m)",
            {"geometry"});
-    v.Knob("normal_window", normals.window_radius_px, "normal estimation window radius (px)", {"geometry"});
-    v.Knob("normals_reuse", normals_reuse, "reuse the previous frame's normals when the depth did not change",
+    v.Knob("temporal_weight", geometry.temporal.weight, "weight of the previous frame in the temporal depth filter",
            {"geometry"});
-    v.Knob("normals_reuse_sigmas", reuse_sigmas, "range sigmas a depth pixel must move to count as changed",
+    v.Knob("normal_window", geometry.normals.window_radius_px, "normal estimation window radius (px)", {"geometry"});
+    v.Knob("normals_reuse", geometry.normals_reuse, "reuse the previous frame's normals when the depth did not change",
            {"geometry"});
-    v.Knob("normals_reuse_max_changed_fraction", reuse_max_changed_fraction,
+    v.Knob("normals_reuse_sigmas", geometry.reuse_sigmas, "range sigmas a depth pixel must move to count as changed",
+           {"geometry"});
+    v.Knob("normals_reuse_max_changed_fraction", geometry.reuse_max_changed_fraction,
            "share of changed depth pixels up to which normals are reused", {"geometry"});
     v.Knob("true_normals", true_normals, "diagnostic: the simulated world's normals instead of estimated ones",
            {"geometry"});
@@ -188,11 +185,12 @@ struct Knobs {
 
 Knobs ReadKnobs(PipelineRun& run) {
   Knobs k = run.ReadKnobs<Knobs>();
-  k.temporal.range_sigma_at_1m_m = k.bilateral.range_sigma_at_1m_m;
+  k.geometry.temporal.range_sigma_at_1m_m = k.geometry.bilateral.range_sigma_at_1m_m;
   std::string why;
-  if (!k.bilateral.IsValid(&why)) throw InvalidArgumentError("--set bilateral_radius / range_sigma_at_1m_m: " + why);
-  if (!k.temporal.IsValid(&why)) throw InvalidArgumentError("--set temporal_weight: " + why);
-  if (!k.normals.IsValid(&why)) throw InvalidArgumentError("--set normal_window: " + why);
+  if (!k.geometry.bilateral.IsValid(&why))
+    throw InvalidArgumentError("--set bilateral_radius / range_sigma_at_1m_m: " + why);
+  if (!k.geometry.temporal.IsValid(&why)) throw InvalidArgumentError("--set temporal_weight: " + why);
+  if (!k.geometry.normals.IsValid(&why)) throw InvalidArgumentError("--set normal_window: " + why);
   if (!k.fit.IsValid(&why)) throw InvalidArgumentError("--set sh_order / max_condition_number / ...: " + why);
   if (!k.segmentation.IsValid(&why)) throw InvalidArgumentError("--set segments: " + why);
   if (!k.samples.IsValid(&why)) throw InvalidArgumentError("--set samples: " + why);
@@ -214,7 +212,8 @@ Knobs ReadKnobs(PipelineRun& run) {
                                ": expected nearest or interpolated");
   if (!(k.depth_noise_skip_below_m >= 0.0))
     throw InvalidArgumentError("--set depth_noise_skip_below_m must be >= 0 (metres at 1 m; 0 = always filter)");
-  if (!(k.reuse_sigmas > 0.0) || !(k.reuse_max_changed_fraction >= 0.0 && k.reuse_max_changed_fraction <= 1.0))
+  if (!(k.geometry.reuse_sigmas > 0.0) ||
+      !(k.geometry.reuse_max_changed_fraction >= 0.0 && k.geometry.reuse_max_changed_fraction <= 1.0))
     throw InvalidArgumentError(
         "--set normals_reuse_sigmas must be > 0 and normals_reuse_max_changed_fraction in [0, 1]");
   return k;
@@ -570,18 +569,6 @@ cv::Mat DepthInColorCamera(PipelineRun& run, const Knobs& k, const RgbdPair& pai
   return depth;
 }
 
-processing::ShGeometryOptions GeometryOptions(const Knobs& k) {
-  processing::ShGeometryOptions g;
-  g.filter_depth = k.filter_depth;
-  g.bilateral = k.bilateral;
-  g.temporal = k.temporal;
-  g.normals = k.normals;
-  g.normals_reuse = k.normals_reuse;
-  g.reuse_sigmas = k.reuse_sigmas;
-  g.reuse_max_changed_fraction = k.reuse_max_changed_fraction;
-  return g;
-}
-
 // What the next frame's geometry step reads of a finished one, back from its stage folder.
 processing::ShGeometry LoadGeometryState(const FrameGeometry& stage) {
   processing::ShGeometry g;
@@ -605,7 +592,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     std::optional<processing::ShGeometry> before;
     if (previous != nullptr) before = LoadGeometryState(*previous);
     const processing::ShGeometry geometry =
-        processing::EstimateShGeometry(depth, K, {}, GeometryOptions(k), before ? &*before : nullptr);
+        processing::EstimateShGeometry(depth, K, {}, k.geometry, before ? &*before : nullptr);
     GeometryRecord info;
     info.depth_frame = pair.depth.id;
     info.color_frame = pair.color.id;
@@ -646,9 +633,10 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     if (g.normals_from_frame != pair.color.id) {
       run.Decide("normals", "skip",
                  "frame " + id + ": depth unchanged (" + Percent(changed) + " of pixels moved beyond " +
-                     Number(k.reuse_sigmas) + " range sigmas, tolerance " + Percent(k.reuse_max_changed_fraction) +
-                     "); normals of frame " + std::to_string(g.normals_from_frame) + " reused");
-    } else if (changed <= k.reuse_max_changed_fraction) {
+                     Number(k.geometry.reuse_sigmas) + " range sigmas, tolerance " +
+                     Percent(k.geometry.reuse_max_changed_fraction) + "); normals of frame " +
+                     std::to_string(g.normals_from_frame) + " reused");
+    } else if (changed <= k.geometry.reuse_max_changed_fraction) {
       run.Decide("normals", "run",
                  "frame " + id + ": depth unchanged (" + Percent(changed) +
                      " of pixels moved) but the previous frame's depth was not blended by the temporal filter (a "
@@ -656,7 +644,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     } else {
       run.Decide("normals", "run",
                  "frame " + id + ": depth changed in " + Percent(changed) + " of pixels (tolerance " +
-                     Percent(k.reuse_max_changed_fraction) + "); normals recomputed");
+                     Percent(k.geometry.reuse_max_changed_fraction) + "); normals recomputed");
     }
   }
   return g;
@@ -1207,12 +1195,12 @@ void DecideRadianceModel(PipelineRun& run, const ShInputs& in) {
 }
 
 // One decision for the whole sequence (the temporal filter chains the frames), from the first
-// depth frame's own noise: noise-free depth is not filtered (clears k->filter_depth).
+// depth frame's own noise: noise-free depth is not filtered (clears k->geometry.filter_depth).
 void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
   const processing::DepthNoiseEstimate noise = processing::EstimateDepthNoise(run.session().LoadDepth(first.depth));
   const std::string measured = "depth noise of frame " + std::to_string(first.depth.id) + ": " + noise.Describe();
   if (noise.NoiseFree(k->depth_noise_skip_below_m)) {
-    k->filter_depth = false;
+    k->geometry.filter_depth = false;
     run.Decide("denoise", "skip",
                measured + ": below " + Number(k->depth_noise_skip_below_m * 1e3) +
                    " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
@@ -1450,8 +1438,8 @@ ShFrameFigures RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in
   }
   if (external != nullptr) {
     if (relit) {
-      m.truth = CompareWithExternalTruth(run, *external, k.bilateral.range_sigma_at_1m_m, in.pairs, in.camera, dst, i,
-                                         f, *relit);
+      m.truth = CompareWithExternalTruth(run, *external, k.geometry.bilateral.range_sigma_at_1m_m, in.pairs, in.camera,
+                                         dst, i, f, *relit);
       const ShTruthFigures& t = m.truth;
       if (t.relit_relative_rms && t.baseline_relative_rms && t.floor_relative_rms) {
         totals->relit_errors.push_back(*t.relit_relative_rms);
@@ -1507,7 +1495,7 @@ ShPipelineSummary RunShPipeline(PipelineRun& run) {
   in.known_albedo = ChooseAlbedo(run, k, in.has_world);
   DecideRadianceModel(run, in);
   run.Decide("sh", "plan", std::to_string(in.pairs.size()) + " RGB-D frame pair(s) of " + in.device);
-  if (k.filter_depth && k.depth_noise_skip_below_m > 0.0) DecideDenoise(run, in.pairs.front(), &k);
+  if (k.geometry.filter_depth && k.depth_noise_skip_below_m > 0.0) DecideDenoise(run, in.pairs.front(), &k);
   const Destination dst = ChooseDestination(run, in.pairs, in.camera);
   if (run.request().explain) return summary;
 
