@@ -144,10 +144,17 @@ std::string DirectionalShadowEvidence::Describe() const {
   char text[320];
   if (facing_pixels == 0) return "no pixel faces the light";
   std::snprintf(text, sizeof(text),
-                "%.1f %% of the %d pixels facing the light are shadowed by surfaces the depth shows; the lit ones are "
-                "%.2fx as bright as the shadowed ones (median luminance)",
-                100.0 * shadowed_fraction(), facing_pixels, contrast);
-  return text;
+                "%.1f %% of the %d pixels facing the light are shadowed by surfaces the depth shows",
+                100.0 * shadowed_fraction(), facing_pixels);
+  std::string out = text;
+  if (std::isfinite(contrast)) {
+    std::snprintf(text, sizeof(text), "; the lit ones are %.2fx as bright as the shadowed ones (median luminance)",
+                  contrast);
+    out += text;
+  } else {
+    out += "; too few on one side to compare their brightness";
+  }
+  return out;
 }
 
 DirectionalShadowEvidence EstimateShadowsToward(const cv::Mat& depth_m, const cv::Mat& normals, const cv::Mat& mask,
