@@ -350,7 +350,7 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   // The pipeline's denoise decision (pipeline/sh_pipeline.cc DecideDenoise): noise-free
   // depth is not filtered.
   processing::ShEstimatorOptions estimator_options;
-  estimator_options.filter_depth =
+  estimator_options.geometry.filter_depth =
       !processing::EstimateDepthNoise(src_primer).NoiseFree(processing::kDenoiseSkipBelowAt1mM);
   processing::ShLightEstimator src_estimator(estimator_options), dst_estimator(estimator_options);
   src_estimator.EstimateKnownAlbedo(src.radiance, src_primer, k, src.object_mask, src.albedo);

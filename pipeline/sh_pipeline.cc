@@ -569,14 +569,19 @@ cv::Mat DepthInColorCamera(PipelineRun& run, const Knobs& k, const RgbdPair& pai
   return depth;
 }
 
-// What the next frame's geometry step reads of a finished one, back from its stage folder.
+// What the next frame's geometry step reads of a finished one, back from its stage folder; its
+// normals only if they are reused.
 processing::ShGeometry LoadGeometryState(const FrameGeometry& stage) {
   processing::ShGeometry g;
   g.bilateral_m = LoadFloat(stage.dir / "bilateral.exr");
   g.depth_m = LoadFloat(stage.dir / "depth.exr");
   g.roi = cv::Rect(0, 0, g.depth_m.cols, g.depth_m.rows);
-  g.normals.normal_in_camera = LoadFloat(stage.dir / "normals.exr");
-  g.normals.valid = LoadMask(stage.dir / "valid.png");
+  g.load_normals = [dir = stage.dir] {
+    processing::NormalMap normals;
+    normals.normal_in_camera = LoadFloat(dir / "normals.exr");
+    normals.valid = LoadMask(dir / "valid.png");
+    return normals;
+  };
   g.temporal_blended = stage.temporal_blended;
   return g;
 }
@@ -591,8 +596,10 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
     const cv::Mat depth = DepthInColorCamera(run, k, pair, K, recorded);
     std::optional<processing::ShGeometry> before;
     if (previous != nullptr) before = LoadGeometryState(*previous);
+    processing::ShGeometryOptions options = k.geometry;
+    options.estimate_normals = !k.true_normals;  // the diagnostic brings the world's
     const processing::ShGeometry geometry =
-        processing::EstimateShGeometry(depth, K, {}, k.geometry, before ? &*before : nullptr);
+        processing::EstimateShGeometry(depth, K, {}, options, before ? &*before : nullptr);
     GeometryRecord info;
     info.depth_frame = pair.depth.id;
     info.color_frame = pair.color.id;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "processing/depth_filter.h"
 
 namespace relume::processing {
 namespace {
@@ -122,7 +123,7 @@ CastShadowEstimate EstimateCastShadows(const cv::Mat& depth_m, const cv::Mat& no
     const auto* n_row = normals.ptr<cv::Vec3f>(v);
     const std::uint8_t* m_row = mask.ptr<std::uint8_t>(v);
     for (int u = 0; u < size.width; ++u) {
-      if (m_row[u] == 0 || !std::isfinite(z_row[u]) || !(z_row[u] > 0.0f)) continue;
+      if (m_row[u] == 0 || !IsDepthValid(z_row[u])) continue;
       const Eigen::Vector3d n(n_row[u][0], n_row[u][1], n_row[u][2]);
       if (!n.allFinite()) continue;
       ++assessed;
@@ -177,7 +178,7 @@ DirectionalShadowEvidence EstimateShadowsToward(const cv::Mat& depth_m, const cv
     const std::uint8_t* m_row = mask.ptr<std::uint8_t>(v);
     const auto* c_row = radiance.pixels.ptr<cv::Vec3f>(v);
     for (int u = 0; u < intrinsics.width; ++u) {
-      if (m_row[u] == 0 || !std::isfinite(z_row[u]) || !(z_row[u] > 0.0f)) continue;
+      if (m_row[u] == 0 || !IsDepthValid(z_row[u])) continue;
       const Eigen::Vector3d n(n_row[u][0], n_row[u][1], n_row[u][2]);
       const Eigen::Vector3d rgb(c_row[u][0], c_row[u][1], c_row[u][2]);
       if (!n.allFinite() || !rgb.allFinite() || n.dot(d) < options.min_facing) continue;

@@ -18,10 +18,6 @@ bool Fail(std::string* why, const char* reason) {
   return false;
 }
 
-inline bool IsDepthValid(float z) {
-  return std::isfinite(z) && z > 0.0f;
-}
-
 void CheckDepth(const cv::Mat& depth_m, const char* what) {
   if (depth_m.empty() || depth_m.type() != CV_32FC1) {
     throw InvalidArgumentError(std::string(what) + ": depth must be a non-empty CV_32FC1 image in metres");

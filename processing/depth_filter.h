@@ -11,10 +11,17 @@
 //    would still leak a little).
 #pragma once
 
+#include <cmath>
 #include <opencv2/core/mat.hpp>
 #include <string>
 
 namespace relume::processing {
+
+// A depth sample is a surface point: finite and in front of the camera (NaN, zero, negative
+// and infinite values are holes). Every depth step in processing/ uses this one test.
+inline bool IsDepthValid(float z) {
+  return std::isfinite(z) && z > 0.0f;
+}
 
 struct BilateralDepthOptions {
   int radius_px = 1;                   // window (2 r + 1)^2; r = 1 relit best in sh_benchmark

@@ -6,13 +6,10 @@
 #include <vector>
 
 #include "core/error.h"
+#include "processing/depth_filter.h"
 
 namespace relume::processing {
 namespace {
-
-inline bool IsDepthValid(float z) {
-  return std::isfinite(z) && z > 0.0f;
-}
 
 // Summed-area tables (one row and column of zeros in front) of x, y, z, valid count and
 // discontinuity count, packed per pixel for locality.

@@ -79,7 +79,7 @@ void Print(const char* name, const Errors& e, const ShFitSummary& summary) {
 // numbers below depend on it.
 ShEstimatorOptions Options(int segment_count = 4) {
   ShEstimatorOptions options;
-  options.normals.window_radius_px = 3;
+  options.geometry.normals.window_radius_px = 3;
   options.segmentation.segment_count = segment_count;
   return options;
 }
@@ -109,7 +109,7 @@ TEST_F(ShAccuracyTest, KnownAlbedoNoiseFreeMeetsTheTwoPercentGoal) {
   Print("ideal, known albedo, relit with the true normals", exact_normals, estimate.summary);
   EXPECT_LT(exact_normals.relit_rel_rms, 0.01);
   ShEstimatorOptions wide = Options();
-  wide.normals.window_radius_px = 6;
+  wide.geometry.normals.window_radius_px = 6;
   ShLightEstimator wide_estimator(wide);
   const ShFrameEstimate wide_estimate =
       wide_estimator.EstimateKnownAlbedo(src_.radiance, src_.depth_m, scene_.intrinsics, src_.object_mask, src_.albedo);
@@ -170,7 +170,7 @@ TEST_F(ShAccuracyTest, KinectNoiseThroughTheFilters) {
   EXPECT_LT(e.relit_rel_rms, 0.5 * e.baseline_rel_rms);
 
   ShEstimatorOptions unfiltered_options = Options();
-  unfiltered_options.filter_depth = false;
+  unfiltered_options.geometry.filter_depth = false;
   ShLightEstimator unfiltered(unfiltered_options);
   const ShFrameEstimate raw = unfiltered.EstimateKnownAlbedo(
       src_.radiance, testing::AddKinectDepthNoise(src_.depth_m, 2), scene_.intrinsics, src_.object_mask, src_.albedo);

@@ -61,8 +61,8 @@ void BM_Chain(benchmark::State& state) {
   const Fixture& f = Data();
   ShEstimatorOptions options;
   options.samples.count = static_cast<int>(state.range(0));
-  options.bilateral.radius_px = static_cast<int>(state.range(1));
-  options.normals.window_radius_px = static_cast<int>(state.range(2));
+  options.geometry.bilateral.radius_px = static_cast<int>(state.range(1));
+  options.geometry.normals.window_radius_px = static_cast<int>(state.range(2));
   options.fit.fit.max_order = static_cast<int>(state.range(3));
   ShLightEstimator estimator(options);
   ShFrameEstimate estimate;

@@ -68,7 +68,7 @@ cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth_m) {
   for (int y = 0; y < mask.rows; ++y) {
     const float* z = depth_m.ptr<float>(y);
     for (int x = 0; x < mask.cols; ++x) {
-      if (!(std::isfinite(z[x]) && z[x] > 0.0f)) mask.at<std::uint8_t>(y, x) = 0;
+      if (!IsDepthValid(z[x])) mask.at<std::uint8_t>(y, x) = 0;
     }
   }
   return mask;
@@ -81,8 +81,8 @@ double ChangedDepthFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_
     const float* pa = a.ptr<float>(y);
     const float* pb = b.ptr<float>(y);
     for (int x = 0; x < a.cols; ++x) {
-      const bool va = std::isfinite(pa[x]) && pa[x] > 0.0f;
-      const bool vb = std::isfinite(pb[x]) && pb[x] > 0.0f;
+      const bool va = IsDepthValid(pa[x]);
+      const bool vb = IsDepthValid(pb[x]);
       if (!va && !vb) continue;
       ++considered;
       if (va != vb) {
@@ -137,6 +137,11 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
   // Normals computed from an unblended first frame are not lent to a blended one: its depth
   // is noisier than the frame's own (the Kinect-noise suite: 17.3 -> 20.0 % median relit error).
   const bool temporal = options.filter_depth && options.temporal.weight > 0.0;
+  if (!options.estimate_normals) {
+    g.normals = NormalsOnRoi(g.depth_m, intrinsics, cv::Rect(), options.normals);  // empty maps, none valid
+    g.mask = cv::Mat::zeros(depth_m.size(), CV_8UC1);
+    return g;
+  }
   if (options.normals_reuse && previous != nullptr) {
     g.depth_changed_fraction =
         ChangedDepthFraction(g.depth_m, previous->depth_m, options.bilateral.range_sigma_at_1m_m, options.reuse_sigmas);
@@ -144,7 +149,11 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
                        (!temporal || previous->temporal_blended > 0);
   }
   if (g.normals_reused) {
-    g.normals = previous->normals;
+    const bool stored = previous->normals.normal_in_camera.empty() && previous->load_normals;
+    g.normals = stored ? previous->load_normals() : previous->normals;
+    if (g.normals.normal_in_camera.size() != depth_m.size() || g.normals.valid.size() != depth_m.size()) {
+      throw InvalidArgumentError("SH geometry: the previous frame's normals are not of the depth map's size");
+    }
     g.normals.integral_count = g.normals.cross_count = g.normals.invalid_count = 0;  // none computed
   } else {
     g.normals = NormalsOnRoi(g.depth_m, intrinsics, roi, options.normals);
@@ -183,19 +192,7 @@ ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat&
 }
 
 bool ShEstimatorOptions::IsValid(std::string* why) const {
-  return geometry_options().IsValid(why) && segmentation.IsValid(why) && samples.IsValid(why) && fit.IsValid(why);
-}
-
-ShGeometryOptions ShEstimatorOptions::geometry_options() const {
-  ShGeometryOptions g;
-  g.filter_depth = filter_depth;
-  g.bilateral = bilateral;
-  g.temporal = temporal;
-  g.normals = normals;
-  g.normals_reuse = normals_reuse;
-  g.reuse_sigmas = reuse_sigmas;
-  g.reuse_max_changed_fraction = reuse_max_changed_fraction;
-  return g;
+  return geometry.IsValid(why) && segmentation.IsValid(why) && samples.IsValid(why) && fit.IsValid(why);
 }
 
 ShLightEstimator::ShLightEstimator(const ShEstimatorOptions& options)
@@ -219,7 +216,7 @@ ShFrameEstimate ShLightEstimator::Prepare(const RadianceImage& radiance, const c
     throw InvalidArgumentError("SH light estimator: intrinsics and depth map differ in size");
   }
   ShGeometry geometry =
-      EstimateShGeometry(depth_m, intrinsics, mask, options_.geometry_options(), previous_ ? &*previous_ : nullptr);
+      EstimateShGeometry(depth_m, intrinsics, mask, options_.geometry, previous_ ? &*previous_ : nullptr);
   ShFrameEstimate estimate;
   estimate.depth_m = geometry.depth_m;
   estimate.roi = geometry.roi;

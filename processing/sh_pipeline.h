@@ -18,6 +18,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <string>
@@ -52,6 +53,9 @@ struct ShGeometryOptions {
   bool normals_reuse = true;
   double reuse_sigmas = 3.0;
   double reuse_max_changed_fraction = 0.005;
+  // false: depth only; the normals are left empty (no normal valid) for a caller that brings
+  // its own (the pipeline's true-normals diagnostic), and no frame's normals are reused.
+  bool estimate_normals = true;
   bool IsValid(std::string* why) const;
 };
 
@@ -61,7 +65,10 @@ struct ShGeometry {
   cv::Mat depth_m;      // after both filters; NaN outside roi
   cv::Rect roi;         // where depth was filtered and normals estimated
   NormalMap normals;    // full-frame maps (the previous frame's when reused)
-  cv::Mat mask;         // CV_8UC1: a valid normal and depth
+  // As `previous`, a frame whose normals are empty reads them through this on demand, only when
+  // they are reused (a stage folder read back: most frames never need its normals).
+  std::function<NormalMap()> load_normals;
+  cv::Mat mask;  // CV_8UC1: a valid normal and depth
   int temporal_blended = 0;
   std::optional<double> depth_changed_fraction;  // normals_reuse with a previous frame
   bool normals_reused = false;
@@ -103,18 +110,11 @@ ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat&
 // ---- A stream in memory --------------------------------------------------------------------
 
 struct ShEstimatorOptions {
-  bool filter_depth = true;
-  BilateralDepthOptions bilateral;
-  TemporalDepthOptions temporal;
-  NormalOptions normals;
-  bool normals_reuse = true;  // ShGeometryOptions
-  double reuse_sigmas = 3.0;
-  double reuse_max_changed_fraction = 0.005;
+  ShGeometryOptions geometry;  // depth filters, normals and their reuse
   SegmentationOptions segmentation;
   SamplePointOptions samples;
   ShAlbedoFitOptions fit;  // fit.fit is used by the known-albedo paths
   bool IsValid(std::string* why) const;
-  ShGeometryOptions geometry_options() const;
 };
 
 struct ShFrameEstimate {

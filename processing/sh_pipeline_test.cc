@@ -93,6 +93,49 @@ TEST(ShPipelineTest, GeometryStepCarriesItsStateFromFrameToFrame) {
   EXPECT_THROW(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, bad, nullptr), InvalidArgumentError);
 }
 
+// A previous frame read back from storage (the pipeline's stage folders) carries a loader
+// instead of its normals: it is called only when the normals are reused. Depth only
+// (estimate_normals false) estimates and reuses no normals.
+TEST(ShPipelineTest, StoredNormalsAreReadOnlyWhenReused) {
+  const testing::SceneOptions scene;
+  const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
+  ShGeometryOptions options;
+  const ShGeometry first = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, nullptr);
+  const ShGeometry second = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &first);
+  int loads = 0;
+  auto stored = [&](const ShGeometry& g) {
+    ShGeometry s = g;
+    s.normals = NormalMap();
+    s.load_normals = [&loads, normals = g.normals] {
+      ++loads;
+      return normals;
+    };
+    return s;
+  };
+  const ShGeometry after_first = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &first);
+  const ShGeometry stored_first = stored(first);
+  const ShGeometry not_reused = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &stored_first);
+  EXPECT_FALSE(not_reused.normals_reused);  // the first frame was not blended
+  EXPECT_EQ(loads, 0);
+  EXPECT_EQ(cv::countNonZero(not_reused.mask), cv::countNonZero(after_first.mask));
+  const ShGeometry stored_second = stored(second);
+  const ShGeometry reused = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &stored_second);
+  EXPECT_TRUE(reused.normals_reused);
+  EXPECT_EQ(loads, 1);
+  EXPECT_EQ(reused.normals.normal_in_camera.data, second.normals.normal_in_camera.data);
+  EXPECT_EQ(cv::countNonZero(reused.mask), cv::countNonZero(second.mask));
+
+  ShGeometryOptions depth_only = options;
+  depth_only.estimate_normals = false;
+  const ShGeometry bare = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, depth_only, &second);
+  EXPECT_GT(bare.temporal_blended, 0);  // the depth is still filtered
+  EXPECT_FALSE(bare.normals_reused);
+  EXPECT_EQ(bare.normals.integral_count + bare.normals.cross_count, 0);
+  EXPECT_EQ(cv::countNonZero(bare.normals.valid), 0);
+  EXPECT_EQ(cv::countNonZero(bare.mask), 0);
+  EXPECT_EQ(bare.normals.normal_in_camera.size(), frame.depth_m.size());
+}
+
 TEST(ShPipelineTest, RejectsMismatchedIntrinsics) {
   const testing::SceneOptions scene;
   const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());

@@ -148,6 +148,13 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
   EXPECT_GT(order1["metrics"]["relit_relative_rms_mean"].get<double>(), relit);
   EXPECT_LT(order1["metrics"]["relit_relative_rms_mean"].get<double>(), baseline / 2.0);
 
+  // The floor diagnostic: the world's normals (measured 1.53 %), recorded per frame as such, and
+  // no frame's normals reused or estimated.
+  const nlohmann::json floor = Process(session, out, "--set true_normals=true");
+  EXPECT_LT(floor["metrics"]["relit_relative_rms_mean"].get<double>(), relit);
+  EXPECT_EQ(CountDecisions(floor, "normals", "choose"), 4);
+  EXPECT_EQ(CountDecisions(floor, "normals", "skip"), 0);
+
   // The planner drops to order 1, with the reason, when the normals do not support order 2
   // (here: a condition-number limit below the measured ~100).
   const nlohmann::json narrow = Process(session, out, "--set max_condition_number=60 --set compare_truth=false");

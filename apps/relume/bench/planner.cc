@@ -171,7 +171,7 @@ void DenoiseSkip(bool quick, std::vector<Row>& rows) {
     throw InvalidArgumentError("bench planner: the noise-free SH scene's depth measured " + noise.Describe());
   }
   processing::ShEstimatorOptions skip;
-  skip.filter_depth = false;
+  skip.geometry.filter_depth = false;
   const processing::ShEstimatorOptions forced;  // filters on
   const int repeats = quick ? 3 : 5;
   const ShChainResult a = RunShChain(s, skip, s.src.depth_m, s.src.depth_m, s.src.object_mask, repeats);

@@ -87,8 +87,8 @@ void BenchSh(bool quick, std::vector<Row>& rows) {
       if (!noise && k.filter_r != 2) continue;  // noise-free depth: the filter radius barely matters
       processing::ShEstimatorOptions options;
       options.samples.count = k.samples;
-      options.bilateral.radius_px = k.filter_r;
-      options.normals.window_radius_px = k.normal_r;
+      options.geometry.bilateral.radius_px = k.filter_r;
+      options.geometry.normals.window_radius_px = k.normal_r;
       options.fit.fit.max_order = k.order;
       const ShChainResult r = RunShChain(s, options, noise ? noisy_previous : s.src.depth_m,
                                          noise ? noisy : s.src.depth_m, s.src.object_mask, quick ? 2 : 3);
