@@ -66,6 +66,45 @@ bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3
   return true;
 }
 
+// Whether each pair of neighbours (p, p + (dx, dy)) lies on different surfaces: their depths
+// differ by more than ratio z, and the pair's step in inverse depth w = 1/z is not the step of
+// the pairs on either side (within ramp w). Inverse depth is affine in the pixel coordinates on
+// any plane, so a plane seen at a grazing angle (a street's ground, whose depth grows by more
+// than ratio z per pixel towards the horizon) keeps its normals, while an object's silhouette,
+// whose step stands out from its neighbours', stays a discontinuity. Pairs off the image are 0;
+// a pair with a hole is 1.
+cv::Mat PairJumps(const cv::Mat& depth_m, int dx, int dy, float ratio, float ramp) {
+  const int rows = depth_m.rows, cols = depth_m.cols;
+  cv::Mat jumps = cv::Mat::zeros(rows, cols, CV_8UC1);
+  auto inverse = [&](int x, int y, float* w) {
+    if (x < 0 || x >= cols || y < 0 || y >= rows) return false;
+    const float z = depth_m.at<float>(y, x);
+    if (!IsDepthValid(z)) return false;
+    *w = 1.0f / z;
+    return true;
+  };
+  for (int y = 0; y + dy < rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    const float* z_next = depth_m.ptr<float>(y + dy);
+    unsigned char* j = jumps.ptr<unsigned char>(y);
+    for (int x = 0; x + dx < cols; ++x) {
+      const float a = z[x], b = z_next[x + dx];
+      if (!IsDepthValid(a) || !IsDepthValid(b)) {
+        j[x] = 1;
+        continue;
+      }
+      if (std::abs(a - b) <= ratio * a) continue;
+      // A steep step: smooth only if it continues the steps before and after it.
+      float w_before = 0.0f, w_after = 0.0f;
+      const float wa = 1.0f / a, wb = 1.0f / b, step = wb - wa;
+      const bool plane = inverse(x - dx, y - dy, &w_before) && inverse(x + 2 * dx, y + 2 * dy, &w_after) &&
+                         std::abs(step - (wa - w_before)) <= ramp * wa && std::abs(step - (w_after - wb)) <= ramp * wb;
+      j[x] = !plane;
+    }
+  }
+  return jumps;
+}
+
 }  // namespace
 
 bool NormalOptions::IsValid(std::string* why) const {
@@ -75,6 +114,9 @@ bool NormalOptions::IsValid(std::string* why) const {
   };
   if (window_radius_px < 0 || window_radius_px > 50) return fail("window_radius_px must be in [0, 50]");
   if (!(depth_change_ratio > 0.0) || depth_change_ratio > 1.0) return fail("depth_change_ratio must be in (0, 1]");
+  if (!(plane_step_tolerance >= 0.0) || plane_step_tolerance > 1.0) {
+    return fail("plane_step_tolerance must be in [0, 1]");
+  }
   if (!(min_valid_fraction > 0.0) || min_valid_fraction > 1.0) return fail("min_valid_fraction must be in (0, 1]");
   return true;
 }
@@ -111,23 +153,20 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
   }
   const int rows = depth_m.rows, cols = depth_m.cols, r = options.window_radius_px;
   const float ratio = static_cast<float>(options.depth_change_ratio);
+  const float ramp = static_cast<float>(options.plane_step_tolerance);
   const cv::Mat vertices = VertexMap(depth_m, intrinsics);
 
-  // Discontinuity map: a pixel is an edge when it is a hole, or its right or lower
-  // neighbour is on another surface.
+  // Discontinuities between 4-neighbours, per pair: h_jump(y, x) between (x, y) and (x + 1, y),
+  // v_jump(y, x) between (x, y) and (x, y + 1). A pixel is an edge (no box may hold it) when it
+  // is a hole, or its right or lower neighbour is on another surface.
+  const cv::Mat h_jump = PairJumps(depth_m, 1, 0, ratio, ramp), v_jump = PairJumps(depth_m, 0, 1, ratio, ramp);
   cv::Mat edge_map(rows, cols, CV_8UC1, cv::Scalar(0));
-  auto jump = [ratio](float a, float b) { return !IsDepthValid(b) || std::abs(a - b) > ratio * a; };
   for (int y = 0; y < rows; ++y) {
     const float* z = depth_m.ptr<float>(y);
-    const float* z_below = y + 1 < rows ? depth_m.ptr<float>(y + 1) : nullptr;
+    const unsigned char* h = h_jump.ptr<unsigned char>(y);
+    const unsigned char* vj = v_jump.ptr<unsigned char>(y);
     unsigned char* e = edge_map.ptr<unsigned char>(y);
-    for (int x = 0; x < cols; ++x) {
-      if (!IsDepthValid(z[x])) {
-        e[x] = 1;
-        continue;
-      }
-      e[x] = (x + 1 < cols && jump(z[x], z[x + 1])) || (z_below && jump(z[x], z_below[x]));
-    }
+    for (int x = 0; x < cols; ++x) e[x] = !IsDepthValid(z[x]) || h[x] || vj[x];
   }
 
   Integrals integrals;
@@ -174,12 +213,13 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
       }
       // Fallback (eq. 3): neighbour differences, the closer-in-depth neighbour per axis.
       auto pick = [&](int dx, int dy, cv::Vec3d* tangent) {
+        const cv::Mat& jumps = dx ? h_jump : v_jump;
         double best = std::numeric_limits<double>::infinity();
         for (int s : {1, -1}) {
           const int xx = x + s * dx, yy = y + s * dy;
           if (xx < 0 || xx >= cols || yy < 0 || yy >= rows) continue;
           const float zz = depth_m.at<float>(yy, xx);
-          if (!IsDepthValid(zz) || std::abs(zz - z[x]) > ratio * z[x]) continue;
+          if (!IsDepthValid(zz) || jumps.at<unsigned char>(std::min(y, yy), std::min(x, xx))) continue;
           if (std::abs(zz - z[x]) < best) {
             best = std::abs(zz - z[x]);
             *tangent = s * (cv::Vec3d(vertices.at<cv::Vec3f>(yy, xx)) - cv::Vec3d(v[x]));

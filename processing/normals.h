@@ -15,7 +15,12 @@
 //  - Output normals: CV_32FC3, unit, in the camera frame (x right, y down, z forward),
 //    facing the camera (n . p < 0 for the surface point p); NaN where invalid.
 //  - The vertex of pixel (u, v) is z * ((u + 0.5 - cx) / fx, (v + 0.5 - cy) / fy, 1).
-//  - A depth discontinuity between 4-neighbours: |dz| > depth_change_ratio * z.
+//  - A depth discontinuity between 4-neighbours: |dz| > depth_change_ratio * z, unless the
+//    step continues a plane: its step in inverse depth w = 1/z differs from the steps of the
+//    pairs before and after it by at most plane_step_tolerance * w (on a plane w is affine in
+//    the pixel coordinates). Without that exception every plane seen within ~11 deg of grazing
+//    (at 320 px over 60 deg; the ground of a street view) had no normals: 60 % coverage on a
+//    level ground plane at eye height, 99 % with it (NormalsTest.GroundSeenAtAGrazingAngle...).
 #pragma once
 
 #include <opencv2/core/mat.hpp>
@@ -31,6 +36,13 @@ struct NormalOptions {
   int window_radius_px = 3;          // r: boxes are (2 r + 1) x r pixels; 0 = cross product only
   double depth_change_ratio = 0.02;  // |dz| / z above which neighbours are on different surfaces
   double min_valid_fraction = 0.5;   // of each half box, for the smooth estimate
+  // A steep step continues a plane when its inverse-depth step is within this many w of its
+  // neighbours' (0: never). 1e-4 passes exact planes and planes in whole millimetres to 30 m
+  // (99 % and 98 % of a level ground's pixels) and fails curved silhouettes and noisy depth:
+  // Kinect-like noise at grazing angles gives normals too poor to relight with. On the random
+  // SH suites the Kinect p90 relit error was 44.6 % without the exception, 43.9 % at 1e-4,
+  // 48.1 % at 5e-4 and 49.0 % at 0.02.
+  double plane_step_tolerance = 1e-4;
   bool IsValid(std::string* why) const;
 };
 

@@ -165,6 +165,62 @@ TEST(NormalsTest, DepthStepUsesTheNearSideOnly) {
   }
 }
 
+// Level ground seen from eye height by a camera looking at the horizon (a street view): towards
+// the horizon the depth grows by more than depth_change_ratio per pixel, which once made every
+// pixel within ~11 deg of the horizon an edge (at 320 px over 60 deg: 60 % of the ground had
+// no normal). The ground is one plane; its normals are all valid and exact. A box standing on
+// it keeps its silhouette a discontinuity.
+TEST(NormalsTest, GroundSeenAtAGrazingAngleKeepsItsNormals) {
+  const double height = 1.6;
+  Analytic ground;
+  ground.depth_m = cv::Mat(kIntrinsics.height, kIntrinsics.width, CV_32FC1, cv::Scalar(NAN));
+  ground.normal = cv::Mat(kIntrinsics.height, kIntrinsics.width, CV_32FC3, cv::Scalar(NAN, NAN, NAN));
+  for (int v = 0; v < kIntrinsics.height; ++v) {
+    const double ry = (v + 0.5 - kIntrinsics.cy) / kIntrinsics.fy;  // below the horizon: ry > 0
+    if (ry <= 0.0 || height / ry > 200.0) continue;                 // sky, or beyond 200 m
+    for (int u = 0; u < kIntrinsics.width; ++u) {
+      ground.depth_m.at<float>(v, u) = static_cast<float>(height / ry);
+      ground.normal.at<cv::Vec3f>(v, u) = cv::Vec3f(0.0f, -1.0f, 0.0f);  // up, in a y-down camera
+    }
+  }
+  const AngularError e = Compare(EstimateNormals(ground.depth_m, kIntrinsics), ground);
+  Print("ground at grazing angles", e);
+  EXPECT_GT(e.coverage, 0.97);  // the rows next to the far edge and the image border
+  EXPECT_LT(e.p95_deg, 0.5);
+  NormalOptions jumps_only;  // the rule before: every steep step a discontinuity
+  jumps_only.plane_step_tolerance = 0.0;
+  EXPECT_LT(Compare(EstimateNormals(ground.depth_m, kIntrinsics, jumps_only), ground).coverage, 0.75);
+  // Depth in whole millimetres (a 16-bit depth file) is still one plane.
+  cv::Mat millimetres;
+  ground.depth_m.convertTo(millimetres, CV_16UC1, 1000.0);
+  Analytic quantised;
+  quantised.normal = ground.normal;
+  millimetres.convertTo(quantised.depth_m, CV_32FC1, 1e-3);
+  quantised.depth_m.setTo(NAN, quantised.depth_m <= 0.0f);  // NaN became 0: a hole either way
+  quantised.depth_m.setTo(NAN, ground.depth_m > 30.0f);     // 16 bits of millimetres hold 65 m
+  const AngularError q = Compare(EstimateNormals(quantised.depth_m, kIntrinsics), quantised);
+  Print("ground in whole millimetres to 30 m", q);
+  EXPECT_GT(q.coverage, 0.9);
+
+  // A 1 m box 6 m ahead: its silhouette against the ground is still a discontinuity (the box's
+  // own normals are exact, the ground's behind it too).
+  Analytic scene = ground;
+  for (int v = 0; v < kIntrinsics.height; ++v) {
+    for (int u = 0; u < kIntrinsics.width; ++u) {
+      const Eigen::Vector3d r = kIntrinsics.Unproject({u + 0.5, v + 0.5});
+      const double t = 6.0;  // the box's front face z = 6, x in [-0.5, 0.5], y in [0.6, 1.6]
+      if (std::abs(r.x() * t) <= 0.5 && r.y() * t >= 0.6 && r.y() * t <= height) {
+        scene.depth_m.at<float>(v, u) = static_cast<float>(t);
+        scene.normal.at<cv::Vec3f>(v, u) = cv::Vec3f(0.0f, 0.0f, -1.0f);
+      }
+    }
+  }
+  const AngularError s = Compare(EstimateNormals(scene.depth_m, kIntrinsics), scene);
+  Print("box on ground", s);
+  EXPECT_LT(s.p95_deg, 1.0);  // no normal mixes the box's face with the ground behind it
+  EXPECT_GT(s.coverage, 0.95);
+}
+
 TEST(NormalsTest, IsolatedPixelHasNoNormal) {
   cv::Mat depth(9, 9, CV_32FC1, cv::Scalar(NAN));
   depth.at<float>(4, 4) = 1.0f;

@@ -78,11 +78,12 @@ py::dict EstimateDepthNoise(const py::object& depth_m, double edge_jump_fraction
 }
 
 py::dict EstimateNormals(const py::object& depth_m, const py::dict& intrinsics, int window_radius_px,
-                         double depth_change_ratio, double min_valid_fraction) {
+                         double depth_change_ratio, double min_valid_fraction, double plane_step_tolerance) {
   processing::NormalOptions options;
   options.window_radius_px = window_radius_px;
   options.depth_change_ratio = depth_change_ratio;
   options.min_valid_fraction = min_valid_fraction;
+  options.plane_step_tolerance = plane_step_tolerance;
   ThrowIfInvalid(options, "estimate_normals");
   const PinholeIntrinsics k = IntrinsicsFromPython(intrinsics, "intrinsics");
   py::array keep;
@@ -170,7 +171,7 @@ Returns:
   const processing::NormalOptions n;
   m.def("estimate_normals", &EstimateNormals, "depth_m"_a, "intrinsics"_a, py::kw_only(),
         "window_radius_px"_a = n.window_radius_px, "depth_change_ratio"_a = n.depth_change_ratio,
-        "min_valid_fraction"_a = n.min_valid_fraction,
+        "min_valid_fraction"_a = n.min_valid_fraction, "plane_step_tolerance"_a = n.plane_step_tolerance,
         R"doc(Surface normals from a depth map and pinhole intrinsics (processing/normals.h).
 
 Integral-image box averages of the vertex map (Holzer et al. 2012), falling back to the cross
@@ -181,7 +182,10 @@ Args:
     intrinsics: dict {'width', 'height', 'fx', 'fy', 'cx', 'cy'} in pixels (pixel centres at
         +0.5; Session.camera's dict works), of the depth map's size.
     window_radius_px: r: boxes of (2 r + 1) x r pixels; 0: cross products only.
-    depth_change_ratio: |dz| / z above which 4-neighbours are on different surfaces.
+    depth_change_ratio: |dz| / z above which 4-neighbours are on different surfaces, unless
+        the step continues a plane (a ground seen at a grazing angle).
+    plane_step_tolerance: such a step continues a plane when its step in inverse depth w is
+        within this many w of the steps before and after it (0: never).
     min_valid_fraction: of each half box, for the smooth estimate.
 
 Returns:
