@@ -68,12 +68,12 @@ bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3
 
 // Whether each pair of neighbours (p, p + (dx, dy)) lies on different surfaces: their depths
 // differ by more than ratio z, and the pair's step in inverse depth w = 1/z is not the step of
-// the pairs on either side (within ramp w). Inverse depth is affine in the pixel coordinates on
+// the pairs on either side (within tolerance w). Inverse depth is affine in the pixel coordinates on
 // any plane, so a plane seen at a grazing angle (a street's ground, whose depth grows by more
 // than ratio z per pixel towards the horizon) keeps its normals, while an object's silhouette,
 // whose step stands out from its neighbours', stays a discontinuity. Pairs off the image are 0;
 // a pair with a hole is 1.
-cv::Mat PairJumps(const cv::Mat& depth_m, int dx, int dy, float ratio, float ramp) {
+cv::Mat PairJumps(const cv::Mat& depth_m, int dx, int dy, float ratio, float tolerance) {
   const int rows = depth_m.rows, cols = depth_m.cols;
   cv::Mat jumps = cv::Mat::zeros(rows, cols, CV_8UC1);
   auto inverse = [&](int x, int y, float* w) {
@@ -98,7 +98,8 @@ cv::Mat PairJumps(const cv::Mat& depth_m, int dx, int dy, float ratio, float ram
       float w_before = 0.0f, w_after = 0.0f;
       const float wa = 1.0f / a, wb = 1.0f / b, step = wb - wa;
       const bool plane = inverse(x - dx, y - dy, &w_before) && inverse(x + 2 * dx, y + 2 * dy, &w_after) &&
-                         std::abs(step - (wa - w_before)) <= ramp * wa && std::abs(step - (w_after - wb)) <= ramp * wb;
+                         std::abs(step - (wa - w_before)) <= tolerance * wa &&
+                         std::abs(step - (w_after - wb)) <= tolerance * wb;
       j[x] = !plane;
     }
   }
@@ -153,13 +154,14 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
   }
   const int rows = depth_m.rows, cols = depth_m.cols, r = options.window_radius_px;
   const float ratio = static_cast<float>(options.depth_change_ratio);
-  const float ramp = static_cast<float>(options.plane_step_tolerance);
+  const float plane_tolerance = static_cast<float>(options.plane_step_tolerance);
   const cv::Mat vertices = VertexMap(depth_m, intrinsics);
 
   // Discontinuities between 4-neighbours, per pair: h_jump(y, x) between (x, y) and (x + 1, y),
   // v_jump(y, x) between (x, y) and (x, y + 1). A pixel is an edge (no box may hold it) when it
   // is a hole, or its right or lower neighbour is on another surface.
-  const cv::Mat h_jump = PairJumps(depth_m, 1, 0, ratio, ramp), v_jump = PairJumps(depth_m, 0, 1, ratio, ramp);
+  const cv::Mat h_jump = PairJumps(depth_m, 1, 0, ratio, plane_tolerance),
+                v_jump = PairJumps(depth_m, 0, 1, ratio, plane_tolerance);
   cv::Mat edge_map(rows, cols, CV_8UC1, cv::Scalar(0));
   for (int y = 0; y < rows; ++y) {
     const float* z = depth_m.ptr<float>(y);
