@@ -140,6 +140,8 @@ struct Knobs {
     v.Knob("temporal_weight", geometry.temporal.weight, "weight of the previous frame in the temporal depth filter",
            {"geometry"});
     v.Knob("normal_window", geometry.normals.window_radius_px, "normal estimation window radius (px)", {"geometry"});
+    v.Knob("refine_creases", geometry.normals.refine_creases,
+           "normals beside creases from a 3 x 3 box on the pixel's own face (depth not filtered only)", {"geometry"});
     v.Knob("normals_reuse", geometry.normals_reuse, "reuse the previous frame's normals when the depth did not change",
            {"geometry"});
     v.Knob("normals_reuse_sigmas", geometry.reuse_sigmas, "range sigmas a depth pixel must move to count as changed",
@@ -478,8 +480,8 @@ struct GeometryRecord {
   int temporal_blended = 0;                      // pixels blended with the previous frame's depth
   std::optional<double> depth_changed_fraction;  // normals_reuse: against the previous frame
   std::int64_t normals_from_frame = 0;
-  std::optional<bool> normals_from_truth;                                        // true_normals (a diagnostic)
-  std::optional<std::int64_t> normals_integral, normals_cross, normals_invalid;  // computed here
+  std::optional<bool> normals_from_truth;  // true_normals (a diagnostic)
+  std::optional<std::int64_t> normals_integral, normals_cross, normals_crease, normals_invalid;  // computed here
   std::int64_t mask_pixels = 0;
   template <typename V>
   void VisitFields(V& v) {
@@ -491,6 +493,7 @@ struct GeometryRecord {
     v.Field("normals_from_truth", normals_from_truth);
     v.Field("normals_integral", normals_integral);
     v.Field("normals_cross", normals_cross);
+    v.Field("normals_crease", normals_crease);
     v.Field("normals_invalid", normals_invalid);
     v.Field("mask_pixels", mask_pixels);
   }
@@ -617,6 +620,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
       info.normals_from_frame = pair.color.id;
       info.normals_integral = geometry.normals.integral_count;
       info.normals_cross = geometry.normals.cross_count;
+      info.normals_crease = geometry.normals.crease_count;
       info.normals_invalid = geometry.normals.invalid_count;
     }
     info.mask_pixels = cv::countNonZero(mask);

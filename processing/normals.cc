@@ -1,5 +1,8 @@
 #include "processing/normals.h"
 
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -55,6 +58,68 @@ struct Integrals {
   }
 };
 
+// Planarity of the vertices in a box (columns [x0, x1), rows [y0, y1), holes skipped): the
+// variance along the plane fit's normal over the variance within the plane (smallest eigenvalue
+// of the covariance over the sum of the other two; 0 on a plane). Sets the fit's unit normal
+// (either sign). Infinite for fewer than 3 points or points on one line.
+double BoxPlaneFit(const cv::Mat& vertices, int x0, int y0, int x1, int y1, Eigen::Vector3d* normal) {
+  // About the box's first vertex, to keep the sums' differences exact far from the camera.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero(), sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d moments = Eigen::Matrix3d::Zero();
+  int count = 0;
+  for (int y = y0; y < y1; ++y) {
+    const cv::Vec3f* v = vertices.ptr<cv::Vec3f>(y);
+    for (int x = x0; x < x1; ++x) {
+      if (!std::isfinite(v[x][2])) continue;
+      const Eigen::Vector3d p(v[x][0], v[x][1], v[x][2]);
+      if (count == 0) origin = p;
+      const Eigen::Vector3d d = p - origin;
+      sum += d;
+      moments += d * d.transpose();
+      ++count;
+    }
+  }
+  if (count < 3) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d mean = sum / count;
+  const Eigen::Matrix3d covariance = moments / count - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+  eigen.computeDirect(covariance);
+  if (!(eigen.eigenvalues()(1) > 0.0)) return std::numeric_limits<double>::infinity();
+  *normal = eigen.eigenvectors().col(0);
+  return std::max(0.0, eigen.eigenvalues()(0)) / (eigen.eigenvalues()(1) + eigen.eigenvalues()(2));
+}
+
+// The crease refinement (normals.h, "Creases") at (x, y), whose centred box of radius r lies in
+// the image and holds no discontinuity: the normal of the most planar 3 x 3 box with the pixel
+// on its border, when the centred box is not planar and that box is kCreaseGain times more
+// planar. False (normal untouched) elsewhere.
+bool CreaseNormal(const cv::Mat& vertices, const Integrals& integrals, int x, int y, int r, cv::Vec3f* normal) {
+  Eigen::Vector3d plane = Eigen::Vector3d::Zero();
+  const double own = BoxPlaneFit(vertices, x - r, y - r, x + r + 1, y + r + 1, &plane);
+  if (!(own > NormalOptions::kCreasePlanarity)) return false;
+  double best = own / NormalOptions::kCreaseGain;
+  bool found = false;
+  for (int sy = -1; sy <= 1; ++sy) {
+    for (int sx = -1; sx <= 1; ++sx) {
+      const int cx = x + sx, cy = y + sy;
+      if ((sx == 0 && sy == 0) || cx < 1 || cy < 1 || cx + 1 >= vertices.cols || cy + 1 >= vertices.rows) continue;
+      if (integrals.EdgeCount(cx - 1, cy - 1, cx + 2, cy + 2) != 0) continue;
+      Eigen::Vector3d candidate = Eigen::Vector3d::Zero();
+      const double planarity = BoxPlaneFit(vertices, cx - 1, cy - 1, cx + 2, cy + 2, &candidate);
+      if (planarity < best) {
+        best = planarity;
+        plane = candidate;
+        found = true;
+      }
+    }
+  }
+  if (!found) return false;
+  const cv::Vec3f& point = vertices.at<cv::Vec3f>(y, x);
+  if (plane.dot(Eigen::Vector3d(point[0], point[1], point[2])) > 0.0) plane = -plane;
+  *normal = cv::Vec3f(static_cast<float>(plane.x()), static_cast<float>(plane.y()), static_cast<float>(plane.z()));
+  return true;
+}
+
 // Unit normal facing the camera from two tangents, or false when they are degenerate.
 bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3f& point, cv::Vec3f* normal) {
   cv::Vec3d n = tx.cross(ty);
@@ -64,6 +129,56 @@ bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3
   if (n.dot(cv::Vec3d(point)) > 0.0) n = -n;
   *normal = cv::Vec3f(n);
   return true;
+}
+
+// Pixels within r (Chebyshev) of a kink: where inverse depth w = 1/z, affine in the pixel
+// coordinates on a plane, has a second difference along the row or the column above
+// tolerance w that stands out (at least twice the second differences 2 pixels either side on
+// that line, where those have depth): where two planes meet, not a smoothly curved surface (a sphere's second
+// differences grow smoothly towards its limb). Only these pixels are tested for creases: the plane fits cost more than
+// the rest of the estimate.
+cv::Mat NearKinks(const cv::Mat& depth_m, int r, float tolerance) {
+  const int rows = depth_m.rows, cols = depth_m.cols;
+  cv::Mat w(rows, cols, CV_32FC1);  // NaN at holes
+  for (int y = 0; y < rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    float* out = w.ptr<float>(y);
+    for (int x = 0; x < cols; ++x) out[x] = IsDepthValid(z[x]) ? 1.0f / z[x] : std::numeric_limits<float>::quiet_NaN();
+  }
+  // |second difference| of w at (x, y) along (dx, dy), or -1 without depth at the three pixels.
+  auto second = [&](int x, int y, int dx, int dy) {
+    if (x - dx < 0 || y - dy < 0 || x + dx >= cols || y + dy >= rows) return -1.0f;
+    const float d = std::abs(w.at<float>(y - dy, x - dx) - 2.0f * w.at<float>(y, x) + w.at<float>(y + dy, x + dx));
+    return std::isnan(d) ? -1.0f : d;
+  };
+  auto kink = [&](int x, int y, int dx, int dy) {
+    const float here = second(x, y, dx, dy);
+    if (!(here > tolerance * w.at<float>(y, x))) return false;
+    return second(x - 2 * dx, y - 2 * dy, dx, dy) < 0.5f * here && second(x + 2 * dx, y + 2 * dy, dx, dy) < 0.5f * here;
+  };
+  cv::Mat kinks = cv::Mat::zeros(rows, cols, CV_8UC1);
+  for (int y = 0; y < rows; ++y) {
+    unsigned char* k = kinks.ptr<unsigned char>(y);
+    for (int x = 0; x < cols; ++x) k[x] = kink(x, y, 1, 0) || kink(x, y, 0, 1);
+  }
+  // Dilated by a (2 r + 1)^2 square, separably: along the rows, then the columns.
+  cv::Mat along_rows = cv::Mat::zeros(rows, cols, CV_8UC1), near = cv::Mat::zeros(rows, cols, CV_8UC1);
+  for (int y = 0; y < rows; ++y) {
+    const unsigned char* k = kinks.ptr<unsigned char>(y);
+    unsigned char* out = along_rows.ptr<unsigned char>(y);
+    for (int x = 0; x < cols; ++x) {
+      if (!k[x]) continue;
+      for (int xx = std::max(0, x - r); xx <= std::min(cols - 1, x + r); ++xx) out[xx] = 1;
+    }
+  }
+  for (int y = 0; y < rows; ++y) {
+    const unsigned char* in = along_rows.ptr<unsigned char>(y);
+    for (int x = 0; x < cols; ++x) {
+      if (!in[x]) continue;
+      for (int yy = std::max(0, y - r); yy <= std::min(rows - 1, y + r); ++yy) near.at<unsigned char>(yy, x) = 1;
+    }
+  }
+  return near;
 }
 
 // Whether each pair of neighbours (p, p + (dx, dy)) lies on different surfaces: their depths
@@ -173,6 +288,8 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
 
   Integrals integrals;
   if (r > 0) integrals.Build(vertices, edge_map);
+  const bool refine_creases = options.refine_creases && r > 0;
+  const cv::Mat near_kink = refine_creases ? NearKinks(depth_m, r, plane_tolerance) : cv::Mat();
   const double min_count = options.min_valid_fraction * (2 * r + 1) * r;
 
   NormalMap result;
@@ -207,6 +324,12 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
                              down[2] / down[3] - up[2] / up[3]);
           if (NormalFromTangents(tx, ty, v[x], &n_out[x])) {
             valid[x] = 255;
+            if (refine_creases && near_kink.at<unsigned char>(y, x) &&
+                CreaseNormal(vertices, integrals, x, y, r, &n_out[x])) {
+              method[x] = static_cast<unsigned char>(NormalMethod::kCreaseBox);
+              ++result.crease_count;
+              continue;
+            }
             method[x] = static_cast<unsigned char>(NormalMethod::kIntegralImage);
             ++result.integral_count;
             continue;

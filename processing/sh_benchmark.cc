@@ -98,11 +98,14 @@ void BM_BilateralFilter(benchmark::State& state) {
 }
 BENCHMARK(BM_BilateralFilter)->ArgName("radius")->Arg(1)->Arg(2)->Arg(3)->Arg(5)->Unit(benchmark::kMillisecond);
 
+// depth 0: filtered noisy depth, crease refinement off (as the SH geometry step runs it on
+// filtered depth); 1: exact depth, refinement off; 2: exact depth, refinement on.
 void BM_Normals(benchmark::State& state) {
   const Fixture& f = Data();
   NormalOptions options;
   options.window_radius_px = static_cast<int>(state.range(0));
-  const cv::Mat depth = BilateralFilterDepth(f.noisy_depth_m);
+  options.refine_creases = state.range(1) == 2;
+  const cv::Mat depth = state.range(1) == 0 ? BilateralFilterDepth(f.noisy_depth_m) : f.src.depth_m;
   NormalMap normals;
   for (auto _ : state) normals = EstimateNormals(depth, f.scene.intrinsics, options);
   // Median angular error over the objects, beside the speed.
@@ -117,7 +120,15 @@ void BM_Normals(benchmark::State& state) {
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
   state.counters["median_err_deg"] = errors[errors.size() / 2];
 }
-BENCHMARK(BM_Normals)->ArgName("window")->Arg(0)->Arg(3)->Arg(6)->Arg(10)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Normals)
+    ->ArgNames({"window", "depth"})
+    ->Args({0, 0})
+    ->Args({3, 0})
+    ->Args({6, 0})
+    ->Args({10, 0})
+    ->Args({3, 1})
+    ->Args({3, 2})
+    ->Unit(benchmark::kMillisecond);
 
 struct Prepared {
   NormalMap normals;

@@ -48,6 +48,7 @@ NormalMap NormalsOnRoi(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsi
   part.method.copyTo(normals.method(roi));
   normals.integral_count = part.integral_count;
   normals.cross_count = part.cross_count;
+  normals.crease_count = part.crease_count;
   normals.invalid_count = part.invalid_count;
   return normals;
 }
@@ -154,9 +155,13 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
     if (g.normals.normal_in_camera.size() != depth_m.size() || g.normals.valid.size() != depth_m.size()) {
       throw InvalidArgumentError("SH geometry: the previous frame's normals are not of the depth map's size");
     }
-    g.normals.integral_count = g.normals.cross_count = g.normals.invalid_count = 0;  // none computed
+    g.normals.integral_count = g.normals.cross_count = g.normals.crease_count = g.normals.invalid_count = 0;
   } else {
-    g.normals = NormalsOnRoi(g.depth_m, intrinsics, roi, options.normals);
+    // Filtered depth is noisy (the reason to filter) and the filter rounds its creases: the
+    // crease refinement's 3 x 3 plane fits would fit the noise (processing/normals.h).
+    NormalOptions normals = options.normals;
+    normals.refine_creases = normals.refine_creases && !options.filter_depth;
+    g.normals = NormalsOnRoi(g.depth_m, intrinsics, roi, normals);
   }
   g.mask = MaskWithDepth(g.normals.valid, g.depth_m);
   return g;

@@ -44,7 +44,7 @@ struct ShGeometryOptions {
   bool filter_depth = true;  // bilateral, then temporal against the previous frame's bilateral
   BilateralDepthOptions bilateral;
   TemporalDepthOptions temporal;
-  NormalOptions normals;
+  NormalOptions normals;  // normals.refine_creases applies only when filter_depth is off
   // The previous frame's normals are kept when at most reuse_max_changed_fraction of the pixels
   // with depth in either frame appeared, vanished or moved by more than reuse_sigmas range
   // sigmas (bilateral.range_sigma_at_1m_m z^2): a static camera on a static scene. With the

@@ -136,6 +136,24 @@ TEST(ShPipelineTest, StoredNormalsAreReadOnlyWhenReused) {
   EXPECT_EQ(bare.normals.normal_in_camera.size(), frame.depth_m.size());
 }
 
+// The crease refinement's 3 x 3 plane fits need depth without noise: the geometry step runs it
+// on depth it does not filter, never on filtered depth (processing/normals.h, "Creases").
+TEST(ShPipelineTest, CreasesAreRefinedOnlyOnDepthThatIsNotFiltered) {
+  const testing::SceneOptions scene;  // two spheres and a box
+  const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
+  ShGeometryOptions unfiltered;
+  unfiltered.filter_depth = false;
+  const ShGeometry exact = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, unfiltered, nullptr);
+  EXPECT_GT(exact.normals.crease_count, 50);  // the box's edges
+  ShGeometryOptions filtered;
+  EXPECT_EQ(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, filtered, nullptr).normals.crease_count, 0);
+  ShGeometryOptions off = unfiltered;
+  off.normals.refine_creases = false;
+  const ShGeometry blended = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, off, nullptr);
+  EXPECT_EQ(blended.normals.crease_count, 0);
+  EXPECT_EQ(cv::countNonZero(blended.mask), cv::countNonZero(exact.mask));
+}
+
 TEST(ShPipelineTest, RejectsMismatchedIntrinsics) {
   const testing::SceneOptions scene;
   const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());

@@ -78,12 +78,14 @@ py::dict EstimateDepthNoise(const py::object& depth_m, double edge_jump_fraction
 }
 
 py::dict EstimateNormals(const py::object& depth_m, const py::dict& intrinsics, int window_radius_px,
-                         double depth_change_ratio, double min_valid_fraction, double plane_step_tolerance) {
+                         double depth_change_ratio, double min_valid_fraction, double plane_step_tolerance,
+                         bool refine_creases) {
   processing::NormalOptions options;
   options.window_radius_px = window_radius_px;
   options.depth_change_ratio = depth_change_ratio;
   options.min_valid_fraction = min_valid_fraction;
   options.plane_step_tolerance = plane_step_tolerance;
+  options.refine_creases = refine_creases;
   ThrowIfInvalid(options, "estimate_normals");
   const PinholeIntrinsics k = IntrinsicsFromPython(intrinsics, "intrinsics");
   py::array keep;
@@ -96,7 +98,8 @@ py::dict EstimateNormals(const py::object& depth_m, const py::dict& intrinsics, 
   return py::dict("normals"_a = MatToArray(std::move(map.normal_in_camera)),
                   "valid"_a = MatToArray(std::move(map.valid)).attr("astype")("bool"),
                   "method"_a = MatToArray(std::move(map.method)), "integral_count"_a = map.integral_count,
-                  "cross_count"_a = map.cross_count, "invalid_count"_a = map.invalid_count);
+                  "cross_count"_a = map.cross_count, "crease_count"_a = map.crease_count,
+                  "invalid_count"_a = map.invalid_count);
 }
 
 py::array VertexMap(const py::object& depth_m, const py::dict& intrinsics) {
@@ -172,10 +175,12 @@ Returns:
   m.def("estimate_normals", &EstimateNormals, "depth_m"_a, "intrinsics"_a, py::kw_only(),
         "window_radius_px"_a = n.window_radius_px, "depth_change_ratio"_a = n.depth_change_ratio,
         "min_valid_fraction"_a = n.min_valid_fraction, "plane_step_tolerance"_a = n.plane_step_tolerance,
+        "refine_creases"_a = n.refine_creases,
         R"doc(Surface normals from a depth map and pinhole intrinsics (processing/normals.h).
 
 Integral-image box averages of the vertex map (Holzer et al. 2012), falling back to the cross
-product of neighbour differences (Ogura & Saito eq. 3) at depth discontinuities.
+product of neighbour differences (Ogura & Saito eq. 3) at depth discontinuities. Beside a
+crease (two planes meeting, depth continuous) the normal of a 3 x 3 box on the pixel's own face.
 
 Args:
     depth_m: float32 HxW, metres along z; NaN, <= 0 or Inf is a hole.
@@ -187,12 +192,15 @@ Args:
     plane_step_tolerance: such a step continues a plane when its step in inverse depth w is
         within this many w of the steps before and after it (0: never).
     min_valid_fraction: of each half box, for the smooth estimate.
+    refine_creases: where the box is not planar, the most planar 3 x 3 box with the pixel on
+        its border gives the normal (a box's edges). For depth without noise: on noisy depth
+        the small fits follow the noise (the SH pipeline turns it off when it filters depth).
 
 Returns:
     dict: 'normals' float32 HxWx3, unit, camera frame (x right, y down, z forward), facing the
     camera (n . p < 0), NaN where invalid; 'valid' bool HxW; 'method' uint8 HxW (0 invalid,
-    1 integral image, 2 neighbour cross product); 'integral_count', 'cross_count',
-    'invalid_count' (pixels with depth but no normal).
+    1 integral image, 2 neighbour cross product, 3 crease box); 'integral_count',
+    'cross_count', 'crease_count', 'invalid_count' (pixels with depth but no normal).
 )doc");
   m.def("vertex_map", &VertexMap, "depth_m"_a, "intrinsics"_a,
         "The camera-frame point of every pixel, z * ((u + 0.5 - cx) / fx, (v + 0.5 - cy) / fy, 1): float32 HxWx3 "

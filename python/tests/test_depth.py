@@ -32,10 +32,39 @@ def test_the_normals_of_a_plane_are_its_normal():
     assert valid.sum() == 60 * 80 - 16 and result["invalid_count"] == 0
     assert np.abs(n[valid] - normal).max() < 2e-4
     assert result["integral_count"] + result["cross_count"] == valid.sum()
+    assert result["crease_count"] == 0  # a plane has no crease
     assert set(np.unique(result["method"][valid])) <= {1, 2}
     # Cross products only (window 0) give the same plane.
     cross = relume.estimate_normals(depth, INTRINSICS, window_radius_px=0)
     assert cross["cross_count"] == valid.sum() and np.abs(cross["normals"][valid] - normal).max() < 2e-4
+
+
+def test_a_crease_keeps_each_faces_normal():
+    """A ridge: two planes meeting along a line, depth continuous across it. The smooth box
+    blends both planes within its radius of the line; the crease refinement does not."""
+    na, nb = np.array([0.5, -0.1, -1.0]), np.array([-0.5, -0.1, -1.0])
+    na, nb = na / np.linalg.norm(na), nb / np.linalg.norm(nb)
+    da, db = plane_depth(na, -2.0), plane_depth(nb, -2.03)
+    depth = np.maximum(da, db)  # the convex ridge's near side
+    on_a = da >= db
+    truth = np.where(on_a[..., None], na, nb)
+    near = np.zeros_like(on_a)
+    for shift in range(-3, 4):
+        near |= np.roll(on_a, shift, axis=1) != on_a
+    near[:, :4] = near[:, -4:] = False
+    near[:4, :] = near[-4:, :] = False
+    assert near.sum() > 200
+
+    def angles(result):
+        c = np.clip(np.sum(result["normals"][near] * truth[near], axis=-1), -1.0, 1.0)
+        return np.degrees(np.arccos(c))
+
+    blended = relume.estimate_normals(depth, INTRINSICS, refine_creases=False)
+    refined = relume.estimate_normals(depth, INTRINSICS)
+    assert blended["crease_count"] == 0 and refined["crease_count"] > 0
+    assert np.median(angles(blended)) > 5.0
+    assert np.percentile(angles(refined), 99) < 0.5
+    assert set(np.unique(refined["method"][refined["valid"]])) <= {1, 2, 3}
 
 
 def test_vertex_map_unprojects_each_pixel():
