@@ -1,5 +1,5 @@
 // The SH random-scene suites at quick sizes (160x120), 12 seeded scenes each. The bounds are
-// the suites' measured figures (seed 1, 2026-12-02) with a small margin: they catch a
+// the suites' measured figures (seed 1, 2026-12-05) with a small margin: they catch a
 // regression of the method or of the suite's truth, and they state where SH stands against
 // issue 20's goals (2 % / 3 % ideal depth, 4 % / 6 % Kinect noise), which it does not meet:
 // see docs/benchmarks.md, "Random-scene suites: SH", for why.
@@ -24,9 +24,10 @@ TEST(ShSuiteTest, LampLitScenesSitAboveTheOrderTwoFloor) {
   const SuiteResult r = RunQuick(RunShIdealDepthSuite);
   ASSERT_EQ(r.method_errors.failed, 0);
   ASSERT_EQ(r.floor_errors.failed, 0);
-  // Measured: method median 15.6 %, p90 56.7 %; floor (true normals) 10.5 %, 32.2 %.
-  EXPECT_LT(r.method_errors.median, 0.18);
-  EXPECT_LT(r.method_errors.p90, 0.65);
+  // Measured: method median 12.0 %, p90 44.0 %; floor (true normals) 10.4 %, 31.5 %. (Before
+  // normals were refined beside creases: 15.6 %, 56.7 %.)
+  EXPECT_LT(r.method_errors.median, 0.135);
+  EXPECT_LT(r.method_errors.p90, 0.50);
   // The floor is order-2 SH itself: a lamp's clamped cosine is not band-limited, so even true
   // normals leave about 10 %. It must not drop to zero (that would mean the truth became
   // band-limited, and the suite no longer tests lamp-lit scenes).
@@ -38,7 +39,8 @@ TEST(ShSuiteTest, LampLitScenesSitAboveTheOrderTwoFloor) {
 TEST(ShSuiteTest, KinectNoiseCostsLittleAboveExactDepth) {
   const SuiteResult r = RunQuick(RunShKinectNoiseSuite);
   ASSERT_EQ(r.method_errors.failed, 0);
-  // Measured: median 17.3 %, p90 65.7 %; floor 10.4 %, 32.7 %.
+  // Measured: median 17.5 %, p90 65.9 %; floor 10.5 %, 32.2 %. Filtered depth gets no crease
+  // refinement (its 3 x 3 fits would follow the noise).
   EXPECT_LT(r.method_errors.median, 0.20);
   EXPECT_LT(r.method_errors.p90, 0.72);
   EXPECT_LE(r.floor_errors.median, r.method_errors.median);
@@ -49,13 +51,15 @@ TEST(ShSuiteTest, SmoothLightsAreWithinTheModelAndNormalsAreTheGap) {
   ASSERT_EQ(r.method_errors.failed, 0);
   ASSERT_EQ(r.floor_errors.failed, 0);
   // Under smooth lights order-2 SH represents the irradiance: with true normals the relit
-  // error is about 1 % (measured 1.05 %, p90 6.1 %). This also checks the suite's truth: a
+  // error is about 1 % (measured 1.07 %, p90 6.1 %). This also checks the suite's truth: a
   // wrong SH projection or irradiance table would show here.
   EXPECT_LT(r.floor_errors.median, 0.015);
   EXPECT_LT(r.floor_errors.p90, 0.07);
-  // The method's normals from depth cost the rest (measured median 10.2 %, p90 27.7 %).
-  EXPECT_LT(r.method_errors.median, 0.115);
-  EXPECT_LT(r.method_errors.p90, 0.30);
+  // The method's normals from depth cost the rest (measured median 8.16 %, p90 14.2 %; before
+  // normals were refined beside creases 10.2 %, 27.7 %): silhouettes, and creases where three
+  // faces meet.
+  EXPECT_LT(r.method_errors.median, 0.095);
+  EXPECT_LT(r.method_errors.p90, 0.17);
 }
 
 TEST(ShSuiteTest, ScenesRepeatFromTheirSeed) {
