@@ -531,7 +531,7 @@ void TrueNormalsInCamera(const SessionTruth& world, const PinholeCamera& camera,
 StageKey GeometryKey(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeIntrinsics& K,
                      const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
   StageKey key;
-  key.Add("stage", "sh-geometry-v3").Add("depth", pair.depth.sha256);
+  key.Add("stage", "sh-geometry-v4").Add("depth", pair.depth.sha256);
   key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
   AddLensToKey(key, recorded);
   if (!recorded.registered) {  // registered here, from the recorded geometry

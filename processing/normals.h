@@ -26,12 +26,12 @@
 // boxes of every pixel within r of the crease hold both planes and blend their normals. On the
 // random SH suites' exact depth, pixels within 2 px of a crease carried 55-57 % of the relit
 // squared error (median scene). The refinement: a pixel within r of a kink (inverse depth's
-// second difference along a row or column above plane_step_tolerance w, and twice those 2 px
-// either side: a crease, not a smoothly curved surface) whose centred
-// (2 r + 1)^2 box is not planar (plane-fit variance along the normal above kCreasePlanarity
-// times the variance within the plane) takes the normal of the most planar of the 8 boxes of
-// 3 x 3 pixels that have it on their border and hold no discontinuity, when that box is
-// kCreaseGain times more planar than the centred one: a box on the pixel's own face. Three
+// second difference along a row or column above plane_step_tolerance w, and at least twice
+// those 2 px either side: a crease, not a smoothly curved surface) whose centred (2 r + 1)^2
+// box is not planar (plane-fit variance along the normal above kCreasePlanarity times the
+// variance within the plane) takes the normal of the most planar of the 8 boxes of 3 x 3
+// pixels that have it on their border and hold no discontinuity, when that box is kCreaseGain
+// times more planar than the centred one: a box on the pixel's own face. Three
 // boxes in different orientations at 0.9-1.1 m (NormalsTest.CreasesKeepEachFacesNormal): mean
 // error within 3 px of their creases 19.5 -> 0.54 deg, p95 72.8 -> 0.89 deg. Cost at 640x480 on
 // exact depth (sh_benchmark BM_Normals): 21 -> 30 ms.

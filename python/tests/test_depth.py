@@ -45,7 +45,7 @@ def test_a_crease_keeps_each_faces_normal():
     na, nb = np.array([0.5, -0.1, -1.0]), np.array([-0.5, -0.1, -1.0])
     na, nb = na / np.linalg.norm(na), nb / np.linalg.norm(nb)
     da, db = plane_depth(na, -2.0), plane_depth(nb, -2.03)
-    depth = np.maximum(da, db)  # the convex ridge's near side
+    depth = np.maximum(da, db)  # the solid behind both planes: a ridge facing the camera
     on_a = da >= db
     truth = np.where(on_a[..., None], na, nb)
     near = np.zeros_like(on_a)
