@@ -58,6 +58,11 @@ struct Integrals {
   }
 };
 
+// The unit normal n or -n, whichever faces the camera (n . p < 0 for the surface point p).
+cv::Vec3f FacingCamera(const cv::Vec3d& n, const cv::Vec3f& point) {
+  return cv::Vec3f(n.dot(cv::Vec3d(point)) > 0.0 ? -n : n);
+}
+
 // Planarity of the vertices in a box (columns [x0, x1), rows [y0, y1), holes skipped): the
 // variance along the plane fit's normal over the variance within the plane (smallest eigenvalue
 // of the covariance over the sum of the other two; 0 on a plane). Sets the fit's unit normal
@@ -114,9 +119,7 @@ bool CreaseNormal(const cv::Mat& vertices, const Integrals& integrals, int x, in
     }
   }
   if (!found) return false;
-  const cv::Vec3f& point = vertices.at<cv::Vec3f>(y, x);
-  if (plane.dot(Eigen::Vector3d(point[0], point[1], point[2])) > 0.0) plane = -plane;
-  *normal = cv::Vec3f(static_cast<float>(plane.x()), static_cast<float>(plane.y()), static_cast<float>(plane.z()));
+  *normal = FacingCamera(cv::Vec3d(plane.x(), plane.y(), plane.z()), vertices.at<cv::Vec3f>(y, x));
   return true;
 }
 
@@ -125,9 +128,7 @@ bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3
   cv::Vec3d n = tx.cross(ty);
   const double norm = cv::norm(n);
   if (!(norm > 1e-12)) return false;
-  n /= norm;
-  if (n.dot(cv::Vec3d(point)) > 0.0) n = -n;
-  *normal = cv::Vec3f(n);
+  *normal = FacingCamera(n / norm, point);
   return true;
 }
 

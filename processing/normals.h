@@ -25,7 +25,7 @@
 // Creases (refine_creases). Where two planes meet (a box's edge) depth is continuous, so the
 // boxes of every pixel within r of the crease hold both planes and blend their normals. On the
 // random SH suites' exact depth, pixels within 2 px of a crease carried 55-57 % of the relit
-// squared error (median scene). The refinement: a pixel within r of a kink (inverse depth's
+// squared error (median scene; a one-off diagnostic of 2026-12-05, no test repeats it). The refinement: a pixel within r of a kink (inverse depth's
 // second difference along a row or column above plane_step_tolerance w, and at least twice
 // those 2 px either side: a crease, not a smoothly curved surface) whose centred (2 r + 1)^2
 // box is not planar (plane-fit variance along the normal above kCreasePlanarity times the
@@ -38,7 +38,7 @@
 // 3 x 3 fits need depth without noise (rendered depth, a mesh's, depth judged noise-free): on
 // noisy depth they follow the noise, so the SH geometry step turns the refinement off whenever
 // it filters depth (on the Kinect-noise suite, filtered, it raised the p90 relit error from
-// 43.9 % to about 46 % in trials).
+// 43.9 % to about 46 % in trials that no test repeats).
 #pragma once
 
 #include <opencv2/core/mat.hpp>
