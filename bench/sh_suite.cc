@@ -13,9 +13,9 @@
 //  - smooth: a sky gradient over a darker ground and one or two broad lobes (DrawSmoothLighting);
 //    E(n) by direct summation of the map, tabulated over normals.
 //
-// Method: what the sh pipeline runs. Its denoise decision (EstimateDepthNoise: exact depth is
-// not filtered, noisy depth is), ShLightEstimator::EstimateKnownAlbedo (filters, normals,
-// sample points, known-albedo SH fit; primed on a previous frame as in a stream), then
+// Method: what the sh pipeline runs. ShLightEstimator::EstimateKnownAlbedo (the denoise
+// decision on the stream's first frame: exact depth is not filtered, noisy depth is; filters,
+// normals, sample points, known-albedo SH fit; primed on a previous frame as in a stream), then
 // RelightSh to the destination light estimated the same way from a frame of the scene under
 // it (the pipeline's default --target-light FRAME).
 // Floor: the same fits and relighting given the TRUE normals at the same sample points: what
@@ -33,7 +33,6 @@
 #include <sstream>
 
 #include "bench/suites.h"
-#include "processing/depth_filter.h"
 #include "processing/metrics.h"
 #include "processing/relight.h"
 #include "processing/sh.h"
@@ -347,12 +346,9 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   r.description = d.description;
   // As the sh pipeline by default: the destination light is the estimate of another frame of
   // the stream, the scene under the destination light (--target-light FRAME).
-  // The pipeline's denoise decision (pipeline/sh_pipeline.cc DecideDenoise): noise-free
-  // depth is not filtered.
-  processing::ShEstimatorOptions estimator_options;
-  estimator_options.geometry.filter_depth =
-      !processing::EstimateDepthNoise(src_primer).NoiseFree(processing::kDenoiseSkipBelowAt1mM);
-  processing::ShLightEstimator src_estimator(estimator_options), dst_estimator(estimator_options);
+  // The estimator's defaults: each stream decides on its first frame (the primer) whether
+  // to filter depth, by the rule the sh pipeline applies (noise-free depth is not filtered).
+  processing::ShLightEstimator src_estimator, dst_estimator;
   src_estimator.EstimateKnownAlbedo(src.radiance, src_primer, k, src.object_mask, src.albedo);
   dst_estimator.EstimateKnownAlbedo(dst.radiance, dst_primer, k, dst.object_mask, dst.albedo);
   const auto start = std::chrono::steady_clock::now();

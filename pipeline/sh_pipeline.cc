@@ -82,14 +82,12 @@ struct RgbdPair {
 };
 
 struct Knobs {
-  // Filters, normals and their reuse (processing::EstimateShGeometry); geometry.filter_depth may
-  // be cleared by the denoise decision.
+  // Filters, normals and their reuse (processing::EstimateShGeometry). The denoise decision
+  // is the library's rule (geometry.skip_filter_below_at_1m_m, on the first depth frame's own
+  // noise) made once at plan time, where the stage keys need it: it sets geometry.filter_depth
+  // and clears the threshold, so no frame decides again (ideal moving-light session: relit
+  // 2.01 % filtered, 1.90 % not, before creases were refined).
   processing::ShGeometryOptions geometry;
-  // The filters are skipped when the first depth frame's own noise (processing::
-  // EstimateDepthNoise, at 1 m) is below this: on noise-free depth they only round creases
-  // and silhouettes (ideal moving-light session: relit 2.01 % filtered, 1.90 % not). Whole
-  // millimetres (~0.1-0.2 mm) and Kinect noise (~1.5 mm) stay filtered. 0: always filter.
-  double depth_noise_skip_below_m = processing::kDenoiseSkipBelowAt1mM;
   processing::ShAlbedoFitOptions fit;
   processing::SegmentationOptions segmentation;
   processing::SamplePointOptions samples;
@@ -132,7 +130,7 @@ struct Knobs {
     v.Knob("filter_depth", geometry.filter_depth, "bilateral and temporal depth filters", {"geometry"});
     v.Knob("depth_registration", depth_registration,
            "unregistered depth into the colour camera: nearest (as hardware) or interpolated", {"registration"});
-    v.Knob("depth_noise_skip_below_m", depth_noise_skip_below_m,
+    v.Knob("depth_noise_skip_below_m", geometry.skip_filter_below_at_1m_m,
            "skip the filters when the first depth frame's noise at 1 m is below this (m; 0: always filter)", {"plan"});
     v.Knob("bilateral_radius", geometry.bilateral.radius_px, "bilateral depth filter radius (px)", {"geometry"});
     v.Knob("range_sigma_at_1m_m", geometry.bilateral.range_sigma_at_1m_m, "depth filters' range sigma at 1 m (m)",
@@ -212,7 +210,7 @@ Knobs ReadKnobs(PipelineRun& run) {
   if (k.depth_registration != "nearest" && k.depth_registration != "interpolated")
     throw InvalidArgumentError("--set depth_registration=" + k.depth_registration +
                                ": expected nearest or interpolated");
-  if (!(k.depth_noise_skip_below_m >= 0.0))
+  if (!(k.geometry.skip_filter_below_at_1m_m >= 0.0))
     throw InvalidArgumentError("--set depth_noise_skip_below_m must be >= 0 (metres at 1 m; 0 = always filter)");
   if (!(k.geometry.reuse_sigmas > 0.0) ||
       !(k.geometry.reuse_max_changed_fraction >= 0.0 && k.geometry.reuse_max_changed_fraction <= 1.0))
@@ -1205,15 +1203,20 @@ void DecideRadianceModel(PipelineRun& run, const ShInputs& in) {
   }
 }
 
-// One decision for the whole sequence (the temporal filter chains the frames), from the first
-// depth frame's own noise: noise-free depth is not filtered (clears k->geometry.filter_depth).
+// One decision for the whole sequence (the temporal filter chains the frames), by the library's
+// rule (processing::ShGeometryOptions::skip_filter_below_at_1m_m) on the first depth frame:
+// noise-free depth is not filtered. Sets k->geometry.filter_depth and clears the threshold, so
+// the frames' geometry steps, which read their previous frame back from disk, do not decide again.
 void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
+  const double skip_below = k->geometry.skip_filter_below_at_1m_m;
+  k->geometry.skip_filter_below_at_1m_m = 0.0;
+  if (!k->geometry.filter_depth || skip_below <= 0.0) return;
   const processing::DepthNoiseEstimate noise = processing::EstimateDepthNoise(run.session().LoadDepth(first.depth));
   const std::string measured = "depth noise of frame " + std::to_string(first.depth.id) + ": " + noise.Describe();
-  if (noise.NoiseFree(k->depth_noise_skip_below_m)) {
+  if (noise.NoiseFree(skip_below)) {
     k->geometry.filter_depth = false;
     run.Decide("denoise", "skip",
-               measured + ": below " + Number(k->depth_noise_skip_below_m * 1e3) +
+               measured + ": below " + Number(skip_below * 1e3) +
                    " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
                    "round creases and silhouettes");
   } else {
@@ -1506,7 +1509,7 @@ ShPipelineSummary RunShPipeline(PipelineRun& run) {
   in.known_albedo = ChooseAlbedo(run, k, in.has_world);
   DecideRadianceModel(run, in);
   run.Decide("sh", "plan", std::to_string(in.pairs.size()) + " RGB-D frame pair(s) of " + in.device);
-  if (k.geometry.filter_depth && k.depth_noise_skip_below_m > 0.0) DecideDenoise(run, in.pairs.front(), &k);
+  DecideDenoise(run, in.pairs.front(), &k);
   const Destination dst = ChooseDestination(run, in.pairs, in.camera);
   if (run.request().explain) return summary;
 

@@ -61,6 +61,10 @@ bool ShGeometryOptions::IsValid(std::string* why) const {
     if (why) *why = "reuse_sigmas must be > 0 and reuse_max_changed_fraction within [0, 1]";
     return false;
   }
+  if (!(skip_filter_below_at_1m_m >= 0.0)) {
+    if (why) *why = "skip_filter_below_at_1m_m must be >= 0 (metres at 1 m; 0: always filter)";
+    return false;
+  }
   return true;
 }
 
@@ -119,25 +123,38 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
   }
   g.roi = roi;
 
+  // The stream's filter decision: made on its first frame, inherited after it.
+  g.depth_filtered = options.filter_depth;
+  if (options.filter_depth && options.skip_filter_below_at_1m_m > 0.0) {
+    if (previous != nullptr) {
+      g.depth_filtered = previous->depth_filtered;
+    } else {
+      // The whole frame, as the sh pipeline measures it: a small region has too few usable
+      // windows between its silhouettes for NoiseFree (the quick smooth suite: p90 14 -> 23 %).
+      g.depth_noise = EstimateDepthNoise(depth_m);
+      g.depth_filtered = !g.depth_noise->NoiseFree(options.skip_filter_below_at_1m_m);
+    }
+  }
+  const bool filter = g.depth_filtered;
+
   // Depth: bilateral on the crop, temporal on the full frame (NaN outside the crop).
   if (roi == full) {
-    g.bilateral_m = options.filter_depth ? BilateralFilterDepth(depth_m, options.bilateral) : depth_m.clone();
+    g.bilateral_m = filter ? BilateralFilterDepth(depth_m, options.bilateral) : depth_m.clone();
   } else {
     g.bilateral_m = cv::Mat(depth_m.size(), CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
     if (!roi.empty()) {
-      (options.filter_depth ? BilateralFilterDepth(depth_m(roi), options.bilateral) : depth_m(roi))
-          .copyTo(g.bilateral_m(roi));
+      (filter ? BilateralFilterDepth(depth_m(roi), options.bilateral) : depth_m(roi)).copyTo(g.bilateral_m(roi));
     }
   }
   g.depth_m = g.bilateral_m;
-  if (options.filter_depth && previous != nullptr && options.temporal.weight > 0.0) {
+  if (filter && previous != nullptr && options.temporal.weight > 0.0) {
     g.depth_m = TemporalFilterDepth(g.bilateral_m, previous->bilateral_m, options.temporal, &g.temporal_blended);
   }
 
   // Normals: the previous frame's when its depth did not change, else estimated.
   // Normals computed from an unblended first frame are not lent to a blended one: its depth
   // is noisier than the frame's own (the Kinect-noise suite: 17.3 -> 20.0 % median relit error).
-  const bool temporal = options.filter_depth && options.temporal.weight > 0.0;
+  const bool temporal = filter && options.temporal.weight > 0.0;
   if (!options.estimate_normals) {
     g.normals = NormalsOnRoi(g.depth_m, intrinsics, cv::Rect(), options.normals);  // empty maps, none valid
     g.mask = cv::Mat::zeros(depth_m.size(), CV_8UC1);
@@ -160,7 +177,7 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
     // Filtered depth is noisy (the reason to filter) and the filter rounds its creases: the
     // crease refinement's 3 x 3 plane fits would fit the noise (processing/normals.h).
     NormalOptions normals = options.normals;
-    normals.refine_creases = normals.refine_creases && !options.filter_depth;
+    normals.refine_creases = normals.refine_creases && !filter;
     g.normals = NormalsOnRoi(g.depth_m, intrinsics, roi, normals);
   }
   g.mask = MaskWithDepth(g.normals.valid, g.depth_m);
@@ -225,6 +242,8 @@ ShFrameEstimate ShLightEstimator::Prepare(const RadianceImage& radiance, const c
   ShFrameEstimate estimate;
   estimate.depth_m = geometry.depth_m;
   estimate.roi = geometry.roi;
+  estimate.depth_filtered = geometry.depth_filtered;
+  estimate.depth_noise = geometry.depth_noise;
   estimate.normals = geometry.normals;
   estimate.normals_reused = geometry.normals_reused;
   previous_ = std::move(geometry);

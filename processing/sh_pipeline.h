@@ -42,9 +42,17 @@ namespace relume::processing {
 
 struct ShGeometryOptions {
   bool filter_depth = true;  // bilateral, then temporal against the previous frame's bilateral
+  // With filter_depth on, the stream decides once, on its first frame (previous == nullptr):
+  // when that frame's own noise (EstimateDepthNoise over the whole frame, at 1 m) is NoiseFree below
+  // this, neither it nor the frames after it (they inherit ShGeometry::depth_filtered) are
+  // filtered. On noise-free depth the filters only round creases and silhouettes, and the
+  // normals then refine creases: the analytic SH scene relights 0.61 % off unfiltered, 1.96 %
+  // filtered (sh_accuracy_test.cc). Whole millimetres (~0.1-0.2 mm) and Kinect noise (~1.5 mm)
+  // stay filtered. 0: filter whatever the noise (a caller that has decided already).
+  double skip_filter_below_at_1m_m = kDenoiseSkipBelowAt1mM;
   BilateralDepthOptions bilateral;
   TemporalDepthOptions temporal;
-  NormalOptions normals;  // normals.refine_creases applies only when filter_depth is off
+  NormalOptions normals;  // normals.refine_creases applies only where depth is not filtered
   // The previous frame's normals are kept when at most reuse_max_changed_fraction of the pixels
   // with depth in either frame appeared, vanished or moved by more than reuse_sigmas range
   // sigmas (bilateral.range_sigma_at_1m_m z^2): a static camera on a static scene. With the
@@ -62,13 +70,16 @@ struct ShGeometryOptions {
 // One frame's geometry, and the state the next frame's step reads.
 struct ShGeometry {
   cv::Mat bilateral_m;  // the bilateral filter's output (the input when not filtering): D_b(t)
-  cv::Mat depth_m;      // after both filters; NaN outside roi
+  cv::Mat depth_m;      // after both filters (the input when not filtering); NaN outside roi
   cv::Rect roi;         // where depth was filtered and normals estimated
   NormalMap normals;    // full-frame maps (the previous frame's when reused)
   // As `previous`, a frame whose normals are empty reads them through this on demand, only when
   // they are reused (a stage folder read back: most frames never need its normals).
   std::function<NormalMap()> load_normals;
-  cv::Mat mask;  // CV_8UC1: a valid normal and depth
+  cv::Mat mask;                 // CV_8UC1: a valid normal and depth
+  bool depth_filtered = false;  // the stream's filter decision (ShGeometryOptions::filter_depth)
+  // The noise measured for the decision: a stream's first frame, when it was decided here.
+  std::optional<DepthNoiseEstimate> depth_noise;
   int temporal_blended = 0;
   std::optional<double> depth_changed_fraction;  // normals_reuse with a previous frame
   bool normals_reused = false;
@@ -118,8 +129,10 @@ struct ShEstimatorOptions {
 };
 
 struct ShFrameEstimate {
-  cv::Mat depth_m;  // after denoising (or the input when filter_depth is false); NaN outside roi
-  cv::Rect roi;     // where depth was filtered and normals estimated
+  cv::Mat depth_m;                                // after denoising (or the input when not filtered); NaN outside roi
+  cv::Rect roi;                                   // where depth was filtered and normals estimated
+  bool depth_filtered = false;                    // the stream's decision (ShGeometryOptions)
+  std::optional<DepthNoiseEstimate> depth_noise;  // measured on the stream's first frame
   NormalMap normals;
   bool normals_reused = false;  // the previous frame's (its depth did not change)
   Segmentation segmentation;    // empty for EstimateKnownAlbedo

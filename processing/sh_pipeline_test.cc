@@ -47,11 +47,13 @@ TEST(ShPipelineTest, WorksOnTheRegionOfInterestOnly) {
 // The geometry step over a stream of one static view (the chain's state made explicit): with
 // the temporal filter on, the first frame's normals (nothing to blend with) are not lent; the
 // second frame's are, to the third; depth that moves is estimated again; the whole frame is
-// worked on without a region, the region's neighbourhood with one.
+// worked on without a region, the region's neighbourhood with one. The depth is exact, so the
+// filters are forced on (skip_filter_below_at_1m_m = 0) to carry their state.
 TEST(ShPipelineTest, GeometryStepCarriesItsStateFromFrameToFrame) {
   const testing::SceneOptions scene;
   const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
   ShGeometryOptions options;
+  options.skip_filter_below_at_1m_m = 0.0;
   const ShGeometry first = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, nullptr);
   EXPECT_EQ(first.roi, cv::Rect(0, 0, frame.depth_m.cols, frame.depth_m.rows));
   EXPECT_EQ(first.temporal_blended, 0);
@@ -95,11 +97,12 @@ TEST(ShPipelineTest, GeometryStepCarriesItsStateFromFrameToFrame) {
 
 // A previous frame read back from storage (the pipeline's stage folders) carries a loader
 // instead of its normals: it is called only when the normals are reused. Depth only
-// (estimate_normals false) estimates and reuses no normals.
+// (estimate_normals false) estimates and reuses no normals. Filters forced on, as above.
 TEST(ShPipelineTest, StoredNormalsAreReadOnlyWhenReused) {
   const testing::SceneOptions scene;
   const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
   ShGeometryOptions options;
+  options.skip_filter_below_at_1m_m = 0.0;
   const ShGeometry first = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, nullptr);
   const ShGeometry second = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &first);
   int loads = 0;
@@ -146,12 +149,65 @@ TEST(ShPipelineTest, CreasesAreRefinedOnlyOnDepthThatIsNotFiltered) {
   const ShGeometry exact = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, unfiltered, nullptr);
   EXPECT_GT(exact.normals.crease_count, 50);  // the box's edges
   ShGeometryOptions filtered;
+  filtered.skip_filter_below_at_1m_m = 0.0;  // whatever the noise
   EXPECT_EQ(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, filtered, nullptr).normals.crease_count, 0);
   ShGeometryOptions off = unfiltered;
   off.normals.refine_creases = false;
   const ShGeometry blended = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, off, nullptr);
   EXPECT_EQ(blended.normals.crease_count, 0);
   EXPECT_EQ(cv::countNonZero(blended.mask), cv::countNonZero(exact.mask));
+}
+
+// A stream decides whether to filter on its first frame's own noise and keeps the decision:
+// the frames after it inherit it through `previous`, whatever their own noise; a frame of
+// another size starts a stream that decides again.
+TEST(ShPipelineTest, StreamDecidesToFilterOnItsFirstFrame) {
+  const testing::SceneOptions scene;
+  const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
+  const cv::Mat noisy = testing::AddKinectDepthNoise(frame.depth_m, 7);
+  const ShGeometryOptions options;
+
+  const ShGeometry exact = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, nullptr);
+  EXPECT_FALSE(exact.depth_filtered);
+  ASSERT_TRUE(exact.depth_noise.has_value());
+  EXPECT_TRUE(exact.depth_noise->NoiseFree(options.skip_filter_below_at_1m_m)) << exact.depth_noise->Describe();
+  EXPECT_GT(exact.normals.crease_count, 50);
+  EXPECT_EQ(cv::countNonZero(exact.depth_m != frame.depth_m), 0);  // untouched
+  const ShGeometry next = EstimateShGeometry(noisy, scene.intrinsics, {}, options, &exact);
+  EXPECT_FALSE(next.depth_filtered);
+  EXPECT_FALSE(next.depth_noise.has_value());
+  EXPECT_EQ(next.temporal_blended, 0);
+
+  const ShGeometry first = EstimateShGeometry(noisy, scene.intrinsics, {}, options, nullptr);
+  EXPECT_TRUE(first.depth_filtered);
+  ASSERT_TRUE(first.depth_noise.has_value());
+  EXPECT_GT(first.depth_noise->sigma_at_1m_m, 1e-3) << first.depth_noise->Describe();  // Kinect: ~1.5 mm
+  EXPECT_EQ(first.normals.crease_count, 0);
+  const ShGeometry second = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, options, &first);
+  EXPECT_TRUE(second.depth_filtered);
+  EXPECT_GT(second.temporal_blended, 0);
+
+  PinholeIntrinsics k = scene.intrinsics;  // the top-left quarter: a new stream
+  k.width /= 2;
+  k.height /= 2;
+  const cv::Mat half = frame.depth_m(cv::Rect(0, 0, k.width, k.height)).clone();
+  const ShGeometry other = EstimateShGeometry(half, k, {}, options, &first);
+  EXPECT_FALSE(other.depth_filtered);
+  EXPECT_TRUE(other.depth_noise.has_value());
+
+  ShGeometryOptions never = options;  // no filtering, nothing measured
+  never.filter_depth = false;
+  const ShGeometry unmeasured = EstimateShGeometry(noisy, scene.intrinsics, {}, never, nullptr);
+  EXPECT_FALSE(unmeasured.depth_filtered);
+  EXPECT_FALSE(unmeasured.depth_noise.has_value());
+  ShGeometryOptions always = options;  // filtered whatever the noise, nothing measured
+  always.skip_filter_below_at_1m_m = 0.0;
+  const ShGeometry forced = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, always, nullptr);
+  EXPECT_TRUE(forced.depth_filtered);
+  EXPECT_FALSE(forced.depth_noise.has_value());
+  ShGeometryOptions bad = options;
+  bad.skip_filter_below_at_1m_m = -1.0;
+  EXPECT_THROW(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, bad, nullptr), InvalidArgumentError);
 }
 
 TEST(ShPipelineTest, RejectsMismatchedIntrinsics) {
