@@ -220,12 +220,17 @@ TEST(FieldsTest, EveryPipelineSummaryRoundTrips) {
   sh.frames.emplace();
   ShFrameFigures& frame = sh.frames->emplace_back();
   frame.fit.segment_albedo = std::vector<Eigen::Vector3d>{{0.5, 0.4, 0.3}};
-  frame.relight = ShRelightFigures{10, 9, 1, 0, "ok"};
+  frame.relight = ShRelightFigures{10, 9, 1, 0, 3, "ok"};
+  frame.destination_photo_relative_rms = 0.04;
+  frame.destination_photo_pixels = 9;
   frame.truth.relit_relative_rms = 0.05;
   ShCastShadowFigures shadows{3, 0.1, 0.8, 0.2, 20.5, 0.48, 2.8, 4120};
   sh.cast_shadows = ShCastShadowsSummary{0.2, 0.48, 2.8, {shadows}};
   sh.sh_fits_scene = false;
-  sh.misfit_reasons = std::vector<std::string>{kResidualReason, kSunShadowsReason};
+  sh.misfit_reasons = std::vector<std::string>{kResidualReason, kSunShadowsReason, kDestinationPhotoReason};
+  sh.destination_photo_relative_rms_median = 0.04;
+  sh.destination_photo_frames = 1;
+  sh.clipped_frames = 2;
   ExpectRoundTrip(sh);
 
   RadiosityPipelineSummary radiosity;

@@ -49,6 +49,9 @@ struct ShFitFigures {
   std::string albedo;  // truth (an oracle) or unknown (k-means segments)
   std::optional<int> segments;
   std::optional<std::vector<Eigen::Vector3d>> segment_albedo;
+  // Pixels with a normal and depth, and those of them the fit could not sample because the
+  // colour frame clipped there (lower bounds).
+  std::optional<std::int64_t> pixels_with_normal, clipped_pixels;
   template <typename V>
   void VisitFields(V& v) {
     v.Field("usable", usable);
@@ -66,6 +69,8 @@ struct ShFitFigures {
     v.Field("albedo", albedo);
     v.Field("segments", segments);
     v.Field("segment_albedo", segment_albedo);
+    v.Field("pixels_with_normal", pixels_with_normal);
+    v.Field("clipped_pixels", clipped_pixels);
   }
 };
 
@@ -73,6 +78,7 @@ struct ShFitFigures {
 // too low) and without valid input.
 struct ShRelightFigures {
   std::int64_t requested = 0, relit = 0, guarded = 0, invalid_input = 0;
+  std::int64_t clipped = 0;  // pixels with a normal left out: clipped in the colour frame (not requested)
   std::string message;
   template <typename V>
   void VisitFields(V& v) {
@@ -80,6 +86,7 @@ struct ShRelightFigures {
     v.Field("relit", relit);
     v.Field("guarded", guarded);
     v.Field("invalid_input", invalid_input);
+    v.Field("clipped", clipped);
     v.Field("message", message);
   }
 };
@@ -161,6 +168,11 @@ struct ShFrameFigures {
   ShFitFigures fit;
   std::int64_t normals_from_frame = 0;
   std::optional<ShRelightFigures> relight;
+  // The relit frame against the destination frame's photograph where both show the same
+  // surface (signal-relative RMS; destination light from a frame only): no truth needed.
+  // The error is absent when under a tenth of the relit pixels are shared.
+  std::optional<double> destination_photo_relative_rms;
+  std::optional<std::int64_t> destination_photo_pixels;
   ShTruthFigures truth;  // its fields at this level
   template <typename V>
   void VisitFields(V& v) {
@@ -169,6 +181,8 @@ struct ShFrameFigures {
     v.Field("fit", fit);
     v.Field("normals_from_frame", normals_from_frame);
     v.Field("relight", relight);
+    v.Field("destination_photo_relative_rms", destination_photo_relative_rms);
+    v.Field("destination_photo_pixels", destination_photo_pixels);
     truth.VisitFields(v);
   }
 };
@@ -177,6 +191,7 @@ struct ShFrameFigures {
 inline constexpr const char* kResidualReason = "fit residual";
 inline constexpr const char* kFittedShadowsReason = "cast shadows of the fitted light";
 inline constexpr const char* kSunShadowsReason = "cast shadows of the recorded sun";
+inline constexpr const char* kDestinationPhotoReason = "relit frames differ from the destination photograph";
 
 // The sh pipeline's summary (summary.json "metrics"); absent: the run did not reach it (planned
 // only) or had nothing to compare.
@@ -191,8 +206,15 @@ struct ShPipelineSummary {
   std::optional<double> relit_rms_8bit_mean, baseline_rms_8bit_mean;
   std::optional<double> floor_relative_rms_mean;  // external truth
   std::optional<int> compared_frames;
+  // Median over the relit frames of their error against the destination frame's photograph
+  // (ShFrameFigures::destination_photo_relative_rms), and how many frames had one.
+  std::optional<double> destination_photo_relative_rms_median;
+  std::optional<int> destination_photo_frames;
+  // Frames whose colour clipped on at least 5 % of their pixels with a normal (each warned).
+  std::optional<int> clipped_frames;
   // Whether SH describes the scene's light (fit residuals, cast shadows; CheckShFitsTheScene),
-  // and when not, which checks said so (kResidualReason, kFittedShadowsReason, kSunShadowsReason).
+  // and when not, which checks said so (kResidualReason, kFittedShadowsReason, kSunShadowsReason,
+  // kDestinationPhotoReason).
   std::optional<bool> sh_fits_scene;
   std::optional<std::vector<std::string>> misfit_reasons;
   std::optional<double> fit_residual_median;
@@ -212,6 +234,9 @@ struct ShPipelineSummary {
     v.Field("baseline_rms_8bit_mean", baseline_rms_8bit_mean);
     v.Field("floor_relative_rms_mean", floor_relative_rms_mean);
     v.Field("compared_frames", compared_frames);
+    v.Field("destination_photo_relative_rms_median", destination_photo_relative_rms_median);
+    v.Field("destination_photo_frames", destination_photo_frames);
+    v.Field("clipped_frames", clipped_frames);
     v.Field("sh_fits_scene", sh_fits_scene);
     v.Field("misfit_reasons", misfit_reasons);
     v.Field("fit_residual_median", fit_residual_median);

@@ -79,26 +79,33 @@ cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth_m) {
   return mask;
 }
 
-double ChangedDepthFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas) {
+cv::Mat UnchangedDepthMask(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas) {
   RELUME_CHECK(a.type() == CV_32FC1 && b.type() == CV_32FC1 && a.size() == b.size());
-  int considered = 0, changed = 0;
+  cv::Mat same = cv::Mat::zeros(a.size(), CV_8UC1);
   for (int y = 0; y < a.rows; ++y) {
     const float* pa = a.ptr<float>(y);
     const float* pb = b.ptr<float>(y);
+    std::uint8_t* out = same.ptr<std::uint8_t>(y);
     for (int x = 0; x < a.cols; ++x) {
-      const bool va = IsDepthValid(pa[x]);
-      const bool vb = IsDepthValid(pb[x]);
-      if (!va && !vb) continue;
-      ++considered;
-      if (va != vb) {
-        ++changed;
-        continue;
-      }
+      if (!IsDepthValid(pa[x]) || !IsDepthValid(pb[x])) continue;
       const double z = pa[x];
-      if (std::abs(pa[x] - pb[x]) > sigmas * sigma_at_1m * z * z) ++changed;
+      if (std::abs(pa[x] - pb[x]) <= sigmas * sigma_at_1m * z * z) out[x] = 255;
     }
   }
-  return considered == 0 ? 0.0 : static_cast<double>(changed) / considered;
+  return same;
+}
+
+double ChangedDepthFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas) {
+  RELUME_CHECK(a.type() == CV_32FC1 && b.type() == CV_32FC1 && a.size() == b.size());
+  int considered = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    for (int x = 0; x < a.cols; ++x) considered += IsDepthValid(pa[x]) || IsDepthValid(pb[x]);
+  }
+  if (considered == 0) return 0.0;
+  const int unchanged = cv::countNonZero(UnchangedDepthMask(a, b, sigma_at_1m, sigmas));
+  return static_cast<double>(considered - unchanged) / considered;
 }
 
 ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsics, const cv::Mat& region,

@@ -98,6 +98,9 @@ cv::Mat MaskWithDepth(const cv::Mat& valid, const cv::Mat& depth_m);
 // The fraction of the pixels with depth in either map whose depth appeared, vanished or moved
 // by more than `sigmas` range sigmas (sigma_at_1m z^2, as a sensor's noise grows).
 double ChangedDepthFraction(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas);
+// CV_8UC1: 255 where both maps have depth and it moved by at most `sigmas` range sigmas (the
+// same surface in both frames of a static view), 0 elsewhere.
+cv::Mat UnchangedDepthMask(const cv::Mat& a, const cv::Mat& b, double sigma_at_1m, double sigmas);
 
 struct ShFrameFit {
   ShRgb light = ShRgb::Zero();                  // camera frame

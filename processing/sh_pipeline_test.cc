@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
@@ -208,6 +209,27 @@ TEST(ShPipelineTest, StreamDecidesToFilterOnItsFirstFrame) {
   ShGeometryOptions bad = options;
   bad.skip_filter_below_at_1m_m = -1.0;
   EXPECT_THROW(EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, bad, nullptr), InvalidArgumentError);
+}
+
+// The same surface in two frames: depth in both, moved by at most `sigmas` range sigmas (which
+// grow as z^2); the changed fraction counts the rest of the pixels with depth in either.
+TEST(ShPipelineTest, UnchangedDepthMaskKeepsTheSameSurfaceOnly) {
+  cv::Mat a(2, 3, CV_32FC1, cv::Scalar(2.0f)), b = a.clone();
+  b.at<float>(0, 0) = 2.0f + 0.05f;                                                 // within 3 x 0.005 x 2^2 = 0.06 m
+  b.at<float>(0, 1) = 2.0f + 0.07f;                                                 // beyond 0.06 m
+  b.at<float>(0, 2) = std::numeric_limits<float>::quiet_NaN();                      // vanished
+  a.at<float>(1, 0) = 0.0f;                                                         // no depth in a
+  a.at<float>(1, 1) = b.at<float>(1, 1) = std::numeric_limits<float>::quiet_NaN();  // in neither
+  const cv::Mat same = UnchangedDepthMask(a, b, 0.005, 3.0);
+  EXPECT_EQ(same.type(), CV_8UC1);
+  EXPECT_EQ(same.at<std::uint8_t>(0, 0), 255);
+  EXPECT_EQ(same.at<std::uint8_t>(0, 1), 0);
+  EXPECT_EQ(same.at<std::uint8_t>(0, 2), 0);
+  EXPECT_EQ(same.at<std::uint8_t>(1, 0), 0);
+  EXPECT_EQ(same.at<std::uint8_t>(1, 1), 0);
+  EXPECT_EQ(same.at<std::uint8_t>(1, 2), 255);
+  EXPECT_EQ(cv::countNonZero(same), 2);
+  EXPECT_DOUBLE_EQ(ChangedDepthFraction(a, b, 0.005, 3.0), 3.0 / 5.0);  // 5 pixels with depth in either
 }
 
 TEST(ShPipelineTest, RejectsMismatchedIntrinsics) {
