@@ -365,22 +365,26 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.method = RelitError(relit, dst);
 
-  // The floor: the same fits and relighting with the true normals at the same samples.
+  // The floor: the same fits and relighting with the true normals at the same samples, each
+  // pixel by its own ratio (true normals have no error for the ratio filter to average).
+  processing::RelightOptions per_pixel;
+  per_pixel.ratio_radius_px = 0;
   const processing::ShFitResult floor_src = FitAtTrueNormals(src, estimate.samples);
   const processing::ShFitResult floor_dst = FitAtTrueNormals(dst, target.samples);
   // Where the gap comes from: the method's light with the true normals, the floor's light
   // with the method's normals.
   double projected = NAN, method_light = NAN, method_normals = NAN;
   if (floor_src.summary.usable && floor_dst.summary.usable) {
-    r.floor = RelitError(
-        processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light, floor_dst.light),
-        dst);
+    r.floor = RelitError(processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light,
+                                               floor_dst.light, per_pixel),
+                         dst);
     // For the record: the destination as the exact SH projection of its light instead of a fit.
-    projected = RelitError(
-        processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light, d.destination.Sh()),
-        dst);
-    method_light = RelitError(
-        processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, estimate.light, target.light), dst);
+    projected = RelitError(processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, floor_src.light,
+                                                 d.destination.Sh(), per_pixel),
+                           dst);
+    method_light = RelitError(processing::RelightSh(src.radiance, src.normal_in_camera, src.object_mask, estimate.light,
+                                                    target.light, per_pixel),
+                              dst);
     method_normals = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
                                                       floor_src.light, floor_dst.light),
                                 dst);

@@ -24,25 +24,29 @@ TEST(ShSuiteTest, LampLitScenesSitAboveTheOrderTwoFloor) {
   const SuiteResult r = RunQuick(RunShIdealDepthSuite);
   ASSERT_EQ(r.method_errors.failed, 0);
   ASSERT_EQ(r.floor_errors.failed, 0);
-  // Measured: method median 12.0 %, p90 44.0 %; floor (true normals) 10.4 %, 31.5 %. (Before
+  // Measured: method median 10.4 %, p90 33.2 %; floor (true normals, each pixel by its own
+  // ratio) 10.4 %, 31.5 %. (Before the relighting ratio was filtered: 12.0 %, 44.0 %; before
   // normals were refined beside creases: 15.6 %, 56.7 %.)
-  EXPECT_LT(r.method_errors.median, 0.135);
-  EXPECT_LT(r.method_errors.p90, 0.50);
+  EXPECT_LT(r.method_errors.median, 0.115);
+  EXPECT_LT(r.method_errors.p90, 0.38);
   // The floor is order-2 SH itself: a lamp's clamped cosine is not band-limited, so even true
   // normals leave about 10 %. It must not drop to zero (that would mean the truth became
   // band-limited, and the suite no longer tests lamp-lit scenes).
   EXPECT_GT(r.floor_errors.median, 0.05);
   EXPECT_LT(r.floor_errors.median, 0.12);
-  EXPECT_LE(r.floor_errors.median, r.method_errors.median);
+  // The ratio filter also averages some of the model's own error, so the method may meet the
+  // floor; it must stay near it.
+  EXPECT_LT(r.method_errors.median, r.floor_errors.median + 0.02);
 }
 
 TEST(ShSuiteTest, KinectNoiseCostsLittleAboveExactDepth) {
   const SuiteResult r = RunQuick(RunShKinectNoiseSuite);
   ASSERT_EQ(r.method_errors.failed, 0);
-  // Measured: median 17.5 %, p90 65.9 %; floor 10.5 %, 32.2 %. Filtered depth gets no crease
-  // refinement (its 3 x 3 fits would follow the noise).
-  EXPECT_LT(r.method_errors.median, 0.20);
-  EXPECT_LT(r.method_errors.p90, 0.72);
+  // Measured: median 14.4 %, p90 50.6 %; floor 10.5 %, 32.2 % (before the relighting ratio was
+  // filtered: 17.5 %, 65.9 %). Filtered depth gets no crease refinement (its 3 x 3 fits would
+  // follow the noise).
+  EXPECT_LT(r.method_errors.median, 0.16);
+  EXPECT_LT(r.method_errors.p90, 0.56);
   EXPECT_LE(r.floor_errors.median, r.method_errors.median);
 }
 
@@ -55,11 +59,11 @@ TEST(ShSuiteTest, SmoothLightsAreWithinTheModelAndNormalsAreTheGap) {
   // wrong SH projection or irradiance table would show here.
   EXPECT_LT(r.floor_errors.median, 0.015);
   EXPECT_LT(r.floor_errors.p90, 0.07);
-  // The method's normals from depth cost the rest (measured median 8.16 %, p90 14.2 %; before
-  // normals were refined beside creases 10.2 %, 27.7 %): silhouettes, and creases where three
-  // faces meet.
-  EXPECT_LT(r.method_errors.median, 0.095);
-  EXPECT_LT(r.method_errors.p90, 0.17);
+  // The method's normals from depth cost the rest (measured median 4.93 %, p90 8.46 %; before
+  // the relighting ratio was filtered 8.16 %, 14.2 %; before normals were refined beside creases
+  // 10.2 %, 27.7 %): silhouettes, and creases where three faces meet.
+  EXPECT_LT(r.method_errors.median, 0.06);
+  EXPECT_LT(r.method_errors.p90, 0.10);
 }
 
 TEST(ShSuiteTest, ScenesRepeatFromTheirSeed) {

@@ -115,8 +115,8 @@ struct Knobs {
   // Destination light from a frame: the median error of the relit frames against that frame's
   // own photograph, where both show the same surface, above which SH is reported not to fit.
   // No truth is needed; it measures the error itself, on static views. Measured (tests/data/
-  // rigs/sim-sh-*, 2026-12-05): moving light ideal 1.7 %, with bounces 1.6 %, Kinect noise
-  // 4.4 %, overcast outdoor 3.3 %; over a floor (lamp shadows) 9.3 % (truth 9.0 %).
+  // rigs/sim-sh-*, 2026-12-05): moving light ideal 1.5 %, with bounces 1.5 %, Kinect noise
+  // 3.8 %, overcast outdoor 2.9 %; over a floor (lamp shadows) 9.3 % (truth 9.0 %).
   double max_destination_photo_error = 0.10;
   bool true_normals = false;  // diagnostic: the world's normals instead of the estimated ones
   // How depth a sensor recorded unregistered is resampled into the colour camera
@@ -168,6 +168,12 @@ struct Knobs {
     v.Knob("samples", samples.count, "pixels sampled per frame for the fit", {"fit"});
     v.Knob("min_irradiance_fraction", relight.min_irradiance_fraction,
            "source irradiance, as a share of its mean, below which a pixel is not divided", {"relight"});
+    v.Knob("relight_ratio_radius", relight.ratio_radius_px,
+           "radius of the joint bilateral filter of the relighting ratio (px; 0: each pixel by its own ratio)",
+           {"relight"});
+    v.Knob("relight_ratio_spatial_sigma", relight.ratio_spatial_sigma_px, "its spatial sigma (px)", {"relight"});
+    v.Knob("relight_ratio_range_sigma", relight.ratio_range_sigma,
+           "its range sigma, in the natural log of the source's luminance", {"relight"});
     v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"report"});
     v.Knob("truth_dir", truth_dir,
            "compare with a truth made outside relume: rgb.txt listing 'TIMESTAMP FILE.exr' linear renders of the "
@@ -204,7 +210,7 @@ Knobs ReadKnobs(PipelineRun& run) {
   if (!k.fit.IsValid(&why)) throw InvalidArgumentError("--set sh_order / max_condition_number / ...: " + why);
   if (!k.segmentation.IsValid(&why)) throw InvalidArgumentError("--set segments: " + why);
   if (!k.samples.IsValid(&why)) throw InvalidArgumentError("--set samples: " + why);
-  if (!k.relight.IsValid(&why)) throw InvalidArgumentError("--set min_irradiance_fraction: " + why);
+  if (!k.relight.IsValid(&why)) throw InvalidArgumentError("--set min_irradiance_fraction / relight_ratio_*: " + why);
   if (!(k.max_sun_shadowed_fraction >= 0.0 && k.max_sun_shadowed_fraction <= 1.0))
     throw InvalidArgumentError("--set max_sun_shadowed_fraction: must be within [0, 1]");
   if (!(k.min_sun_shadow_contrast >= 1.0 && std::isfinite(k.min_sun_shadow_contrast)))

@@ -1,8 +1,10 @@
 #include "processing/relight.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "core/error.h"
 
@@ -18,11 +20,75 @@ Eigen::Matrix<float, kShCount, 1> BasisF(const Eigen::Vector3f& d) {
   return b;
 }
 
+// The joint bilateral filter of the ratio image (RelightOptions::ratio_radius_px): over the
+// pixels `valid` marks, weights exp(-d^2 / 2 s^2) exp(-dg^2 / 2 r^2) with g = ln(luminance of
+// the source). Range weights come from a table up to 4 r; beyond it they are taken as 0.
+cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& source, const RelightOptions& options) {
+  const int radius = options.ratio_radius_px;
+  const cv::Size size = ratio.size();
+  cv::Mat guide(size, CV_32FC1, cv::Scalar(0.0f));
+  for (int y = 0; y < size.height; ++y) {
+    const cv::Vec3f* s = source.ptr<cv::Vec3f>(y);
+    const unsigned char* v = valid.ptr<unsigned char>(y);
+    float* g = guide.ptr<float>(y);
+    for (int x = 0; x < size.width; ++x) {
+      if (v[x]) g[x] = std::log(std::max(1e-30f, (s[x][0] + s[x][1] + s[x][2]) / 3.0f));
+    }
+  }
+  const int side = 2 * radius + 1;
+  std::vector<float> spatial(static_cast<std::size_t>(side * side));
+  const double s2 = 2.0 * options.ratio_spatial_sigma_px * options.ratio_spatial_sigma_px;
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      spatial[static_cast<std::size_t>((dy + radius) * side + dx + radius)] =
+          static_cast<float>(std::exp(-(dx * dx + dy * dy) / s2));
+    }
+  }
+  constexpr int kRangeSteps = 256;  // the table spans 4 range sigmas
+  std::vector<float> range(kRangeSteps);
+  for (int i = 0; i < kRangeSteps; ++i) {
+    const double u = 4.0 * i / kRangeSteps;
+    range[static_cast<std::size_t>(i)] = static_cast<float>(std::exp(-0.5 * u * u));
+  }
+  const float to_step = static_cast<float>(kRangeSteps / (4.0 * options.ratio_range_sigma));
+
+  cv::Mat out = ratio.clone();
+  for (int y = 0; y < size.height; ++y) {
+    const unsigned char* v = valid.ptr<unsigned char>(y);
+    cv::Vec3f* o = out.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < size.width; ++x) {
+      if (!v[x]) continue;
+      const float g0 = guide.at<float>(y, x);
+      float sum[3] = {0.0f, 0.0f, 0.0f}, weight = 0.0f;
+      for (int yy = std::max(0, y - radius); yy <= std::min(size.height - 1, y + radius); ++yy) {
+        const unsigned char* vv = valid.ptr<unsigned char>(yy);
+        const float* g = guide.ptr<float>(yy);
+        const cv::Vec3f* r = ratio.ptr<cv::Vec3f>(yy);
+        const float* w_row = &spatial[static_cast<std::size_t>((yy - y + radius) * side + radius - x)];
+        for (int xx = std::max(0, x - radius); xx <= std::min(size.width - 1, x + radius); ++xx) {
+          if (!vv[xx]) continue;
+          const int step = static_cast<int>(std::abs(g[xx] - g0) * to_step);
+          if (step >= kRangeSteps) continue;
+          const float w = w_row[xx] * range[static_cast<std::size_t>(step)];
+          for (int c = 0; c < 3; ++c) sum[c] += w * r[xx][c];
+          weight += w;
+        }
+      }
+      for (int c = 0; c < 3; ++c) o[x][c] = sum[c] / weight;  // the centre's own weight is 1
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 bool RelightOptions::IsValid(std::string* why) const {
   if (!(min_irradiance_fraction > 0.0) || min_irradiance_fraction >= 1.0) {
     if (why) *why = "min_irradiance_fraction must be in (0, 1)";
+    return false;
+  }
+  if (ratio_radius_px < 0 || ratio_radius_px > 32 || !(ratio_spatial_sigma_px > 0.0) || !(ratio_range_sigma > 0.0)) {
+    if (why) *why = "ratio_radius_px must be in [0, 32] and the ratio filter's sigmas > 0";
     return false;
   }
   return true;
@@ -78,11 +144,13 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
   const bool light_ok = mean.minCoeff() > 0.0;
   const Eigen::Vector3f floor_f = floor.cast<float>();
 
+  // The ratio E_dst / E_src per relit pixel, then (filtered) times the source.
+  cv::Mat ratio(size, CV_32FC3, cv::Scalar(nan, nan, nan));
   for (int y = 0; y < size.height; ++y) {
     const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
     const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
     const cv::Vec3f* in = src.pixels.ptr<cv::Vec3f>(y);
-    cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
+    cv::Vec3f* out = ratio.ptr<cv::Vec3f>(y);
     unsigned char* valid = result.valid.ptr<unsigned char>(y);
     for (int x = 0; x < size.width; ++x) {
       if (m && !m[x]) continue;
@@ -99,9 +167,19 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
         continue;
       }
       const Eigen::Vector3f e_dst = dst_k * y_basis;
-      for (int c = 0; c < 3; ++c) out[x][c] = in[x][c] * e_dst(c) / e_src(c);
+      for (int c = 0; c < 3; ++c) out[x][c] = e_dst(c) / e_src(c);
       valid[x] = 255;
       ++summary.relit_pixel_count;
+    }
+  }
+  if (options.ratio_radius_px > 0) ratio = FilterRatio(ratio, result.valid, src.pixels, options);
+  for (int y = 0; y < size.height; ++y) {
+    const unsigned char* valid = result.valid.ptr<unsigned char>(y);
+    const cv::Vec3f* r = ratio.ptr<cv::Vec3f>(y);
+    const cv::Vec3f* in = src.pixels.ptr<cv::Vec3f>(y);
+    cv::Vec3f* out = result.relit.pixels.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < size.width; ++x) {
+      if (valid[x]) out[x] = cv::Vec3f(in[x][0] * r[x][0], in[x][1] * r[x][1], in[x][2] * r[x][2]);
     }
   }
   if (!light_ok)

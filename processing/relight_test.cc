@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <opencv2/core.hpp>
 
 #include "core/error.h"
@@ -21,7 +22,9 @@ TEST(RelightTest, ExactLightsAndNormalsReproduceTheDestinationRendering) {
   const ShRgb src = Light({0.6, -0.4, 0.7}), dst = Light({-0.7, -0.2, 0.4});
   const testing::SyntheticFrame a = testing::RenderScene({}, src);
   const testing::SyntheticFrame b = testing::RenderScene({}, dst);
-  const RelightResult result = RelightSh(a.radiance, a.normal_in_camera, a.object_mask, src, dst);
+  RelightOptions per_pixel;  // each pixel by its own ratio: exact
+  per_pixel.ratio_radius_px = 0;
+  const RelightResult result = RelightSh(a.radiance, a.normal_in_camera, a.object_mask, src, dst, per_pixel);
   ASSERT_GT(result.summary.relit_pixel_count, 5000);
   EXPECT_EQ(result.summary.invalid_input_count, 0);
   double max_rel = 0.0;
@@ -97,6 +100,82 @@ TEST(RelightTest, CompositeTakesTheForegroundInsideTheMaskOnly) {
   EXPECT_THROW(Composite(fg, cv::Mat::zeros(2, 2, CV_8UC1), bg), InvalidArgumentError);
 }
 
+// Relative RMS of `relit` against `want` over the relit pixels.
+double RelitRms(const RelightResult& relit, const cv::Mat& want) {
+  double diff = 0.0, sum = 0.0;
+  for (int y = 0; y < want.rows; ++y) {
+    for (int x = 0; x < want.cols; ++x) {
+      if (!relit.valid.at<unsigned char>(y, x)) continue;
+      const cv::Vec3f got = relit.relit.pixels.at<cv::Vec3f>(y, x), w = want.at<cv::Vec3f>(y, x);
+      diff += cv::norm(got - w) * cv::norm(got - w);
+      sum += cv::norm(w) * cv::norm(w);
+    }
+  }
+  return std::sqrt(diff / sum);
+}
+
+// The ratio filter (RelightOptions::ratio_radius_px) averages the error of noisy normals, and
+// does not carry one surface's ratio across a shading edge onto another.
+TEST(RelightTest, RatioFilterAveragesNoisyNormalsWithoutCrossingEdges) {
+  const ShRgb src = Light({0.6, -0.4, 0.7}), dst = Light({-0.7, -0.2, 0.4});
+  const testing::SyntheticFrame a = testing::RenderScene({}, src);
+  const testing::SyntheticFrame b = testing::RenderScene({}, dst);
+  RelightOptions per_pixel;
+  per_pixel.ratio_radius_px = 0;
+  const RelightOptions filtered;
+  ASSERT_GT(filtered.ratio_radius_px, 0);
+
+  // Exact normals: the filter's bias on curved surfaces (measured 0.20 % relative RMS).
+  const double exact =
+      RelitRms(RelightSh(a.radiance, a.normal_in_camera, a.object_mask, src, dst, filtered), b.radiance.pixels);
+  EXPECT_LT(exact, 0.005);
+
+  // Normals with about 4 deg of noise per axis: the filter removes most of their error
+  // (measured 3.6 % per pixel, 0.90 % filtered).
+  cv::Mat noisy = a.normal_in_camera.clone();
+  cv::Mat noise(noisy.size(), CV_32FC3);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 0.07);
+  noisy += noise;
+  const double raw = RelitRms(RelightSh(a.radiance, noisy, a.object_mask, src, dst, per_pixel), b.radiance.pixels);
+  const double smoothed = RelitRms(RelightSh(a.radiance, noisy, a.object_mask, src, dst, filtered), b.radiance.pixels);
+  std::printf("ratio filter: exact normals %.4f; noisy normals per pixel %.4f, filtered %.4f\n", exact, raw, smoothed);
+  EXPECT_LT(smoothed, 0.5 * raw) << "per pixel " << raw << ", filtered " << smoothed;
+
+  // Two flat faces side by side, one lit twice as bright and relit by a different ratio: the
+  // filter keeps each face's own ratio up to the edge.
+  RadianceImage faces = MakeRadianceImage(16, 8);
+  cv::Mat normals(8, 16, CV_32FC3);
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 16; ++x) {
+      const bool left = x < 8;
+      normals.at<cv::Vec3f>(y, x) = left ? cv::Vec3f(0.6f, 0.0f, -0.8f) : cv::Vec3f(-0.6f, 0.0f, -0.8f);
+    }
+  }
+  ShRgb from = ShRgb::Zero(), to = ShRgb::Zero();
+  from.row(0).setConstant(1.0);
+  from.row(ShIndex(1, 1)).setConstant(0.4);  // brighter toward +x
+  to.row(0).setConstant(1.0);
+  to.row(ShIndex(1, 1)).setConstant(-0.4);  // brighter toward -x
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 16; ++x) {
+      const cv::Vec3f n = normals.at<cv::Vec3f>(y, x);
+      const Eigen::Vector3d e = ShIrradiance(from, Eigen::Vector3d(n[0], n[1], n[2]));
+      faces.pixels.at<cv::Vec3f>(y, x) = cv::Vec3f(0.5f * e.x(), 0.5f * e.y(), 0.5f * e.z());
+    }
+  }
+  const RelightResult split = RelightSh(faces, normals, {}, from, to, filtered);
+  const RelightResult each = RelightSh(faces, normals, {}, from, to, per_pixel);
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 16; ++x) {
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(split.relit.pixels.at<cv::Vec3f>(y, x)[c], each.relit.pixels.at<cv::Vec3f>(y, x)[c],
+                    1e-4 * each.relit.pixels.at<cv::Vec3f>(y, x)[c])
+            << x << "," << y;
+    }
+  }
+}
+
 TEST(RelightTest, RejectsMismatchedInputs) {
   RadianceImage image = MakeRadianceImage(4, 4);
   EXPECT_THROW(RelightSh(image, cv::Mat::zeros(3, 3, CV_32FC3), {}, ShRgb::Zero(), ShRgb::Zero()),
@@ -104,6 +183,10 @@ TEST(RelightTest, RejectsMismatchedInputs) {
   ShRgb nan_light = ShRgb::Zero();
   nan_light(0, 0) = NAN;
   EXPECT_THROW(RelightSh(image, cv::Mat::zeros(4, 4, CV_32FC3), {}, nan_light, ShRgb::Zero()), InvalidArgumentError);
+  RelightOptions bad;
+  bad.ratio_range_sigma = 0.0;
+  EXPECT_THROW(RelightSh(image, cv::Mat::zeros(4, 4, CV_32FC3), {}, ShRgb::Zero(), ShRgb::Zero(), bad),
+               InvalidArgumentError);
 }
 
 }  // namespace

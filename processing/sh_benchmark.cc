@@ -191,16 +191,19 @@ void BM_FitUnknownAlbedo(benchmark::State& state) {
 }
 BENCHMARK(BM_FitUnknownAlbedo)->ArgName("samples")->Arg(500)->Arg(2000)->Arg(8000)->Unit(benchmark::kMillisecond);
 
+// Arg: RelightOptions::ratio_radius_px (0: each pixel by its own ratio; 3: the default filter).
 void BM_Relight(benchmark::State& state) {
   const Fixture& f = Data();
   const Prepared& p = PreparedData();
+  RelightOptions options;
+  options.ratio_radius_px = static_cast<int>(state.range(0));
   for (auto _ : state) {
     const RelightResult r =
-        RelightSh(f.src.radiance, p.normals.normal_in_camera, f.src.object_mask, f.src_light, f.dst_light);
+        RelightSh(f.src.radiance, p.normals.normal_in_camera, f.src.object_mask, f.src_light, f.dst_light, options);
     benchmark::DoNotOptimize(r.relit.pixels.data);
   }
 }
-BENCHMARK(BM_Relight)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Relight)->ArgName("ratio_radius")->Arg(0)->Arg(3)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace relume::processing

@@ -189,9 +189,13 @@ py::array_t<double> ShRadiance(const py::object& light, const py::object& direct
 }
 
 py::tuple RelightSh(const py::object& source, const py::object& normals, const py::object& source_light,
-                    const py::object& target_light, const py::object& mask, double min_irradiance_fraction) {
+                    const py::object& target_light, const py::object& mask, double min_irradiance_fraction,
+                    int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma) {
   processing::RelightOptions options;
   options.min_irradiance_fraction = min_irradiance_fraction;
+  options.ratio_radius_px = ratio_radius_px;
+  options.ratio_spatial_sigma_px = ratio_spatial_sigma_px;
+  options.ratio_range_sigma = ratio_range_sigma;
   ThrowIfInvalid(options, "relight_sh");
   const processing::ShRgb src_light = LightFromArray(source_light, "source_light");
   const processing::ShRgb dst_light = LightFromArray(target_light, "target_light");
@@ -348,6 +352,9 @@ Returns:
         "the surface to the light): float64 (..., 3).");
   m.def("relight_sh", &RelightSh, "source"_a, "normals"_a, "source_light"_a, "target_light"_a, py::kw_only(),
         "mask"_a = py::none(), "min_irradiance_fraction"_a = processing::RelightOptions{}.min_irradiance_fraction,
+        "ratio_radius_px"_a = processing::RelightOptions{}.ratio_radius_px,
+        "ratio_spatial_sigma_px"_a = processing::RelightOptions{}.ratio_spatial_sigma_px,
+        "ratio_range_sigma"_a = processing::RelightOptions{}.ratio_range_sigma,
         R"doc(Relights by the ratio of SH irradiances (Ogura & Saito eq. 7): I_t = I_s E_t(n) / E_s(n).
 
 Args:
@@ -357,6 +364,11 @@ Args:
     mask: HxW bool/uint8, the pixels to relight (None: all).
     min_irradiance_fraction: a pixel whose source irradiance in some channel is below this
         fraction of that channel's mean source irradiance over the pixels is not divided.
+    ratio_radius_px, ratio_spatial_sigma_px, ratio_range_sigma: the ratio E_t / E_s is filtered
+        by a joint bilateral filter over the relit pixels, guided by the source's log
+        luminance (range sigma in its natural log), which averages the error of noisy normals
+        without crossing shading edges. ratio_radius_px=0: each pixel by its own ratio (exact
+        for exact normals and lights).
 
 Returns:
     (relit float32 HxWx3, NaN where not relit; valid bool HxW; summary dict with

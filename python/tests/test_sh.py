@@ -100,7 +100,7 @@ def test_relight_sh_is_the_ratio_of_irradiances():
     source = np.random.default_rng(7).uniform(0.1, 1.0, (20, 30, 3)).astype(np.float32)
     target_light = LIGHT * np.array([0.5, 1.0, 2.0])
     target_light[2] *= -1
-    relit, valid, summary = relume.relight_sh(source, normals, LIGHT, target_light)
+    relit, valid, summary = relume.relight_sh(source, normals, LIGHT, target_light, ratio_radius_px=0)
     n = normals.astype(np.float64)
     expected = source * irradiance(target_light, n) / irradiance(LIGHT, n)
     assert summary["requested_pixel_count"] == 600
@@ -114,3 +114,26 @@ def test_relight_sh_is_the_ratio_of_irradiances():
     normals[0, 0] = (0.0, 0.0, -1.0)
     _, valid, summary = relume.relight_sh(source, normals, dark, LIGHT)
     assert not valid[0, 0] and summary["guarded_pixel_count"] >= 1
+
+
+def test_relight_sh_filters_the_ratio_of_noisy_normals_by_default():
+    # A flat, evenly lit face whose normals are noisy: its ratio is one value, which the
+    # default joint bilateral filter of the ratio recovers far better than each pixel alone.
+    rng = np.random.default_rng(3)
+    normals = np.zeros((24, 24, 3), np.float32)
+    normals[..., 2] = -1.0
+    normals += rng.normal(0.0, 0.07, normals.shape).astype(np.float32)
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    source = np.full((24, 24, 3), 0.5, np.float32)
+    target_light = LIGHT * np.array([0.5, 1.0, 2.0])
+    target_light[2] *= -1
+    flat = np.array([0.0, 0.0, -1.0])
+    truth = 0.5 * irradiance(target_light, flat) / irradiance(LIGHT, flat)
+    each, valid_each, _ = relume.relight_sh(source, normals, LIGHT, target_light, ratio_radius_px=0)
+    filtered, valid, _ = relume.relight_sh(source, normals, LIGHT, target_light)
+    assert valid.all() and valid_each.all()
+    error_each = np.sqrt(np.mean((each - truth) ** 2))
+    error_filtered = np.sqrt(np.mean((filtered - truth) ** 2))
+    assert error_filtered < 0.5 * error_each, (error_each, error_filtered)
+    with pytest.raises(relume.InvalidArgumentError, match="relight_sh"):
+        relume.relight_sh(source, normals, LIGHT, target_light, ratio_range_sigma=0.0)
