@@ -64,12 +64,12 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
         const unsigned char* vv = valid.ptr<unsigned char>(yy);
         const float* g = guide.ptr<float>(yy);
         const cv::Vec3f* r = ratio.ptr<cv::Vec3f>(yy);
-        const float* w_row = &spatial[static_cast<std::size_t>((yy - y + radius) * side + radius - x)];
+        const int w_row = (yy - y + radius) * side + radius - x;  // spatial[w_row + xx]
         for (int xx = std::max(0, x - radius); xx <= std::min(size.width - 1, x + radius); ++xx) {
           if (!vv[xx]) continue;
           const int step = static_cast<int>(std::abs(g[xx] - g0) * to_step);
           if (step >= kRangeSteps) continue;
-          const float w = w_row[xx] * range[static_cast<std::size_t>(step)];
+          const float w = spatial[static_cast<std::size_t>(w_row + xx)] * range[static_cast<std::size_t>(step)];
           for (int c = 0; c < 3; ++c) sum[c] += w * r[xx][c];
           weight += w;
         }
