@@ -25,12 +25,13 @@ struct RelightOptions {
   // silhouette, a shadow edge) the source's shading changes too; so the filter averages the
   // error of per-pixel normals (noisy depth, blended creases, silhouettes) without crossing
   // them. Its cost is a bias on curved surfaces, where the ratio also changes along the
-  // source's isophotes: with exact normals and lights the analytic SH scene relights 0.48 %
-  // off with it, 0.19 % without (sh_accuracy_test.cc). Random SH suites (60 scenes, seed 1,
+  // source's isophotes: with exact normals and exact lights the analytic SH scene relights
+  // 0.20 % off (relight_test.cc; exact without it), with its fitted light and the true normals
+  // 0.48 % against 0.19 % (sh_accuracy_test.cc). Random SH suites (60 scenes, seed 1,
   // 2026-12-05), median / p90 without -> with: Kinect noise 20.5 / 43.9 -> 16.0 / 31.4 %, ideal
   // depth 12.1 / 33.7 -> 10.1 / 27.8 %, smooth lights 4.11 / 10.0 -> 3.02 / 9.36 %. Wider
   // (radius 4, sigma 2.67 px) gains more on the suites (Kinect 14.6 %) and costs more bias
-  // (0.76 %). 0: off, each pixel by its own ratio.
+  // (0.76 % with the fitted light). 0: off, each pixel by its own ratio.
   int ratio_radius_px = 3;
   double ratio_spatial_sigma_px = 1.5;
   double ratio_range_sigma = 0.015;  // of the natural log of the source's luminance (1.5 %)
