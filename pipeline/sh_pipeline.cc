@@ -115,8 +115,9 @@ struct Knobs {
   // Destination light from a frame: the median error of the relit frames against that frame's
   // own photograph, where both show the same surface, above which SH is reported not to fit.
   // No truth is needed; it measures the error itself, on static views. Measured (tests/data/
-  // rigs/sim-sh-*, 2026-12-05): moving light ideal 1.5 %, with bounces 1.5 %, Kinect noise
-  // 3.8 %, overcast outdoor 2.9 %; over a floor (lamp shadows) 9.3 % (truth 9.0 %).
+  // rigs/sim-sh-*, 2026-12-05; tests/apps/sh_pipeline_test.cc bounds each against the truth):
+  // moving light ideal 1.5 %, with bounces 1.5 %, Kinect noise 3.8 %, overcast outdoor 2.9 %;
+  // over a floor (lamp shadows) 9.3 % (truth 9.0 %).
   double max_destination_photo_error = 0.10;
   bool true_normals = false;  // diagnostic: the world's normals instead of the estimated ones
   // How depth a sensor recorded unregistered is resampled into the colour camera
@@ -1014,7 +1015,9 @@ cv::Mat DestinationTruth(PipelineRun& run, const Destination& dst, const std::ve
 struct Relit {
   fs::path dir;
   StageKey key;
-  ShRelightFigures summary;  // relight.json
+  ShRelightFigures summary;   // relight.json
+  Lazy<RadianceImage> image;  // relit.exr, read when a comparison first needs it
+  Lazy<cv::Mat> valid;        // valid.png
 };
 
 Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const FrameRadiance& radiance,
@@ -1044,6 +1047,8 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
   });
   out.dir = stage.dir;
   out.summary = ReadRecord<ShRelightFigures>(stage.dir / "relight.json");
+  out.image = LazyExr(stage.dir / "relit.exr");
+  out.valid = Lazy<cv::Mat>([path = stage.dir / "valid.png"] { return LoadMask(path); });
   if (out.summary.guarded > 0) {
     run.Decide("relight", "skip",
                "frame " + id + ": " + std::to_string(out.summary.guarded) +
@@ -1061,6 +1066,15 @@ double MedianOf(std::vector<double> values) {
   return n == 0 ? 0.0 : n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+// Says SH does not fit this scene: `reason` (one of the k*Reason tags) into the summary, and a
+// sh-model warning with `text`.
+void ReportMisfit(PipelineRun& run, ShPipelineSummary* out, const char* reason, const std::string& text) {
+  out->sh_fits_scene = false;
+  if (!out->misfit_reasons) out->misfit_reasons.emplace();
+  out->misfit_reasons->push_back(reason);
+  run.Decide("sh-model", "warn", "SH does not fit this scene's light: " + text);
+}
+
 // Whether the SH model describes this scene's light, from the fits' own residuals: a median
 // residual above k.max_fit_residual means light SH cannot represent (the cast shadows of a
 // distant sun or lamp; the SH model has no visibility), and every relit frame carries that error.
@@ -1071,30 +1085,24 @@ void CheckShFitsTheScene(PipelineRun& run, const Knobs& k, const std::vector<Fra
   if (shadows.sun_shadowed_fraction_median && shadows.sun_shadow_contrast_median &&
       *shadows.sun_shadowed_fraction_median > k.max_sun_shadowed_fraction &&
       *shadows.sun_shadow_contrast_median >= k.min_sun_shadow_contrast) {
-    out->sh_fits_scene = false;
-    out->misfit_reasons.emplace().push_back(kSunShadowsReason);
-    run.Decide("sh-model", "warn",
-               "SH does not fit this scene's light: toward the sun the session recorded, the depth shadows a median " +
-                   Percent(*shadows.sun_shadowed_fraction_median) + " of the pixels facing it (above " +
-                   Percent(k.max_sun_shadowed_fraction) + "), and the lit ones are " +
-                   Number(*shadows.sun_shadow_contrast_median) +
-                   "x as bright as the shadowed ones: the sun shone and the scene shadows itself. SH has no "
-                   "visibility term; with unknown albedo the colour segments absorb the sun, so the fit residual "
-                   "stays small while the light and every relit frame are wrong. Relight sunlit scenes with "
-                   "--pipeline irm");
+    ReportMisfit(run, out, kSunShadowsReason,
+                 "toward the sun the session recorded, the depth shadows a median " +
+                     Percent(*shadows.sun_shadowed_fraction_median) + " of the pixels facing it (above " +
+                     Percent(k.max_sun_shadowed_fraction) + "), and the lit ones are " +
+                     Number(*shadows.sun_shadow_contrast_median) +
+                     "x as bright as the shadowed ones: the sun shone and the scene shadows itself. SH has no "
+                     "visibility term; with unknown albedo the colour segments absorb the sun, so the fit residual "
+                     "stays small while the light and every relit frame are wrong. Relight sunlit scenes with "
+                     "--pipeline irm");
   }
   if (cast_shadow_share > k.max_cast_shadow_share) {
-    out->sh_fits_scene = false;
-    if (!out->misfit_reasons) out->misfit_reasons.emplace();
-    out->misfit_reasons->push_back(kFittedShadowsReason);
-    run.Decide("sh-model", "warn",
-               "SH does not fit this scene's light: the main light's cast shadows, found by marching the depth "
-               "toward it, remove a median " +
-                   Percent(cast_shadow_share) + " of the irradiance (RMS over the image; above " +
-                   Percent(k.max_cast_shadow_share) +
-                   "). SH has no visibility term, so the fit and the relit frames carry that error even where the "
-                   "fit residual looks small. For scenes that shadow themselves, relight brackets with --pipeline "
-                   "irm");
+    ReportMisfit(run, out, kFittedShadowsReason,
+                 "the main light's cast shadows, found by marching the depth toward it, remove a median " +
+                     Percent(cast_shadow_share) + " of the irradiance (RMS over the image; above " +
+                     Percent(k.max_cast_shadow_share) +
+                     "). SH has no visibility term, so the fit and the relit frames carry that error even where the "
+                     "fit residual looks small. For scenes that shadow themselves, relight brackets with --pipeline "
+                     "irm");
   }
   std::vector<double> residuals;
   for (const FrameFit& f : fits) {
@@ -1108,15 +1116,12 @@ void CheckShFitsTheScene(PipelineRun& run, const Knobs& k, const std::vector<Fra
   out->fit_residual_median = median;
   out->sh_fits_scene = out->sh_fits_scene.value_or(true) && fits_scene;
   if (fits_scene) return;
-  if (!out->misfit_reasons) out->misfit_reasons.emplace();
-  out->misfit_reasons->push_back(kResidualReason);
-  run.Decide("sh-model", "warn",
-             "SH does not fit this scene's light: the fits leave a median " + Percent(median) +
-                 " of the radiance unexplained (" + std::to_string(above) + " of " + std::to_string(residuals.size()) +
-                 " frames above " + Percent(k.max_fit_residual) +
-                 "; noise-free scenes 3 %, Kinect-like depth noise 13-15 %). Likely cast shadows of a distant "
-                 "light, which SH cannot represent; the relit frames carry that error. For sunlit scenes "
-                 "with cast shadows, relight still brackets with --pipeline irm");
+  ReportMisfit(run, out, kResidualReason,
+               "the fits leave a median " + Percent(median) + " of the radiance unexplained (" + std::to_string(above) +
+                   " of " + std::to_string(residuals.size()) + " frames above " + Percent(k.max_fit_residual) +
+                   "; noise-free scenes 3 %, Kinect-like depth noise 13-15 %). Likely cast shadows of a distant "
+                   "light, which SH cannot represent; the relit frames carry that error. For sunlit scenes "
+                   "with cast shadows, relight still brackets with --pipeline irm");
 }
 
 // After relighting to a frame's light: the relit frames against that frame's photograph
@@ -1126,17 +1131,14 @@ void CheckRelitAgainstTheDestinationPhoto(PipelineRun& run, const Knobs& k, ShPi
   if (!out->destination_photo_relative_rms_median) return;
   const double median = *out->destination_photo_relative_rms_median;
   if (median <= k.max_destination_photo_error) return;
-  out->sh_fits_scene = false;
-  if (!out->misfit_reasons) out->misfit_reasons.emplace();
-  out->misfit_reasons->push_back(kDestinationPhotoReason);
-  run.Decide("sh-model", "warn",
-             "SH does not fit this scene's light: where the relit frames show the same surfaces as the destination "
-             "frame, they differ from its photograph by a median " +
-                 Percent(median) + " (signal-relative RMS over " + std::to_string(*out->destination_photo_frames) +
-                 " frame(s); above " + Percent(k.max_destination_photo_error) +
-                 "). Likely causes: cast shadows or light SH order 2 cannot represent (a lamp close to the scene), "
-                 "clipped or badly exposed colour frames, or normals the depth cannot give. For sunlit scenes "
-                 "relight still brackets with --pipeline irm");
+  ReportMisfit(run, out, kDestinationPhotoReason,
+               "where the relit frames show the same surfaces as the destination "
+               "frame, they differ from its photograph by a median " +
+                   Percent(median) + " (signal-relative RMS over " + std::to_string(*out->destination_photo_frames) +
+                   " frame(s); above " + Percent(k.max_destination_photo_error) +
+                   "). Likely causes: cast shadows or light SH order 2 cannot represent (a lamp close to the scene), "
+                   "clipped or badly exposed colour frames, or normals the depth cannot give. For sunlit scenes "
+                   "relight still brackets with --pipeline irm");
 }
 
 // What every frame's comparison with the world's truth shares.
@@ -1193,8 +1195,8 @@ ShTruthFigures CompareWithTruth(PipelineRun& run, const TruthInputs& in, std::si
               white = std::max(1e-12, static_cast<double>(lum[lum.size() * 99 / 100]));
             }
             processing::RelightResult image;
-            image.relit = calibration::LoadRadianceExr((relit->dir / "relit.exr").string());
-            image.valid = LoadMask(relit->dir / "valid.png");
+            image.relit = relit->image.get();
+            image.valid = relit->valid.get();
             CompareFrame(image, radiance.radiance.get(), dst_truth, white, &t);
             if (t.compared_pixels == 0) t.truth_under_destination = how + "; no relit pixel to compare";
           }
@@ -1295,12 +1297,16 @@ void DecideRadianceModel(PipelineRun& run, const ShInputs& in) {
 // the frames' geometry steps, which read their previous frame back from disk, do not decide again.
 void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
   const double skip_below = k->geometry.skip_filter_below_at_1m_m;
+  const processing::DepthFilterDecision decision =
+      !k->geometry.filter_depth || skip_below <= 0.0
+          ? processing::DepthFilterDecision{k->geometry.filter_depth, std::nullopt}
+          : processing::DecideDepthFiltering(run.session().LoadDepth(first.depth), k->geometry);
+  k->geometry.filter_depth = decision.filter;
   k->geometry.skip_filter_below_at_1m_m = 0.0;
-  if (!k->geometry.filter_depth || skip_below <= 0.0) return;
-  const processing::DepthNoiseEstimate noise = processing::EstimateDepthNoise(run.session().LoadDepth(first.depth));
-  const std::string measured = "depth noise of frame " + std::to_string(first.depth.id) + ": " + noise.Describe();
-  if (noise.NoiseFree(skip_below)) {
-    k->geometry.filter_depth = false;
+  if (!decision.noise) return;
+  const std::string measured =
+      "depth noise of frame " + std::to_string(first.depth.id) + ": " + decision.noise->Describe();
+  if (!decision.filter) {
     run.Decide("denoise", "skip",
                measured + ": below " + Number(skip_below * 1e3) +
                    " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
@@ -1489,10 +1495,9 @@ ShTruthFigures CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
   }
   t.truth_under_destination = "the external render at the destination frame's time (static scene: " + Percent(moved) +
                               " of depth pixels moved)";
-  const RadianceImage relit_image = calibration::LoadRadianceExr((relit.dir / "relit.exr").string());
-  const cv::Mat valid = LoadMask(relit.dir / "valid.png");
+  const cv::Mat& valid = relit.valid.get();
   const metrics::SignalError e =
-      metrics::SignalRelativeRms(relit_image.pixels, dst_truth, valid, metrics::Scale::kFitted);
+      metrics::SignalRelativeRms(relit.image.get().pixels, dst_truth, valid, metrics::Scale::kFitted);
   const metrics::SignalError base =
       metrics::SignalRelativeRms(f.radiance[i].radiance.get().pixels, dst_truth, valid, metrics::Scale::kFitted);
   const metrics::SignalError floor =
@@ -1509,25 +1514,47 @@ ShTruthFigures CompareWithExternalTruth(PipelineRun& run, const ExternalShTruth&
   return t;
 }
 
+// Stage photo-<id>'s record (photo.json): CompareWithDestinationPhoto's figures.
+struct ShPhotoFigures {
+  std::int64_t pixels = 0;             // relit pixels showing the same surface as the destination's
+  std::optional<double> relative_rms;  // signal-relative RMS there; none when under a tenth of the relit
+  template <typename V>
+  void VisitFields(V& v) {
+    v.Field("pixels", pixels);
+    v.Field("relative_rms", relative_rms);
+  }
+};
+
 // The relit frame against the destination frame's own photograph, where both frames show the
 // same surface (depth in both moved by at most normals_reuse_sigmas range sigmas: a static
 // view) and the destination pixel has a normal and did not clip: what the session itself shows
 // of the relighting's error, with no truth. Into `m`; no error when the frames share under a
-// tenth of the relit pixels (the view or the object moved).
-void CompareWithDestinationPhoto(const Knobs& k, const FrameStages& f, std::size_t dst_index, std::size_t i,
-                                 const Relit& relit, ShFrameFigures* m) {
+// tenth of the relit pixels (the view or the object moved). A cached stage keyed by the relit
+// frame and the destination frame's radiance and geometry, so a rerun reads no image.
+void CompareWithDestinationPhoto(PipelineRun& run, const Knobs& k, const FrameStages& f, std::size_t dst_index,
+                                 std::size_t i, std::int64_t color_id, const Relit& relit, ShFrameFigures* m) {
   const FrameGeometry& src = f.geometry[i];
   const FrameGeometry& dst = f.geometry[dst_index];
-  const cv::Mat shared =
-      processing::UnchangedDepthMask(src.depth.get(), dst.depth.get(), k.geometry.bilateral.range_sigma_at_1m_m,
-                                     k.geometry.reuse_sigmas) &
-      dst.mask.get() & ~f.radiance[dst_index].clipped.get() & LoadMask(relit.dir / "valid.png");
-  const RadianceImage image = calibration::LoadRadianceExr((relit.dir / "relit.exr").string());
-  const metrics::SignalError error = metrics::SignalRelativeRms(
-      image.pixels, f.radiance[dst_index].radiance.get().pixels, shared, metrics::Scale::kAbsolute);
-  m->destination_photo_pixels = error.pixels;
-  if (error.pixels > 0 && error.pixels >= relit.summary.relit / 10)
-    m->destination_photo_relative_rms = error.relative_rms;
+  const FrameRadiance& photo = f.radiance[dst_index];
+  StageKey key;
+  key.Add("stage", "sh-photo-v1").AddKey("relit", relit.key).AddKey("source_geometry", src.key);
+  key.AddKey("destination_geometry", dst.key).AddKey("destination_radiance", photo.key);
+  key.Add("range_sigma_at_1m_m", k.geometry.bilateral.range_sigma_at_1m_m).Add("sigmas", k.geometry.reuse_sigmas);
+  const StageStore::Result stage = run.RunStage("photo-" + std::to_string(color_id), key, [&](const fs::path& dir) {
+    const cv::Mat shared =
+        processing::UnchangedDepthMask(src.depth.get(), dst.depth.get(), k.geometry.bilateral.range_sigma_at_1m_m,
+                                       k.geometry.reuse_sigmas) &
+        dst.mask.get() & ~photo.clipped.get() & relit.valid.get();
+    const metrics::SignalError error = metrics::SignalRelativeRms(relit.image.get().pixels, photo.radiance.get().pixels,
+                                                                  shared, metrics::Scale::kAbsolute);
+    ShPhotoFigures figures;
+    figures.pixels = error.pixels;
+    if (error.pixels > 0 && error.pixels >= relit.summary.relit / 10) figures.relative_rms = error.relative_rms;
+    WriteRecord(dir / "photo.json", figures);
+  });
+  const ShPhotoFigures figures = ReadRecord<ShPhotoFigures>(stage.dir / "photo.json");
+  m->destination_photo_pixels = figures.pixels;
+  m->destination_photo_relative_rms = figures.relative_rms;
 }
 
 // Frame i's entry in the metrics' "frames": its fit, its relighting to the destination light (a
@@ -1552,7 +1579,7 @@ ShFrameFigures RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in
     totals->guarded += relit->summary.guarded;
     totals->relit_pixels += relit->summary.relit;
     if (dst.kind == "frame") {
-      CompareWithDestinationPhoto(k, f, *dst.frame_index, i, *relit, &m);
+      CompareWithDestinationPhoto(run, k, f, *dst.frame_index, i, m.color_frame, *relit, &m);
       if (m.destination_photo_relative_rms) totals->photo_errors.push_back(*m.destination_photo_relative_rms);
     }
   }

@@ -86,6 +86,18 @@ struct ShGeometry {
   bool normals_reused = false;
 };
 
+// A stream's filter decision (ShGeometryOptions::skip_filter_below_at_1m_m), made on its first
+// depth frame over the whole frame: filter unless filter_depth is off or the frame measures
+// noise-free. `noise` holds the measurement when one was made (filter_depth on and a positive
+// threshold). EstimateShGeometry calls it on a stream's first frame; a caller that runs the
+// frames as separate steps (the sh pipeline's cached stages) calls it once and passes the
+// decision on with the threshold cleared.
+struct DepthFilterDecision {
+  bool filter = true;
+  std::optional<DepthNoiseEstimate> noise;
+};
+DepthFilterDecision DecideDepthFiltering(const cv::Mat& first_depth_m, const ShGeometryOptions& options);
+
 // depth_m: CV_32FC1 metres in the colour camera (intrinsics' size). region: CV_8UC1, the pixels
 // that need normals (empty: the whole frame): filtering and normals run on its bounding
 // rectangle grown by the filter's and the normal window's reach (see the top of this file).
