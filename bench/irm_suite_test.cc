@@ -181,5 +181,29 @@ TEST(IrmBouncesSuiteTest, LitAndShadowErrorsStayWithinWhatWasMeasured) {
   EXPECT_LE(shadow.floor_errors.median, shadow.method_errors.median * 1.05);
 }
 
+TEST(IrmBouncesSuiteTest, WhenNoFitHoldsPerSampleTheBinsDecideTheIndirectLight) {
+  // Scene 11 of seed 1: no sky in the target photograph, and the per-sample fits go negative
+  // with and without the indirect term (a target sun of -0.6), so until 2026-12-05 the indirect
+  // light was left out: shadow 16.3 %, lit 4.6 % (floor 1.8 / 0.2 %). The bin means fitted with
+  // the same known q keep it where the photographs have bounces (measured shadow 2.17 %, lit
+  // 0.70 %) and leave it out where they have none (the direct-light render: shadow 1.34 %,
+  // unchanged).
+  SuiteOptions options;
+  options.scene_seed = 10682531704454680323ull;
+  options.quick = true;
+  std::vector<SuiteResult> bounces = RunIrmBouncesSuite(options);
+  std::vector<SuiteResult> direct = RunIrmSuite(options);
+  ASSERT_EQ(bounces.size(), 3u);
+  ASSERT_EQ(direct.size(), 3u);
+  const SceneResult& shadow = bounces[1].scenes.at(0);
+  EXPECT_NE(shadow.notes.find("indirect light (share of the model's irradiance)"), std::string::npos) << shadow.notes;
+  EXPECT_LT(shadow.method, 0.025) << shadow.notes;
+  EXPECT_LT(bounces[0].scenes.at(0).method, 0.01);
+  const SceneResult& direct_shadow = direct[1].scenes.at(0);
+  EXPECT_NE(direct_shadow.notes.find("no interreflection in these photographs"), std::string::npos)
+      << direct_shadow.notes;
+  EXPECT_LT(direct_shadow.method, 0.015);
+}
+
 }  // namespace
 }  // namespace relume::bench
