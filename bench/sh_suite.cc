@@ -18,6 +18,11 @@
 // normals, sample points, known-albedo SH fit; primed on a previous frame as in a stream), then
 // RelightSh to the destination light estimated the same way from a frame of the scene under
 // it (the pipeline's default --target-light FRAME).
+// Bounces (sh-smooth-light-bounces): the smooth-light scenes, the same draws, with the light the
+// objects and the wall send each other added to both renders (3 diffuse bounces, path traced:
+// bench/primitive_bounces.h). The direct light stays unoccluded, as in the other suites (cast
+// shadows are another failure of the SH model); what this adds is near-field light, which a
+// distant SH light cannot represent exactly.
 // Floor: the same fits and relighting given the TRUE normals at the same sample points: what
 // order-2 SH lighting can do on this scene at best; the gap to the method is what depth noise
 // and normal estimation cost. The notes split the gap (the method's light with the true
@@ -32,6 +37,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "bench/primitive_bounces.h"
 #include "bench/suites.h"
 #include "processing/metrics.h"
 #include "processing/relight.h"
@@ -328,12 +334,29 @@ NormalDiagnosis DiagnoseNormals(const processing::RelightResult& relit, const cv
   return out;
 }
 
-SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightFamily family) {
+SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightFamily family, bool bounces) {
   const ShSceneDraw d = DrawScene(seed, quick, family);
-  const pt::SyntheticFrame src =
-      pt::RenderPrimitives(d.scene, [&](const Eigen::Vector3d& n) { return d.source.Irradiance(n); });
-  const pt::SyntheticFrame dst =
-      pt::RenderPrimitives(d.scene, [&](const Eigen::Vector3d& n) { return d.destination.Irradiance(n); });
+  const pt::IrradianceFunction source_light = [&](const Eigen::Vector3d& n) { return d.source.Irradiance(n); };
+  const pt::IrradianceFunction destination_light = [&](const Eigen::Vector3d& n) {
+    return d.destination.Irradiance(n);
+  };
+  pt::SyntheticFrame src = pt::RenderPrimitives(d.scene, source_light);
+  pt::SyntheticFrame dst = pt::RenderPrimitives(d.scene, destination_light);
+  // The bounces suite: the light the objects and the wall send each other, on both renders
+  // (the photographs and the truth alike), seeded per scene.
+  std::ostringstream bounce_notes;
+  if (bounces) {
+    PrimitiveBouncesOptions options;
+    options.bounces = kSuiteBounces;
+    options.seed = seed ^ 0xb0;
+    const PrimitiveBouncesSummary a = AddPrimitiveInterreflection(d.scene, source_light, options, &src);
+    options.seed = seed ^ 0xb1;
+    const PrimitiveBouncesSummary b = AddPrimitiveInterreflection(d.scene, destination_light, options, &dst);
+    bounce_notes.precision(3);
+    bounce_notes << "; indirect share of the objects' irradiance " << 100.0 * a.indirect_share_mean << " / "
+                 << 100.0 * b.indirect_share_mean << " % (source / destination, " << options.bounces << " bounces, "
+                 << options.paths << " paths per pixel)";
+  }
   // Four depth frames of the same view: the primers of the two streams, then the two measured.
   auto noisy = [&](std::uint64_t salt) {
     return kinect_noise ? pt::AddKinectDepthNoise(src.depth_m, seed ^ salt) : src.depth_m;
@@ -398,24 +421,26 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
         << estimate.summary.order_used << "/" << target.summary.order_used << ", fit residual "
         << estimate.summary.relative_rms_residual << "/" << target.summary.relative_rms_residual << ", relit "
         << relit.summary.relit_pixel_count << " of " << relit.summary.requested_pixel_count
-        << " px; floor with the projected destination light " << projected;
+        << " px; floor with the projected destination light " << projected << bounce_notes.str();
   r.notes = notes.str();
   return r;
 }
 
-SuiteResult RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFamily family) {
+SuiteResult RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFamily family, bool bounces = false) {
   SuiteResult result;
   result.suite = family == LightFamily::kSmooth ? "sh-smooth-light"
                  : kinect_noise                 ? "sh-kinect-noise"
                                                 : "sh-ideal-depth";
+  if (bounces) result.suite += "-bounces";
   result.metric = "relit signal-relative RMS";
+  if (bounces) result.metric += "; rendered with " + std::to_string(kSuiteBounces) + " diffuse bounces";
   result.method = std::string(kinect_noise ? "Kinect-like depth noise" : "exact depth") +
                   " -> denoise decision -> normals -> known-albedo SH fit (order 2) -> relight";
   result.floor = "true normals at the same samples";
   result.goal_median = kinect_noise ? 0.04 : 0.02;
   result.goal_p90 = kinect_noise ? 0.06 : 0.03;
   for (int i = 0; i < options.SceneCount(); ++i) {
-    result.scenes.push_back(RunShScene(options.SeedOf(i), options.quick, kinect_noise, family));
+    result.scenes.push_back(RunShScene(options.SeedOf(i), options.quick, kinect_noise, family, bounces));
   }
   return result;
 }
@@ -432,6 +457,10 @@ std::vector<SuiteResult> RunShKinectNoiseSuite(const SuiteOptions& options) {
 
 std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options) {
   return {RunShSuite(options, false, LightFamily::kSmooth)};
+}
+
+std::vector<SuiteResult> RunShSmoothLightBouncesSuite(const SuiteOptions& options) {
+  return {RunShSuite(options, false, LightFamily::kSmooth, true)};
 }
 
 }  // namespace relume::bench

@@ -104,6 +104,8 @@ const std::vector<SuiteEntry>& Suites() {
       {"sh-kinect-noise", "sh", "as sh-ideal-depth with Kinect-like depth noise", RunShKinectNoiseSuite},
       {"sh-smooth-light", "sh", "as sh-ideal-depth under smooth lights (sky and broad lobes) that SH can represent",
        RunShSmoothLightSuite},
+      {"sh-smooth-light-bounces", "sh", "as sh-smooth-light rendered with 3 diffuse bounces (interreflection)",
+       RunShSmoothLightBouncesSuite},
       {"irm-outdoor", "irm", "IRM relighting on random outdoor scenes: lit, shadow, penumbra", RunIrmSuite},
       {"irm-outdoor-bounces", "irm", "as irm-outdoor rendered with 3 diffuse bounces (interreflection)",
        RunIrmBouncesSuite},

@@ -11,6 +11,9 @@ namespace relume::bench {
 std::vector<SuiteResult> RunShIdealDepthSuite(const SuiteOptions& options);
 std::vector<SuiteResult> RunShKinectNoiseSuite(const SuiteOptions& options);
 std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options);
+// The smooth-light scenes (the same draws) rendered with kSuiteBounces diffuse bounces between
+// the objects and the wall (bench/primitive_bounces.h).
+std::vector<SuiteResult> RunShSmoothLightBouncesSuite(const SuiteOptions& options);
 
 // bench/radiosity_suite.cc: reflectance estimation with radiosity indirect light in random rooms.
 std::vector<SuiteResult> RunRadiositySuite(const SuiteOptions& options);
