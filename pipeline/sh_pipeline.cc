@@ -569,7 +569,7 @@ void TrueNormalsInCamera(const SessionTruth& world, const PinholeCamera& camera,
 StageKey GeometryKey(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const PinholeIntrinsics& K,
                      const RecordedColorGeometry& recorded, const FrameGeometry* previous) {
   StageKey key;
-  key.Add("stage", "sh-geometry-v4").Add("depth", pair.depth.sha256);
+  key.Add("stage", "sh-geometry-v5").Add("depth", pair.depth.sha256);
   key.Add("fx", K.fx).Add("fy", K.fy).Add("cx", K.cx).Add("cy", K.cy);
   AddLensToKey(key, recorded);
   if (!recorded.registered) {  // registered here, from the recorded geometry
@@ -1304,6 +1304,8 @@ void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
   k->geometry.filter_depth = decision.filter;
   k->geometry.skip_filter_below_at_1m_m = 0.0;
   if (!decision.noise) return;
+  // Measured noise-free: the normals' crease refinement need not measure each frame again.
+  if (!decision.filter) k->geometry.normals.refine_creases_below_noise_at_1m_m = 0.0;
   const std::string measured =
       "depth noise of frame " + std::to_string(first.depth.id) + ": " + decision.noise->Describe();
   if (!decision.filter) {

@@ -234,6 +234,7 @@ bool NormalOptions::IsValid(std::string* why) const {
   if (!(plane_step_tolerance >= 0.0) || plane_step_tolerance > 1.0) {
     return fail("plane_step_tolerance must be in [0, 1]");
   }
+  if (!(refine_creases_below_noise_at_1m_m >= 0.0)) return fail("refine_creases_below_noise_at_1m_m must be >= 0");
   if (!(min_valid_fraction > 0.0) || min_valid_fraction > 1.0) return fail("min_valid_fraction must be in (0, 1]");
   return true;
 }
@@ -289,11 +290,18 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
 
   Integrals integrals;
   if (r > 0) integrals.Build(vertices, edge_map);
-  const bool refine_creases = options.refine_creases && r > 0;
+  NormalMap result;
+  bool refine_creases = options.refine_creases && r > 0;
+  if (refine_creases && options.refine_creases_below_noise_at_1m_m > 0.0) {
+    DepthNoiseEstimate noise = EstimateDepthNoise(depth_m);
+    if (!noise.NoiseFree(options.refine_creases_below_noise_at_1m_m)) {
+      refine_creases = false;
+      result.creases_skipped_for_noise = std::move(noise);
+    }
+  }
   const cv::Mat near_kink = refine_creases ? NearKinks(depth_m, r, plane_tolerance) : cv::Mat();
   const double min_count = options.min_valid_fraction * (2 * r + 1) * r;
 
-  NormalMap result;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   result.normal_in_camera.create(rows, cols, CV_32FC3);
   result.normal_in_camera.setTo(cv::Scalar(nan, nan, nan));

@@ -25,8 +25,8 @@
 // Creases (refine_creases). Where two planes meet (a box's edge) depth is continuous, so the
 // boxes of every pixel within r of the crease hold both planes and blend their normals. On the
 // random SH suites' exact depth, pixels within 2 px of a crease carried 55-57 % of the relit
-// squared error (median scene; a one-off diagnostic of 2026-12-05, no test repeats it). The refinement: a pixel within r of a kink (inverse depth's
-// second difference along a row or column above plane_step_tolerance w, and at least twice
+// squared error (median scene; a one-off diagnostic of 2026-12-05, no test repeats it). The refinement: a pixel within
+// r of a kink (inverse depth's second difference along a row or column above plane_step_tolerance w, and at least twice
 // those 2 px either side: a crease, not a smoothly curved surface) whose centred (2 r + 1)^2
 // box is not planar (plane-fit variance along the normal above kCreasePlanarity times the
 // variance within the plane) takes the normal of the most planar of the 8 boxes of 3 x 3
@@ -38,13 +38,22 @@
 // 3 x 3 fits need depth without noise (rendered depth, a mesh's, depth judged noise-free): on
 // noisy depth they follow the noise, so the SH geometry step turns the refinement off whenever
 // it filters depth (on the Kinect-noise suite, filtered, it raised the p90 relit error from
-// 43.9 % to about 46 % in trials that no test repeats).
+// 43.9 % to about 46 % in trials that no test repeats). Noisy depth also makes nearly every
+// pixel a kink candidate (13-30 % of the pixels are kinks at 0.05-2 mm of noise or in whole
+// millimetres, against 5-15 % on the suites' exact depth, so their share cannot tell), and the
+// plane fits then cost 50x the estimate: 1.15 s against 23 ms for a 640x480 plane with 2 mm
+// of noise (2026-12-05). So EstimateNormals first measures the depth's own noise
+// (EstimateDepthNoise, ~12 ms at 640x480) and refines only depth NoiseFree below
+// refine_creases_below_noise_at_1m_m; 0 skips the measurement, for a caller that has judged
+// the depth noise-free already (the SH geometry step, which measured its stream's first frame).
 #pragma once
 
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 
 #include "core/pinhole.h"
+#include "processing/depth_filter.h"
 
 namespace relume::processing {
 
@@ -68,6 +77,10 @@ struct NormalOptions {
   // 48.1 % at 5e-4 and 49.0 % at 0.02.
   double plane_step_tolerance = 1e-4;
   bool refine_creases = true;  // see "Creases" above; for depth without noise
+  // With refine_creases: refine only when the depth measures NoiseFree below this (at 1 m, the
+  // SH pipeline's denoise rule); 0 = refine without measuring (the caller knows the depth is
+  // noise-free). See "Creases" above.
+  double refine_creases_below_noise_at_1m_m = kDenoiseSkipBelowAt1mM;
   static constexpr double kCreasePlanarity = 0.001;
   static constexpr double kCreaseGain = 20.0;
   bool IsValid(std::string* why) const;
@@ -81,6 +94,9 @@ struct NormalMap {
   int cross_count = 0;
   int crease_count = 0;   // refined beside a crease (not in integral_count)
   int invalid_count = 0;  // pixels with depth but no normal
+  // refine_creases asked for, but the depth measured noisy (refine_creases_below_noise_at_1m_m):
+  // no pixel refined; the measurement says how noisy.
+  std::optional<DepthNoiseEstimate> creases_skipped_for_noise;
 };
 
 // Throws InvalidArgumentError for bad options, invalid intrinsics or a depth map whose size

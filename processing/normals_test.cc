@@ -292,6 +292,23 @@ TEST(NormalsTest, CreasesKeepEachFacesNormal) {
   EXPECT_EQ(EstimateNormals(TiltedPlane().depth_m, kIntrinsics).crease_count, 0);
   const NormalMap sphere = EstimateNormals(Sphere().depth_m, kIntrinsics);
   EXPECT_EQ(sphere.crease_count, 0);
+  EXPECT_FALSE(after.creases_skipped_for_noise.has_value());
+
+  // The same boxes with Kinect-like noise: the depth measures noisy, so no pixel is refined
+  // (the 3 x 3 fits would follow the noise, at ~50x the estimate's cost), and the map says
+  // why. Forced (threshold 0), the fits run and refine noise.
+  const cv::Mat noisy = testing::AddKinectDepthNoise(frame.depth_m, 5);
+  const NormalMap skipped = EstimateNormals(noisy, kIntrinsics);
+  ASSERT_TRUE(skipped.creases_skipped_for_noise.has_value());
+  EXPECT_GT(skipped.creases_skipped_for_noise->sigma_at_1m_m, 5e-4);
+  EXPECT_EQ(skipped.crease_count, 0);
+  NormalOptions forced;
+  forced.refine_creases_below_noise_at_1m_m = 0.0;
+  const NormalMap refined_noise = EstimateNormals(noisy, kIntrinsics, forced);
+  EXPECT_FALSE(refined_noise.creases_skipped_for_noise.has_value());
+  EXPECT_GT(refined_noise.crease_count, 0);
+  forced.refine_creases_below_noise_at_1m_m = -1.0;
+  EXPECT_THROW(EstimateNormals(noisy, kIntrinsics, forced), InvalidArgumentError);
 }
 
 TEST(NormalsTest, IsolatedPixelHasNoNormal) {

@@ -192,6 +192,20 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
     // crease refinement's 3 x 3 plane fits would fit the noise (processing/normals.h).
     NormalOptions normals = options.normals;
     normals.refine_creases = normals.refine_creases && !filter;
+    if (normals.refine_creases && normals.refine_creases_below_noise_at_1m_m > 0.0) {
+      // Unfiltered depth is refined only when noise-free. A stream that measured its first
+      // frame has decided that; otherwise (filter_depth off) this frame is measured here, over
+      // the whole frame: the roi alone has too few windows for NoiseFree (see DecideDepthFiltering).
+      const bool stream_measured = options.filter_depth && options.skip_filter_below_at_1m_m > 0.0;
+      if (!stream_measured) {
+        DepthNoiseEstimate noise = EstimateDepthNoise(depth_m);
+        if (!noise.NoiseFree(normals.refine_creases_below_noise_at_1m_m)) {
+          normals.refine_creases = false;
+          g.creases_skipped_for_noise = std::move(noise);
+        }
+      }
+      normals.refine_creases_below_noise_at_1m_m = 0.0;
+    }
     g.normals = NormalsOnRoi(g.depth_m, intrinsics, roi, normals);
   }
   g.mask = MaskWithDepth(g.normals.valid, g.depth_m);

@@ -81,6 +81,9 @@ struct ShGeometry {
   bool depth_filtered = false;  // the stream's filter decision (ShGeometryOptions::filter_depth)
   // The noise measured for the decision: a stream's first frame, when it was decided here.
   std::optional<DepthNoiseEstimate> depth_noise;
+  // Depth not filtered (filter_depth off) but measured noisy: no crease refinement
+  // (NormalOptions::refine_creases_below_noise_at_1m_m), and how noisy.
+  std::optional<DepthNoiseEstimate> creases_skipped_for_noise;
   int temporal_blended = 0;
   std::optional<double> depth_changed_fraction;  // normals_reuse with a previous frame
   bool normals_reused = false;

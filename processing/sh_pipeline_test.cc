@@ -157,6 +157,14 @@ TEST(ShPipelineTest, CreasesAreRefinedOnlyOnDepthThatIsNotFiltered) {
   const ShGeometry blended = EstimateShGeometry(frame.depth_m, scene.intrinsics, {}, off, nullptr);
   EXPECT_EQ(blended.normals.crease_count, 0);
   EXPECT_EQ(cv::countNonZero(blended.mask), cv::countNonZero(exact.mask));
+  // Not filtered (filter_depth off) but noisy: the frame is measured over the whole frame, and
+  // the refinement is skipped with the reason.
+  EXPECT_FALSE(exact.creases_skipped_for_noise.has_value());
+  const ShGeometry noisy =
+      EstimateShGeometry(testing::AddKinectDepthNoise(frame.depth_m, 3), scene.intrinsics, {}, unfiltered, nullptr);
+  ASSERT_TRUE(noisy.creases_skipped_for_noise.has_value());
+  EXPECT_GT(noisy.creases_skipped_for_noise->sigma_at_1m_m, 5e-4);
+  EXPECT_EQ(noisy.normals.crease_count, 0);
 }
 
 // A stream decides whether to filter on its first frame's own noise and keeps the decision:

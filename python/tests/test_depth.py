@@ -65,6 +65,14 @@ def test_a_crease_keeps_each_faces_normal():
     assert np.median(angles(blended)) > 5.0
     assert np.percentile(angles(refined), 99) < 0.5
     assert set(np.unique(refined["method"][refined["valid"]])) <= {1, 2, 3}
+    assert refined["creases_skipped_for_noise"] is None
+    # With 2 mm of noise the depth measures noisy: no crease is refined, and the result says why
+    # (the 3 x 3 fits would follow the noise); forced with a threshold of 0 they run.
+    noisy = depth + np.random.default_rng(3).normal(0.0, 0.002, depth.shape).astype(np.float32)
+    skipped = relume.estimate_normals(noisy, INTRINSICS)
+    assert skipped["crease_count"] == 0 and "mm at 1 m" in skipped["creases_skipped_for_noise"]
+    forced = relume.estimate_normals(noisy, INTRINSICS, refine_creases_below_noise_at_1m_m=0.0)
+    assert forced["creases_skipped_for_noise"] is None
 
 
 def test_vertex_map_unprojects_each_pixel():
