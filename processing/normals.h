@@ -25,9 +25,10 @@
 // Creases (refine_creases). Where two planes meet (a box's edge) depth is continuous, so the
 // boxes of every pixel within r of the crease hold both planes and blend their normals. On the
 // random SH suites' exact depth, pixels within 2 px of a crease carried 55-57 % of the relit
-// squared error (median scene; a one-off diagnostic of 2026-12-05, no test repeats it). The refinement: a pixel within
-// r of a kink (inverse depth's second difference along a row or column above plane_step_tolerance w, and at least twice
-// those 2 px either side: a crease, not a smoothly curved surface) whose centred (2 r + 1)^2
+// squared error (median scene; a one-off diagnostic of 2026-12-05, no test repeats it). The
+// refinement: a pixel within r of a kink (inverse depth's second difference along a row or
+// column above plane_step_tolerance w, and at least twice those 2 px either side: a crease,
+// not a smoothly curved surface) whose centred (2 r + 1)^2
 // box is not planar (plane-fit variance along the normal above kCreasePlanarity times the
 // variance within the plane) takes the normal of the most planar of the 8 boxes of 3 x 3
 // pixels that have it on their border and hold no discontinuity, when that box is kCreaseGain

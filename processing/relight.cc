@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace relume::processing {
 namespace {
@@ -53,7 +54,9 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
   const float to_step = static_cast<float>(kRangeSteps / (4.0 * options.ratio_range_sigma));
 
   cv::Mat out = ratio.clone();
-  for (int y = 0; y < size.height; ++y) {
+  // Rows in parallel: each writes its own output row only (identical for any thread count).
+  ParallelForEach(0, size.height, [&](std::int64_t row) {
+    const int y = static_cast<int>(row);
     const unsigned char* v = valid.ptr<unsigned char>(y);
     cv::Vec3f* o = out.ptr<cv::Vec3f>(y);
     for (int x = 0; x < size.width; ++x) {
@@ -76,7 +79,7 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
       }
       for (int c = 0; c < 3; ++c) o[x][c] = sum[c] / weight;  // the centre's own weight is 1
     }
-  }
+  });
   return out;
 }
 
