@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "processing/radiosity/geometry.h"
 
 namespace relume::bench {
 namespace {
@@ -102,15 +103,6 @@ std::optional<Hit> Intersect(const pt::PrimitiveScene& scene, const Eigen::Vecto
   return best;
 }
 
-// A cosine-weighted direction about unit n from (u1, u2) in [0, 1)^2 (Malley's method).
-Eigen::Vector3d CosineDirection(const Eigen::Vector3d& n, double u1, double u2) {
-  const Eigen::Vector3d helper = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d t = n.cross(helper).normalized();
-  const Eigen::Vector3d b = n.cross(t);
-  const double r = std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
-  return (r * std::cos(phi) * t + r * std::sin(phi) * b + std::sqrt(std::max(0.0, 1.0 - u1)) * n).normalized();
-}
-
 }  // namespace
 
 bool PrimitiveBouncesOptions::IsValid(std::string* why) const {
@@ -140,7 +132,7 @@ Eigen::Vector3d PrimitiveIndirectIrradiance(const pt::PrimitiveScene& scene, con
           u1 = random.Uniform();
           u2 = random.Uniform();
         }
-        const Eigen::Vector3d d = CosineDirection(n, u1, u2);
+        const Eigen::Vector3d d = radiosity::CosineHemisphereDirection(n, u1, u2);
         const std::optional<Hit> hit = Intersect(scene, o + 1e-6 * n, d);
         if (!hit) break;
         throughput = throughput.cwiseProduct(hit->albedo);
