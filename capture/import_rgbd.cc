@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "capture/durable_file.h"
+#include "capture/folder_lock.h"
 #include "capture/session.h"
 #include "core/error.h"
 #include "core/input_file.h"
@@ -117,9 +118,9 @@ std::vector<Pair> Associate(const std::vector<RgbdListEntry>& depth, const std::
   return pairs;
 }
 
-// The pair's frame for SessionWriter, with its files (depth_file, color_file) as recorded.
-drivers::RgbdFrame LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color,
-                            const PinholeIntrinsics& intrinsics) {
+// What can be told of a pair without reading its files: their formats, and that they exist.
+// Throws InvalidArgumentError (format) or IoError (no such file) naming the file.
+void CheckPairFiles(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color) {
   const fs::path depth_path = options.folder / depth.file, color_path = options.folder / color.file;
   if (FormatOf(depth.file) != "png") {
     throw InvalidArgumentError(depth_path.string() + ": depth frames must be 16-bit PNG files");
@@ -127,6 +128,20 @@ drivers::RgbdFrame LoadPair(const RgbdImportOptions& options, const RgbdListEntr
   if (FormatOf(color.file).empty()) {
     throw InvalidArgumentError(color_path.string() + ": colour frames must be PNG or JPEG files");
   }
+  for (const auto& [path, list] : {std::pair{depth_path, "depth.txt"}, std::pair{color_path, "rgb.txt"}}) {
+    std::error_code error;
+    if (!fs::is_regular_file(path, error)) {
+      throw IoError(path.string(), std::string("is listed in ") + list +
+                                       " but is not a readable file: correct the list or restore the file");
+    }
+  }
+}
+
+// The pair's frame for SessionWriter, with its files (depth_file, color_file) as recorded.
+drivers::RgbdFrame LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color,
+                            const PinholeIntrinsics& intrinsics) {
+  CheckPairFiles(options, depth, color);
+  const fs::path depth_path = options.folder / depth.file, color_path = options.folder / color.file;
   drivers::RgbdFrame frame;
   frame.depth_file = {ReadInputBytes(depth_path), "png", options.depth_units_per_metre};
   frame.color_file = {ReadInputBytes(color_path), FormatOf(color.file), 0.0};
@@ -187,6 +202,39 @@ std::unique_ptr<SessionWriter> CreateRgbdSession(const fs::path& out, const std:
 void Note(SessionWriter& writer, const std::string& device_id, const std::string& message) {
   writer.AddEvent({0, UtcNow(), MonotonicNow(), device_id, "note", message});
 }
+
+// Removes, unless Keep() was called, what an import made in `out` after this was constructed:
+// the folder when it did not exist, else the session's database and its frames folder. For
+// imports of files that stay where they are: a failed import then loses nothing and leaves
+// nothing to clean up, and the same --out works again. Destroy the session's writer first.
+class RemoveUnlessKept {
+ public:
+  explicit RemoveUnlessKept(fs::path out)
+      : out_(std::move(out)),
+        made_folder_(!fs::exists(out_)),
+        made_frames_(!fs::exists(out_ / "frames")),
+        made_lock_(!fs::exists(out_ / kLockFileName)) {}
+  RemoveUnlessKept(const RemoveUnlessKept&) = delete;
+  RemoveUnlessKept& operator=(const RemoveUnlessKept&) = delete;
+  ~RemoveUnlessKept() {
+    if (kept_) return;
+    std::error_code ignored;  // a destructor on an exception's way: best effort, never throws
+    if (made_folder_) {
+      fs::remove_all(out_, ignored);
+      return;
+    }
+    for (const char* suffix : {"", "-wal", "-shm"})
+      fs::remove(out_ / (std::string(kSessionDatabaseName) + suffix), ignored);
+    if (made_frames_) fs::remove_all(out_ / "frames", ignored);
+    if (made_lock_) fs::remove(out_ / kLockFileName, ignored);
+  }
+  void Keep() { kept_ = true; }
+
+ private:
+  fs::path out_;
+  bool made_folder_, made_frames_, made_lock_;
+  bool kept_ = false;
+};
 
 }  // namespace
 
@@ -293,11 +341,13 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
   }
   summary.first_utc = first;
   summary.last_utc = last;
-  // Every pair read and decoded before the session exists: a refused import leaves nothing.
-  for (const Pair& p : pairs) LoadPair(options, depth[p.depth], color[p.color], intrinsics);
+  // Every pair's files checked before the session exists; each is read and decoded once, as it
+  // is stored, and a frame refused then removes the session made so far.
+  for (const Pair& p : pairs) CheckPairFiles(options, depth[p.depth], color[p.color]);
 
+  RemoveUnlessKept made(out);
   drivers::DeviceInfo device;
-  const std::unique_ptr<SessionWriter> writer =
+  std::unique_ptr<SessionWriter> writer =
       CreateRgbdSession(out, options.name, options.site, options.camera_id, "RGB-D recording (TUM RGB-D layout)",
                         "the recording's timestamps (rgb.txt, depth.txt)", summary.depth_converted, &device);
   summary.device_id = device.FullId();
@@ -335,6 +385,8 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
        "imported " + std::to_string(summary.pairs) + " RGB-D frame pairs from " + options.folder.string() + " (" +
            std::to_string(summary.unpaired_depth) + " depth and " + std::to_string(summary.unpaired_color) +
            " colour frames without a partner left out)");
+  writer.reset();
+  made.Keep();
   return summary;
 }
 

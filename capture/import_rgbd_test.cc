@@ -260,6 +260,36 @@ TEST_F(ImportRgbdTest, DepthNotRegisteredToColourIsRefusedAndNothingIsMade) {
   EXPECT_FALSE(fs::exists(dir_ / "session"));
 }
 
+// Each file is read and decoded once, as it is stored: a frame refused after others were
+// stored removes what the import made (the recording's files stay where they are), so the same
+// --out works again, and a folder the user made before is left as it was.
+TEST_F(ImportRgbdTest, AFrameRefusedAfterOthersWereStoredRemovesWhatTheImportMade) {
+  WriteRecording(1000.0);
+  WriteFile(options_.folder / "depth/4.png", {'n', 'o', 't', ' ', 'a', ' ', 'p', 'n', 'g'});  // the last pair
+  options_.frames_per_batch = 1;  // frames 0-3 are stored (and committed) before it
+  try {
+    ImportRgbd(options_, dir_ / "session");
+    FAIL() << "an undecodable depth frame was imported";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("depth/4.png: not a 16-bit"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "session"));
+
+  const fs::path mine = dir_ / "mine";
+  fs::create_directories(mine);
+  WriteFile(mine / "notes.txt", {'k', 'e', 'e', 'p'});
+  EXPECT_THROW(ImportRgbd(options_, mine), InvalidArgumentError);
+  std::vector<fs::path> left;
+  for (const fs::directory_entry& entry : fs::directory_iterator(mine)) left.push_back(entry.path().filename());
+  EXPECT_EQ(left, std::vector<fs::path>{"notes.txt"});
+
+  WriteRecording(1000.0);  // the file restored: both folders take the import
+  EXPECT_EQ(ImportRgbd(options_, dir_ / "session").pairs, kFrames);
+  EXPECT_EQ(ImportRgbd(options_, mine).pairs, kFrames);
+  EXPECT_TRUE(fs::exists(mine / "notes.txt"));
+  EXPECT_EQ(SessionReader(dir_ / "session").Frames().size(), 2u * kFrames);
+}
+
 TEST_F(ImportRgbdTest, BadListsFilesAndOptionsAreNamed) {
   WriteRecording(1000.0);
   { std::ofstream(options_.folder / "depth.txt", std::ios::app) << "1773999001.5\n"; }
