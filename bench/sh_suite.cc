@@ -383,8 +383,10 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
     r.notes = "the SH fit failed: " + (estimate.summary.usable ? target : estimate).summary.message;
     return r;
   }
+  processing::RelightOptions relight;  // as the sh pipeline relights the method's normals
+  relight.normals_from_noisy_depth = estimate.depth_filtered;
   const processing::RelightResult relit = processing::RelightSh(src.radiance, estimate.normals.normal_in_camera,
-                                                                src.object_mask, estimate.light, target.light);
+                                                                src.object_mask, estimate.light, target.light, relight);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.method = RelitError(relit, dst);
 
@@ -409,7 +411,7 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
                                                     target.light, per_pixel),
                               dst);
     method_normals = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
-                                                      floor_src.light, floor_dst.light),
+                                                      floor_src.light, floor_dst.light, relight),
                                 dst);
   }
   const NormalDiagnosis normals = DiagnoseNormals(relit, estimate.normals.normal_in_camera, src, dst);

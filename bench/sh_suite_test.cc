@@ -43,11 +43,14 @@ TEST(ShSuiteTest, LampLitScenesSitAboveTheOrderTwoFloor) {
 TEST(ShSuiteTest, KinectNoiseCostsLittleAboveExactDepth) {
   const SuiteResult r = RunQuick(RunShKinectNoiseSuite);
   ASSERT_EQ(r.method_errors.failed, 0);
-  // Measured: median 14.1 %, p90 43.7 %; floor 9.87 %, 30.1 % (guard 0.05: 14.4 %, 50.6 %;
-  // floor 10.5 %, 32.2 %; before the relighting ratio was filtered: 17.5 %, 65.9 %). Filtered depth gets no crease
-  // refinement (its 3 x 3 fits would follow the noise).
+  // Measured: median 14.7 %, p90 39.8 %; floor 9.87 %, 30.1 %. The relighting ratio's filter is
+  // wider for normals from noisy depth (RelightOptions::noisy_ratio_*: radius 6 px); before
+  // (radius 3): 14.1 %, 43.7 %; at 320x240 it gains more (60 scenes: median 15.4 -> 12.7 %),
+  // as the radius is in pixels. Guard 0.05: 14.4 %, 50.6 %; before the ratio was filtered:
+  // 17.5 %, 65.9 %. Filtered depth gets no crease refinement (its 3 x 3 fits would follow the
+  // noise).
   EXPECT_LT(r.method_errors.median, 0.16);
-  EXPECT_LT(r.method_errors.p90, 0.48);
+  EXPECT_LT(r.method_errors.p90, 0.44);
   EXPECT_LE(r.floor_errors.median, r.method_errors.median);
 }
 

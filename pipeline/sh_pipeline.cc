@@ -175,6 +175,13 @@ struct Knobs {
     v.Knob("relight_ratio_spatial_sigma", relight.ratio_spatial_sigma_px, "its spatial sigma (px)", {"relight"});
     v.Knob("relight_ratio_range_sigma", relight.ratio_range_sigma,
            "its range sigma, in the natural log of the source's luminance", {"relight"});
+    v.Knob("relight_noisy_ratio_radius", relight.noisy_ratio_radius_px,
+           "the same filter's radius when the depth measured noisy (denoise ran): its normals carry more error (px)",
+           {"relight"});
+    v.Knob("relight_noisy_ratio_spatial_sigma", relight.noisy_ratio_spatial_sigma_px, "its spatial sigma (px)",
+           {"relight"});
+    v.Knob("relight_noisy_ratio_range_sigma", relight.noisy_ratio_range_sigma,
+           "its range sigma, in the natural log of the source's luminance", {"relight"});
     v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"report"});
     v.Knob("truth_dir", truth_dir,
            "compare with a truth made outside relume: rgb.txt listing 'TIMESTAMP FILE.exr' linear renders of the "
@@ -211,7 +218,8 @@ Knobs ReadKnobs(PipelineRun& run) {
   if (!k.fit.IsValid(&why)) throw InvalidArgumentError("--set sh_order / max_condition_number / ...: " + why);
   if (!k.segmentation.IsValid(&why)) throw InvalidArgumentError("--set segments: " + why);
   if (!k.samples.IsValid(&why)) throw InvalidArgumentError("--set samples: " + why);
-  if (!k.relight.IsValid(&why)) throw InvalidArgumentError("--set min_irradiance_fraction / relight_ratio_*: " + why);
+  if (!k.relight.IsValid(&why))
+    throw InvalidArgumentError("--set min_irradiance_fraction / relight_ratio_* / relight_noisy_ratio_*: " + why);
   if (!(k.max_sun_shadowed_fraction >= 0.0 && k.max_sun_shadowed_fraction <= 1.0))
     throw InvalidArgumentError("--set max_sun_shadowed_fraction: must be within [0, 1]");
   if (!(k.min_sun_shadow_contrast >= 1.0 && std::isfinite(k.min_sun_shadow_contrast)))
@@ -1024,9 +1032,10 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
               const FrameGeometry& geometry, const FrameFit& fit, const ShRgb& dst_light) {
   const std::string id = std::to_string(pair.color.id);
   Relit out;
-  out.key.Add("stage", "sh-relight-v4").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
+  out.key.Add("stage", "sh-relight-v5").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
   out.key.AddKey("fit", fit.key);
   AddKnobsToKey(out.key, k, "relight");
+  out.key.Add("normals_from_noisy_depth", k.relight.normals_from_noisy_depth);
   for (int row = 0; row < processing::kShCount; ++row)
     for (int c = 0; c < 3; ++c) out.key.Add("dst", dst_light(row, c));
   const StageStore::Result stage = run.RunStage("relight-" + id, out.key, [&](const fs::path& dir) {
@@ -1303,6 +1312,9 @@ void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
           : processing::DecideDepthFiltering(run.session().LoadDepth(first.depth), k->geometry);
   k->geometry.filter_depth = decision.filter;
   k->geometry.skip_filter_below_at_1m_m = 0.0;
+  // Depth filtered is depth that measured noisy (or that the user chose to filter): its normals
+  // carry more error, which the relighting ratio's wider filter averages.
+  k->relight.normals_from_noisy_depth = decision.filter;
   if (!decision.noise) return;
   // Measured noise-free: the normals' crease refinement need not measure each frame again.
   if (!decision.filter) k->geometry.normals.refine_creases_below_noise_at_1m_m = 0.0;
@@ -1314,7 +1326,10 @@ void DecideDenoise(PipelineRun& run, const RgbdPair& first, Knobs* k) {
                    " mm and not quantised, nothing to denoise; the bilateral and temporal filters would only "
                    "round creases and silhouettes");
   } else {
-    run.Decide("denoise", "run", measured);
+    run.Decide("denoise", "run",
+               measured + "; the relighting ratio is filtered over " +
+                   std::to_string(k->relight.noisy_ratio_radius_px) +
+                   " px for normals from noisy depth (relight_noisy_ratio_radius)");
   }
 }
 

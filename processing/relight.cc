@@ -21,11 +21,24 @@ Eigen::Matrix<float, kShCount, 1> BasisF(const Eigen::Vector3f& d) {
   return b;
 }
 
-// The joint bilateral filter of the ratio image (RelightOptions::ratio_radius_px): over the
-// pixels `valid` marks, weights exp(-d^2 / 2 s^2) exp(-dg^2 / 2 r^2) with g = ln(luminance of
-// the source). Range weights come from a table up to 4 r; beyond it they are taken as 0.
-cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& source, const RelightOptions& options) {
-  const int radius = options.ratio_radius_px;
+// The ratio filter RelightOptions asks for: ratio_* or, for normals from noisy depth, noisy_ratio_*.
+struct RatioFilter {
+  int radius_px = 0;
+  double spatial_sigma_px = 1.0;
+  double range_sigma = 1.0;
+};
+RatioFilter RatioFilterOf(const RelightOptions& options) {
+  if (options.normals_from_noisy_depth) {
+    return {options.noisy_ratio_radius_px, options.noisy_ratio_spatial_sigma_px, options.noisy_ratio_range_sigma};
+  }
+  return {options.ratio_radius_px, options.ratio_spatial_sigma_px, options.ratio_range_sigma};
+}
+
+// The joint bilateral filter of the ratio image: over the pixels `valid` marks, weights
+// exp(-d^2 / 2 s^2) exp(-dg^2 / 2 r^2) with g = ln(luminance of the source). Range weights come
+// from a table up to 4 r; beyond it they are taken as 0.
+cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& source, const RatioFilter& filter) {
+  const int radius = filter.radius_px;
   const cv::Size size = ratio.size();
   cv::Mat guide(size, CV_32FC1, cv::Scalar(0.0f));
   for (int y = 0; y < size.height; ++y) {
@@ -38,7 +51,7 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
   }
   const int side = 2 * radius + 1;
   std::vector<float> spatial(static_cast<std::size_t>(side * side));
-  const double s2 = 2.0 * options.ratio_spatial_sigma_px * options.ratio_spatial_sigma_px;
+  const double s2 = 2.0 * filter.spatial_sigma_px * filter.spatial_sigma_px;
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
       spatial[static_cast<std::size_t>((dy + radius) * side + dx + radius)] =
@@ -51,7 +64,7 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
     const double u = 4.0 * i / kRangeSteps;
     range[static_cast<std::size_t>(i)] = static_cast<float>(std::exp(-0.5 * u * u));
   }
-  const float to_step = static_cast<float>(kRangeSteps / (4.0 * options.ratio_range_sigma));
+  const float to_step = static_cast<float>(kRangeSteps / (4.0 * filter.range_sigma));
 
   cv::Mat out = ratio.clone();
   // Rows in parallel: each writes its own output row only (identical for any thread count).
@@ -92,6 +105,11 @@ bool RelightOptions::IsValid(std::string* why) const {
   }
   if (ratio_radius_px < 0 || ratio_radius_px > 32 || !(ratio_spatial_sigma_px > 0.0) || !(ratio_range_sigma > 0.0)) {
     if (why) *why = "ratio_radius_px must be in [0, 32] and the ratio filter's sigmas > 0";
+    return false;
+  }
+  if (noisy_ratio_radius_px < 0 || noisy_ratio_radius_px > 32 || !(noisy_ratio_spatial_sigma_px > 0.0) ||
+      !(noisy_ratio_range_sigma > 0.0)) {
+    if (why) *why = "noisy_ratio_radius_px must be in [0, 32] and the noisy-normals ratio filter's sigmas > 0";
     return false;
   }
   return true;
@@ -175,7 +193,8 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
       ++summary.relit_pixel_count;
     }
   }
-  if (options.ratio_radius_px > 0) ratio = FilterRatio(ratio, result.valid, src.pixels, options);
+  const RatioFilter filter = RatioFilterOf(options);
+  if (filter.radius_px > 0) ratio = FilterRatio(ratio, result.valid, src.pixels, filter);
   for (int y = 0; y < size.height; ++y) {
     const unsigned char* valid = result.valid.ptr<unsigned char>(y);
     const cv::Vec3f* r = ratio.ptr<cv::Vec3f>(y);

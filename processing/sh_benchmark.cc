@@ -39,9 +39,10 @@ const Fixture& Data() {
   return fixture;
 }
 
-double RelitError(const ShRgb& light, const NormalMap& normals) {
+double RelitError(const ShRgb& light, const NormalMap& normals, const RelightOptions& options = {}) {
   const Fixture& f = Data();
-  const RelightResult r = RelightSh(f.src.radiance, normals.normal_in_camera, f.src.object_mask, light, f.dst_light);
+  const RelightResult r =
+      RelightSh(f.src.radiance, normals.normal_in_camera, f.src.object_mask, light, f.dst_light, options);
   double error = 0.0, total = 0.0;
   for (int y = 0; y < r.valid.rows; ++y) {
     for (int x = 0; x < r.valid.cols; ++x) {
@@ -66,14 +67,16 @@ void BM_Chain(benchmark::State& state) {
   options.fit.fit.max_order = static_cast<int>(state.range(3));
   ShLightEstimator estimator(options);
   ShFrameEstimate estimate;
+  RelightOptions relight;
   for (auto _ : state) {
     estimate = estimator.EstimateKnownAlbedo(f.src.radiance, f.noisy_depth_m, f.scene.intrinsics, f.src.object_mask,
                                              f.src.albedo);
-    const RelightResult r =
-        RelightSh(f.src.radiance, estimate.normals.normal_in_camera, f.src.object_mask, estimate.light, f.dst_light);
+    relight.normals_from_noisy_depth = estimate.depth_filtered;  // as the sh pipeline sets it
+    const RelightResult r = RelightSh(f.src.radiance, estimate.normals.normal_in_camera, f.src.object_mask,
+                                      estimate.light, f.dst_light, relight);
     benchmark::DoNotOptimize(r.relit.pixels.data);
   }
-  state.counters["relit_err"] = RelitError(estimate.light, estimate.normals);
+  state.counters["relit_err"] = RelitError(estimate.light, estimate.normals, relight);
   state.counters["order"] = estimate.summary.order_used;
 }
 BENCHMARK(BM_Chain)
@@ -191,19 +194,21 @@ void BM_FitUnknownAlbedo(benchmark::State& state) {
 }
 BENCHMARK(BM_FitUnknownAlbedo)->ArgName("samples")->Arg(500)->Arg(2000)->Arg(8000)->Unit(benchmark::kMillisecond);
 
-// Arg: RelightOptions::ratio_radius_px (0: each pixel by its own ratio; 3: the default filter).
+// Arg: RelightOptions::ratio_radius_px (0: each pixel by its own ratio; 3: the default filter;
+// 6: the default for normals from noisy depth, with its sigmas).
 void BM_Relight(benchmark::State& state) {
   const Fixture& f = Data();
   const Prepared& p = PreparedData();
   RelightOptions options;
   options.ratio_radius_px = static_cast<int>(state.range(0));
+  if (options.ratio_radius_px == options.noisy_ratio_radius_px) options.normals_from_noisy_depth = true;
   for (auto _ : state) {
     const RelightResult r =
         RelightSh(f.src.radiance, p.normals.normal_in_camera, f.src.object_mask, f.src_light, f.dst_light, options);
     benchmark::DoNotOptimize(r.relit.pixels.data);
   }
 }
-BENCHMARK(BM_Relight)->ArgName("ratio_radius")->Arg(0)->Arg(3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Relight)->ArgName("ratio_radius")->Arg(0)->Arg(3)->Arg(6)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace relume::processing

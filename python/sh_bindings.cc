@@ -368,7 +368,9 @@ Args:
         by a joint bilateral filter over the relit pixels, guided by the source's log
         luminance (range sigma in its natural log), which averages the error of noisy normals
         without crossing shading edges. ratio_radius_px=0: each pixel by its own ratio (exact
-        for exact normals and lights).
+        for exact normals and lights). For normals from noisy depth (a Kinect-like sensor) the
+        sh pipeline filters wider: ratio_radius_px=6, ratio_spatial_sigma_px=4.0,
+        ratio_range_sigma=0.03 (RelightOptions::noisy_ratio_*).
 
 Returns:
     (relit float32 HxWx3, NaN where not relit; valid bool HxW; summary dict with

@@ -172,7 +172,7 @@ TEST(BlenderDatasetTest, AnImportedCyclesRgbdRecordingIsRelitWithShAgainstBlende
   const double photograph = metrics["floor_relative_rms_mean"].get<double>();
   const nlohmann::json floor = ReadJson(out / "truth" / "sh_floor.json");
   const double sh2 = floor["mean_sh2_true_normals"].get<double>();
-  // Measured 2026-12-03 (Blender 3.4.1, 64 samples, 3 bounces): relit 6.95 % (not relit 22.4 %);
+  // Measured 2026-12-03 (Blender 3.4.1, 64 samples, 3 bounces): relit 6.95 % (2026-12-07: 6.71 %) (not relit 22.4 %);
   // the floor, order-2 SH with Blender's true normals and lights, 6.91 % (the exact light ratio
   // 5.80 %: the objects' shadows on each other, which no per-pixel ratio of distant light holds);
   // the destination photograph itself 0.85 %.

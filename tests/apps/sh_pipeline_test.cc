@@ -480,15 +480,22 @@ TEST(ShPipelineCliTest, InterreflectionBetweenTheObjectsKeepsTheRelitErrorWithin
 
 TEST(ShPipelineCliTest, KinectNoiseUnderAMovingLightIsFilteredAndTheDestinationPhotographShowsTheError) {
   // The moving-light scene through Kinect-like depth noise (~1.5 mm at 1 m). Measured
-  // 2026-12-05: relit 4.04 % against the truth (unknown albedo), 3.8 % against the destination
-  // photograph; 4.98 % before the ratio filter.
+  // 2026-12-07: relit 3.81 % against the truth (unknown albedo), 3.5 % against the destination
+  // photograph; 4.04 % and 3.8 % with the radius-3 ratio filter (before the noisy-normals one),
+  // 4.98 % before the ratio filter.
   const fs::path root = TempDir("kinect_light");
   const fs::path session = Capture(root, "sim-sh-moving-light-kinect.yaml");
   const nlohmann::json s = Process(session, root / "out");
   const nlohmann::json& m = s["metrics"];
   EXPECT_EQ(CountDecisions(s, "denoise", "run"), 1);
+  // The decision also widens the relighting ratio's filter for these normals, and says so.
+  for (const nlohmann::json& d : s["decisions"]) {
+    if (d["stage"] == "denoise") {
+      EXPECT_NE(d["reason"].get<std::string>().find("filtered over 6 px"), std::string::npos) << d;
+    }
+  }
   ASSERT_EQ(m["compared_frames"], 3) << m.dump(1);
-  EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), 0.045);
+  EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), 0.042);
   // Not relit: 11.8 % (measured).
   EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), m["baseline_relative_rms_mean"].get<double>() / 2.0);
   ASSERT_EQ(m["destination_photo_frames"], 3) << m.dump(1);
