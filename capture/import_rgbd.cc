@@ -203,37 +203,44 @@ void Note(SessionWriter& writer, const std::string& device_id, const std::string
   writer.AddEvent({0, UtcNow(), MonotonicNow(), device_id, "note", message});
 }
 
-// Removes, unless Keep() was called, what an import made in `out` after this was constructed:
-// the folder when it did not exist, else the session's database and its frames folder. For
-// imports of files that stay where they are: a failed import then loses nothing and leaves
-// nothing to clean up, and the same --out works again. Destroy the session's writer first.
+// Removes what an import made in `out` when the import fails after its session was created:
+// the folder when it did not exist before, else the session's database and frames folder when
+// they did not. Never what was there before (another session's database: SessionWriter::Create
+// refuses it, and nothing is removed). For imports of files that stay where they are: a failed
+// import then loses nothing, leaves nothing to clean up, and the same --out works again.
+// Construct it before creating the session, Arm() it once created, Keep() it once the import
+// has ended, and destroy the session's writer before it.
 class RemoveUnlessKept {
  public:
   explicit RemoveUnlessKept(fs::path out)
       : out_(std::move(out)),
         made_folder_(!fs::exists(out_)),
+        made_database_(!fs::exists(out_ / kSessionDatabaseName)),
         made_frames_(!fs::exists(out_ / "frames")),
         made_lock_(!fs::exists(out_ / kLockFileName)) {}
   RemoveUnlessKept(const RemoveUnlessKept&) = delete;
   RemoveUnlessKept& operator=(const RemoveUnlessKept&) = delete;
   ~RemoveUnlessKept() {
-    if (kept_) return;
+    if (!armed_) return;
     std::error_code ignored;  // a destructor on an exception's way: best effort, never throws
     if (made_folder_) {
       fs::remove_all(out_, ignored);
       return;
     }
-    for (const char* suffix : {"", "-wal", "-shm"})
-      fs::remove(out_ / (std::string(kSessionDatabaseName) + suffix), ignored);
+    if (made_database_) {
+      for (const char* suffix : {"", "-wal", "-shm"})
+        fs::remove(out_ / (std::string(kSessionDatabaseName) + suffix), ignored);
+    }
     if (made_frames_) fs::remove_all(out_ / "frames", ignored);
     if (made_lock_) fs::remove(out_ / kLockFileName, ignored);
   }
-  void Keep() { kept_ = true; }
+  void Arm() { armed_ = true; }
+  void Keep() { armed_ = false; }
 
  private:
   fs::path out_;
-  bool made_folder_, made_frames_, made_lock_;
-  bool kept_ = false;
+  bool made_folder_, made_database_, made_frames_, made_lock_;
+  bool armed_ = false;
 };
 
 }  // namespace
@@ -350,6 +357,7 @@ RgbdImportSummary ImportRgbd(const RgbdImportOptions& options, const fs::path& o
   std::unique_ptr<SessionWriter> writer =
       CreateRgbdSession(out, options.name, options.site, options.camera_id, "RGB-D recording (TUM RGB-D layout)",
                         "the recording's timestamps (rgb.txt, depth.txt)", summary.depth_converted, &device);
+  made.Arm();
   summary.device_id = device.FullId();
 
   const auto batch = static_cast<std::size_t>(options.frames_per_batch);

@@ -288,6 +288,10 @@ TEST_F(ImportRgbdTest, AFrameRefusedAfterOthersWereStoredRemovesWhatTheImportMad
   EXPECT_EQ(ImportRgbd(options_, mine).pairs, kFrames);
   EXPECT_TRUE(fs::exists(mine / "notes.txt"));
   EXPECT_EQ(SessionReader(dir_ / "session").Frames().size(), 2u * kFrames);
+
+  // A folder that holds a session already is refused, and that session is left whole.
+  EXPECT_THROW(ImportRgbd(options_, dir_ / "session"), IoError);
+  EXPECT_EQ(SessionReader(dir_ / "session").Frames().size(), 2u * kFrames);
 }
 
 TEST_F(ImportRgbdTest, BadListsFilesAndOptionsAreNamed) {
