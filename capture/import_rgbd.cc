@@ -137,10 +137,10 @@ void CheckPairFiles(const RgbdImportOptions& options, const RgbdListEntry& depth
   }
 }
 
-// The pair's frame for SessionWriter, with its files (depth_file, color_file) as recorded.
+// The pair's frame for SessionWriter, with its files (depth_file, color_file) as recorded. The
+// pair has passed CheckPairFiles (a file gone since is an IoError from reading it).
 drivers::RgbdFrame LoadPair(const RgbdImportOptions& options, const RgbdListEntry& depth, const RgbdListEntry& color,
                             const PinholeIntrinsics& intrinsics) {
-  CheckPairFiles(options, depth, color);
   const fs::path depth_path = options.folder / depth.file, color_path = options.folder / color.file;
   drivers::RgbdFrame frame;
   frame.depth_file = {ReadInputBytes(depth_path), "png", options.depth_units_per_metre};

@@ -30,7 +30,8 @@
 //    stay where they are, so a refused import loses nothing, leaves nothing behind, and the same
 //    --out works again. (Until 2026-12-07 every file was read and decoded twice, once to check
 //    it before the session existed. 200 pairs of 640x480 PNG (colour and 16-bit depth), 2 cores:
-//    5.44 -> 3.05 s, the stored frames identical byte for byte.)
+//    5.44 -> 3.05 s, the stored frames identical byte for byte; measured by hand with
+//    /usr/bin/time, median of 3, on a generated recording: no benchmark repeats it.)
 //
 // `relume session import --oni FILE --start UTC` (ImportRgbdStream): a recording another library
 // plays back as an RGB-D sensor (an OpenNI2 .oni file through drivers/openni2): every frame it

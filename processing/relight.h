@@ -7,14 +7,13 @@
 // relight (mask, finite normal and colour) is not divided: it is left out of the valid mask, set to NaN in the relit
 // image, and counted in the summary. So are pixels without a finite normal or colour.
 // The default 0.1 (0.05 until 2026-12-07): just above 0.05, a pixel whose fitted E_src is a
-// fraction of what it receives is multiplied many times over; one such pixel took a bounce-lit
-// random scene from 20.7 to 46 % relit RMS. Random SH suites (60 scenes, seed 1), median / p90
-// / worst at 0.05 -> 0.1: ideal depth 10.1 / 27.8 / 70.3 -> 9.96 / 25.0 / 70.3 %, Kinect noise
-// 16.0 / 31.4 / 92.8 -> 15.4 / 29.5 / 55.7 %, smooth lights 3.02 / 9.36 / 26.2 -> 3.02 / 9.31 /
-// 14.8 %, with bounces 3.62 / 12.5 / 46.0 -> 3.62 / 12.5 / 21.3 %. The cost: fewer pixels relit
-// on lamp-lit scenes (median share of the object 97.9 -> 97.4 %, p10 91.8 -> 86.5 %, ideal
-// depth; unchanged under smooth lights), pixels near the lamps' terminators, where order-2 SH
-// is furthest from the clamped cosine.
+// fraction of what it receives is multiplied many times over; such pixels took a bounce-lit
+// random scene (bounces suite, scene 59) from 20.7 to 46 % relit RMS. Random SH suites (60 scenes, seed 1), median /
+// p90 / worst at 0.05 -> 0.1: ideal depth 10.1 / 27.8 / 70.3 -> 9.96 / 25.0 / 70.3 %, Kinect noise 16.0 / 31.4 / 92.8
+// -> 15.4 / 29.5 / 55.7 %, smooth lights 3.02 / 9.36 / 26.2 -> 3.02 / 9.31 / 14.8 %, with bounces 3.62 / 12.5 / 46.0
+// -> 3.62 / 12.5 / 21.3 %. The cost: fewer pixels relit on lamp-lit scenes (median share of the object 97.9 -> 97.4 %,
+// p10 91.8 -> 86.5 %, ideal depth, summed by hand from suite.csv's "relit X of Y px"; unchanged under smooth lights),
+// pixels near the lamps' terminators, where order-2 SH is furthest from the clamped cosine.
 #pragma once
 
 #include <opencv2/core/mat.hpp>
