@@ -115,8 +115,11 @@ bool RelightOptions::IsValid(std::string* why) const {
   return true;
 }
 
-RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
-                        const ShRgb& src_light, const ShRgb& dst_light, const RelightOptions& options) {
+namespace {
+
+// The checks RelightSh and RelightNonNegative share.
+void CheckRelightInputs(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
+                        const RelightOptions& options) {
   ThrowIfInvalid(options, "relighting");
   if (src.pixels.type() != CV_32FC3) throw InvalidArgumentError("relighting: source must be an RGB radiance image");
   const cv::Size size = src.pixels.size();
@@ -126,23 +129,21 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
   if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != size)) {
     throw InvalidArgumentError("relighting: mask must be CV_8UC1 of the source image's size");
   }
-  if (!src_light.allFinite() || !dst_light.allFinite()) {
-    throw InvalidArgumentError("relighting: SH coefficients must be finite");
-  }
+}
+
+// The ratio relighting for any pair of irradiance functions of the unit normal (single
+// precision): e_src(n), e_dst(n) -> Eigen::Vector3f.
+template <class SourceIrradiance, class DestinationIrradiance>
+RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
+                             const SourceIrradiance& e_src_of, const DestinationIrradiance& e_dst_of,
+                             const RelightOptions& options) {
+  const cv::Size size = src.pixels.size();
   RelightResult result;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   result.relit.unit = src.unit;
   result.relit.pixels = cv::Mat(size, CV_32FC3, cv::Scalar(nan, nan, nan));
   result.valid = cv::Mat::zeros(size, CV_8UC1);
   RelightSummary& summary = result.summary;
-
-  // Single-precision kernels for speed: 9 x 3 coefficients, pre-multiplied by A_l.
-  Eigen::Matrix<float, 3, kShCount> src_k, dst_k;
-  for (int k = 0; k < kShCount; ++k) {
-    const int l = k == 0 ? 0 : k < 4 ? 1 : 2;
-    src_k.col(k) = (src_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
-    dst_k.col(k) = (dst_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
-  }
   // Per-channel floor: a fraction of the source irradiance averaged over the pixels to relight
   // (not over the whole sphere: a light fitted to the normals a camera sees is extrapolated
   // behind the object, and its sphere mean L00 can be negative while every visible normal is
@@ -156,7 +157,10 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
     for (int x = 0; x < size.width; ++x) {
       if ((m && !m[x]) || !std::isfinite(n[x][0] + n[x][1] + n[x][2] + in[x][0] + in[x][1] + in[x][2])) continue;
       const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
-      sum += (src_k * BasisF(nf)).cast<double>();
+      {
+        const Eigen::Vector3f e = e_src_of(nf);
+        sum += e.cast<double>();
+      }
       ++count;
     }
   }
@@ -181,13 +185,12 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
         continue;
       }
       const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
-      const Eigen::Matrix<float, kShCount, 1> y_basis = BasisF(nf);
-      const Eigen::Vector3f e_src = src_k * y_basis;
+      const Eigen::Vector3f e_src = e_src_of(nf);
       if (!light_ok || (e_src - floor_f).minCoeff() < 0.0f) {
         ++summary.guarded_pixel_count;
         continue;
       }
-      const Eigen::Vector3f e_dst = dst_k * y_basis;
+      const Eigen::Vector3f e_dst = e_dst_of(nf);
       for (int c = 0; c < 3; ++c) out[x][c] = e_dst(c) / e_src(c);
       valid[x] = 255;
       ++summary.relit_pixel_count;
@@ -212,6 +215,63 @@ RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camer
                       " pixel(s) not relit: source irradiance below the guard (min_irradiance_fraction)";
   }
   return result;
+}
+
+}  // namespace
+
+RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
+                        const ShRgb& src_light, const ShRgb& dst_light, const RelightOptions& options) {
+  CheckRelightInputs(src, normal_in_camera, mask, options);
+  if (!src_light.allFinite() || !dst_light.allFinite()) {
+    throw InvalidArgumentError("relighting: SH coefficients must be finite");
+  }
+  // Single-precision kernels for speed: 9 x 3 coefficients, pre-multiplied by A_l.
+  Eigen::Matrix<float, 3, kShCount> src_k, dst_k;
+  for (int k = 0; k < kShCount; ++k) {
+    const int l = k == 0 ? 0 : k < 4 ? 1 : 2;
+    src_k.col(k) = (src_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
+    dst_k.col(k) = (dst_light.row(k) * ShBandFactor(l)).transpose().cast<float>();
+  }
+  return RelightByRatio(
+      src, normal_in_camera, mask, [&](const Eigen::Vector3f& n) -> Eigen::Vector3f { return src_k * BasisF(n); },
+      [&](const Eigen::Vector3f& n) -> Eigen::Vector3f { return dst_k * BasisF(n); }, options);
+}
+
+namespace {
+
+// A NonNegativeLight in single precision for the per-pixel loop.
+struct DirectionalSources {
+  explicit DirectionalSources(const NonNegativeLight& light) {
+    if (light.directions.size() != light.irradiance.size()) {
+      throw InvalidArgumentError("relighting: a non-negative light needs one irradiance per direction");
+    }
+    for (std::size_t j = 0; j < light.directions.size(); ++j) {
+      if (!light.directions[j].allFinite() || !light.irradiance[j].allFinite() ||
+          light.irradiance[j].minCoeff() < 0.0) {
+        throw InvalidArgumentError(
+            "relighting: a non-negative light's directions and irradiances must be finite, "
+            "and its irradiances >= 0");
+      }
+      directions.push_back(light.directions[j].normalized().cast<float>());
+      irradiance.push_back(light.irradiance[j].cast<float>());
+    }
+  }
+  Eigen::Vector3f operator()(const Eigen::Vector3f& n) const {
+    Eigen::Vector3f e = Eigen::Vector3f::Zero();
+    for (std::size_t j = 0; j < directions.size(); ++j) e += irradiance[j] * std::max(0.0f, n.dot(directions[j]));
+    return e;
+  }
+  std::vector<Eigen::Vector3f> directions, irradiance;
+};
+
+}  // namespace
+
+RelightResult RelightNonNegative(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
+                                 const NonNegativeLight& src_light, const NonNegativeLight& dst_light,
+                                 const RelightOptions& options) {
+  CheckRelightInputs(src, normal_in_camera, mask, options);
+  const DirectionalSources e_src(src_light), e_dst(dst_light);
+  return RelightByRatio(src, normal_in_camera, mask, e_src, e_dst, options);
 }
 
 RadianceImage Composite(const RadianceImage& foreground, const cv::Mat& mask, const RadianceImage& background) {

@@ -1,4 +1,5 @@
-// Relighting by the ratio of SH irradiances (Ogura & Saito eq. 7):
+// Relighting by the ratio of irradiances (Ogura & Saito eq. 7), from SH lights (RelightSh) or
+// non-negative directional lights (RelightNonNegative, nonneg_light.h):
 //   I_dst(x) = I_src(x) * E_dst(n(x)) / E_src(n(x)),
 // per channel, with both lights in the camera frame (processing/sh.h). Albedo cancels.
 //
@@ -20,6 +21,7 @@
 #include <string>
 
 #include "core/image.h"
+#include "processing/nonneg_light.h"
 #include "processing/sh.h"
 
 namespace relume::processing {
@@ -77,6 +79,13 @@ struct RelightResult {
 // pixel; may be empty for all pixels). Throws InvalidArgumentError on mismatched inputs.
 RelightResult RelightSh(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
                         const ShRgb& src_light, const ShRgb& dst_light, const RelightOptions& options = {});
+
+// The same relighting with non-negative directional lights (nonneg_light.h) for E_src and E_dst,
+// options and summary as above. Throws InvalidArgumentError on mismatched inputs or a light with
+// a negative or non-finite irradiance.
+RelightResult RelightNonNegative(const RadianceImage& src, const cv::Mat& normal_in_camera, const cv::Mat& mask,
+                                 const NonNegativeLight& src_light, const NonNegativeLight& dst_light,
+                                 const RelightOptions& options = {});
 
 // Places `foreground` over `background` where mask is non-zero and the foreground is finite;
 // elsewhere the background shows. Sizes must match.

@@ -237,6 +237,7 @@ ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat&
       GatherObservations(radiance, normal_in_camera, {}, out.segmentation.labels, out.samples), options);
   out.light = fit.light;
   out.segment_albedo = fit.segment_albedo;
+  out.reference_segment = fit.reference_segment;
   out.summary = fit.summary;
   return out;
 }

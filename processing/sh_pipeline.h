@@ -121,6 +121,7 @@ cv::Mat UnchangedDepthMask(const cv::Mat& a, const cv::Mat& b, double sigma_at_1
 struct ShFrameFit {
   ShRgb light = ShRgb::Zero();                  // camera frame
   std::vector<Eigen::Vector3d> segment_albedo;  // unknown albedo only
+  int reference_segment = -1;                   // unknown albedo only: the segment that fixed the scale
   Segmentation segmentation;                    // unknown albedo only
   std::vector<cv::Point> samples;
   int samples_kept = 0;  // from the selector's previous frame
