@@ -31,6 +31,11 @@
 // Error: signal-relative RMS of the relit image against the truth under the destination
 // light, over the pixels the method relit (processing/metrics.h; absolute scale, as the sh
 // pipeline's comparison with the truth).
+// Each suite also reports, on the same scenes, renders, samples and normals:
+//  - "-nonneg": the non-negative directional light (processing/nonneg_light.h) fitted and
+//    relit in place of the SH light; floor: the same fit from the true normals;
+//  - "-unknown-albedo": the sh pipeline's default fit (k-means segments, alternating SH fit);
+//    floor: the known-albedo method above (what knowing the albedo gives).
 #include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
@@ -40,6 +45,7 @@
 #include "bench/primitive_bounces.h"
 #include "bench/suites.h"
 #include "processing/metrics.h"
+#include "processing/nonneg_light.h"
 #include "processing/relight.h"
 #include "processing/sh.h"
 #include "processing/sh_fit.h"
@@ -334,7 +340,93 @@ NormalDiagnosis DiagnoseNormals(const processing::RelightResult& relit, const cv
   return out;
 }
 
-SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightFamily family, bool bounces) {
+// One scene's results: the SH method and, on the same renders and normals, the non-negative
+// directional light (processing/nonneg_light.h) in place of the SH fit, and both with the
+// albedo unknown.
+struct ShSceneResults {
+  SceneResult sh, nonneg, unknown;
+};
+
+// The non-negative light's method and floor: fitted where the SH fits were (the method's
+// normals at the method's samples; the true normals at the same samples), relit as the SH
+// relighting is (the method with the pipeline's ratio filter, the floor each pixel by its own).
+SceneResult RunNonNegative(const SceneResult& base, const pt::SyntheticFrame& src, const pt::SyntheticFrame& dst,
+                           const processing::ShFrameEstimate& estimate, const processing::ShFrameEstimate& target,
+                           const processing::RelightOptions& relight, const processing::RelightOptions& per_pixel) {
+  SceneResult r;
+  r.seed = base.seed;
+  r.description = base.description;
+  const auto start = std::chrono::steady_clock::now();
+  const processing::NonNegativeLightResult fit_src = processing::FitNonNegativeLight(processing::GatherObservations(
+      src.radiance, estimate.normals.normal_in_camera, src.albedo, {}, estimate.samples));
+  const processing::NonNegativeLightResult fit_dst = processing::FitNonNegativeLight(
+      processing::GatherObservations(dst.radiance, target.normals.normal_in_camera, dst.albedo, {}, target.samples));
+  if (!fit_src.summary.usable || !fit_dst.summary.usable) {
+    r.notes = "the non-negative fit failed: " + (fit_src.summary.usable ? fit_dst : fit_src).summary.message;
+    return r;
+  }
+  const processing::RelightResult relit = processing::RelightNonNegative(
+      src.radiance, estimate.normals.normal_in_camera, src.object_mask, fit_src.light, fit_dst.light, relight);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.method = RelitError(relit, dst);
+  const processing::NonNegativeLightResult floor_src = processing::FitNonNegativeLight(
+      processing::GatherObservations(src.radiance, src.normal_in_camera, src.albedo, {}, estimate.samples));
+  const processing::NonNegativeLightResult floor_dst = processing::FitNonNegativeLight(
+      processing::GatherObservations(dst.radiance, dst.normal_in_camera, dst.albedo, {}, target.samples));
+  double method_light = NAN;
+  if (floor_src.summary.usable && floor_dst.summary.usable) {
+    r.floor = RelitError(processing::RelightNonNegative(src.radiance, src.normal_in_camera, src.object_mask,
+                                                        floor_src.light, floor_dst.light, per_pixel),
+                         dst);
+    method_light = RelitError(processing::RelightNonNegative(src.radiance, src.normal_in_camera, src.object_mask,
+                                                             fit_src.light, fit_dst.light, per_pixel),
+                              dst);
+  }
+  std::ostringstream notes;
+  notes.precision(3);
+  notes << "method's light + true normals " << method_light << "; active directions "
+        << fit_src.summary.active_direction_count << "/" << fit_dst.summary.active_direction_count << ", fit residual "
+        << fit_src.summary.relative_rms_residual << "/" << fit_dst.summary.relative_rms_residual << ", relit "
+        << relit.summary.relit_pixel_count << " of " << relit.summary.requested_pixel_count << " px; SH (same scene) "
+        << base.method << ", its floor " << base.floor;
+  r.notes = notes.str();
+  return r;
+}
+
+// The albedo unknown, as the sh pipeline fits by default: k-means segments and the alternating
+// SH fit (FitShFrameUnknownAlbedo, the pipeline's defaults), relit as the method is. Floor: the
+// known-albedo method on the same normals (`known`).
+SceneResult RunUnknownAlbedo(const SceneResult& known, const pt::SyntheticFrame& src, const pt::SyntheticFrame& dst,
+                             const processing::ShFrameEstimate& estimate, const processing::ShFrameEstimate& target,
+                             const processing::RelightOptions& relight) {
+  SceneResult r;
+  r.seed = known.seed;
+  r.description = known.description;
+  r.floor = known.method;
+  const auto start = std::chrono::steady_clock::now();
+  processing::SamplePointSelector src_samples, dst_samples;
+  const processing::ShFrameFit fit_src = processing::FitShFrameUnknownAlbedo(
+      src.radiance, estimate.normals.normal_in_camera, src.object_mask & estimate.normals.valid, {}, {}, src_samples);
+  const processing::ShFrameFit fit_dst = processing::FitShFrameUnknownAlbedo(
+      dst.radiance, target.normals.normal_in_camera, dst.object_mask & target.normals.valid, {}, {}, dst_samples);
+  if (!fit_src.summary.usable || !fit_dst.summary.usable) {
+    r.notes = "the unknown-albedo SH fit failed: " + (fit_src.summary.usable ? fit_dst : fit_src).summary.message;
+    return r;
+  }
+  r.method = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
+                                              fit_src.light, fit_dst.light, relight),
+                        dst);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::ostringstream notes;
+  notes.precision(3);
+  notes << fit_src.segmentation.segment_count() << "/" << fit_dst.segmentation.segment_count()
+        << " segments, albedo-light condition " << fit_src.summary.albedo_light_condition_number << "/"
+        << fit_dst.summary.albedo_light_condition_number;
+  r.notes = notes.str();
+  return r;
+}
+
+ShSceneResults RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightFamily family, bool bounces) {
   const ShSceneDraw d = DrawScene(seed, quick, family);
   const pt::IrradianceFunction source_light = [&](const Eigen::Vector3d& n) { return d.source.Irradiance(n); };
   const pt::IrradianceFunction destination_light = [&](const Eigen::Vector3d& n) {
@@ -364,7 +456,8 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
   const cv::Mat src_primer = noisy(0x51), dst_primer = noisy(0x52);
   const PinholeIntrinsics& k = d.scene.intrinsics;
 
-  SceneResult r;
+  ShSceneResults results;
+  SceneResult& r = results.sh;
   r.seed = seed;
   r.description = d.description;
   // As the sh pipeline by default: the destination light is the estimate of another frame of
@@ -381,7 +474,8 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
       dst_estimator.EstimateKnownAlbedo(dst.radiance, noisy(0xa4), k, dst.object_mask, dst.albedo);
   if (!estimate.summary.usable || !target.summary.usable) {
     r.notes = "the SH fit failed: " + (estimate.summary.usable ? target : estimate).summary.message;
-    return r;
+    results.nonneg = results.unknown = r;
+    return results;
   }
   processing::RelightOptions relight;  // as the sh pipeline relights the method's normals
   relight.normals_from_noisy_depth = estimate.depth_filtered;
@@ -425,10 +519,17 @@ SceneResult RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightF
         << relit.summary.relit_pixel_count << " of " << relit.summary.requested_pixel_count
         << " px; floor with the projected destination light " << projected << bounce_notes.str();
   r.notes = notes.str();
-  return r;
+  results.nonneg = RunNonNegative(r, src, dst, estimate, target, relight, per_pixel);
+  results.nonneg.notes += bounce_notes.str();
+  results.unknown = RunUnknownAlbedo(r, src, dst, estimate, target, relight);
+  results.unknown.notes += bounce_notes.str();
+  return results;
 }
 
-SuiteResult RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFamily family, bool bounces = false) {
+// The SH suite and, on the same scenes, the non-negative light's (suite name + "-nonneg") and
+// the unknown-albedo fit's (+ "-unknown-albedo").
+std::vector<SuiteResult> RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFamily family,
+                                    bool bounces = false) {
   SuiteResult result;
   result.suite = family == LightFamily::kSmooth ? "sh-smooth-light"
                  : kinect_noise                 ? "sh-kinect-noise"
@@ -436,33 +537,45 @@ SuiteResult RunShSuite(const SuiteOptions& options, bool kinect_noise, LightFami
   if (bounces) result.suite += "-bounces";
   result.metric = "relit signal-relative RMS";
   if (bounces) result.metric += "; rendered with " + std::to_string(kSuiteBounces) + " diffuse bounces";
-  result.method = std::string(kinect_noise ? "Kinect-like depth noise" : "exact depth") +
-                  " -> denoise decision -> normals -> known-albedo SH fit (order 2) -> relight";
+  const std::string depth = kinect_noise ? "Kinect-like depth noise" : "exact depth";
+  result.method = depth + " -> denoise decision -> normals -> known-albedo SH fit (order 2) -> relight";
   result.floor = "true normals at the same samples";
   result.goal_median = kinect_noise ? 0.04 : 0.02;
   result.goal_p90 = kinect_noise ? 0.06 : 0.03;
+  SuiteResult nonneg = result;
+  nonneg.suite += "-nonneg";
+  nonneg.method = depth + " -> denoise decision -> normals -> known-albedo non-negative directional light (" +
+                  std::to_string(processing::NonNegativeLightOptions{}.direction_count) + " directions) -> relight";
+  SuiteResult unknown = result;
+  unknown.suite += "-unknown-albedo";
+  unknown.method = depth + " -> denoise decision -> normals -> k-means segments -> unknown-albedo SH fit (order 2, " +
+                   "the sh pipeline's default) -> relight";
+  unknown.floor = "the known-albedo method (the albedo given)";
   for (int i = 0; i < options.SceneCount(); ++i) {
-    result.scenes.push_back(RunShScene(options.SeedOf(i), options.quick, kinect_noise, family, bounces));
+    ShSceneResults scene = RunShScene(options.SeedOf(i), options.quick, kinect_noise, family, bounces);
+    result.scenes.push_back(std::move(scene.sh));
+    nonneg.scenes.push_back(std::move(scene.nonneg));
+    unknown.scenes.push_back(std::move(scene.unknown));
   }
-  return result;
+  return {result, nonneg, unknown};
 }
 
 }  // namespace
 
 std::vector<SuiteResult> RunShIdealDepthSuite(const SuiteOptions& options) {
-  return {RunShSuite(options, false, LightFamily::kLamps)};
+  return RunShSuite(options, false, LightFamily::kLamps);
 }
 
 std::vector<SuiteResult> RunShKinectNoiseSuite(const SuiteOptions& options) {
-  return {RunShSuite(options, true, LightFamily::kLamps)};
+  return RunShSuite(options, true, LightFamily::kLamps);
 }
 
 std::vector<SuiteResult> RunShSmoothLightSuite(const SuiteOptions& options) {
-  return {RunShSuite(options, false, LightFamily::kSmooth)};
+  return RunShSuite(options, false, LightFamily::kSmooth);
 }
 
 std::vector<SuiteResult> RunShSmoothLightBouncesSuite(const SuiteOptions& options) {
-  return {RunShSuite(options, false, LightFamily::kSmooth, true)};
+  return RunShSuite(options, false, LightFamily::kSmooth, true);
 }
 
 }  // namespace relume::bench
