@@ -23,6 +23,7 @@
 #include "processing/cast_shadow.h"
 #include "processing/depth_filter.h"
 #include "processing/metrics.h"
+#include "processing/nonneg_light.h"
 #include "processing/normals.h"
 #include "processing/relight.h"
 #include "processing/segmentation.h"
@@ -93,6 +94,14 @@ struct Knobs {
   processing::SamplePointOptions samples;
   std::string albedo = "auto";
   processing::RelightOptions relight;
+  // The light the relighting divides by (processing/nonneg_light.h): "sh" (the order-2 SH fit) or
+  // "nonnegative" (a non-negative sum of directional sources on nonneg_directions directions,
+  // fitted to the SH fit's samples; with unknown albedo, from the SH fit's segment albedos,
+  // nonneg_albedo_rounds light / albedo alternations). The SH fit runs either way (light.json,
+  // the displays, the checks); a destination given as SH or an environment map is relit by SH.
+  std::string light_model = "sh";
+  processing::NonNegativeLightOptions nonneg;
+  int nonneg_albedo_rounds = 5;
   double pair_max_gap_ms = 16.0;
   bool compare_truth = true;
   // Median relative RMS residual of the fits above which the pipeline says SH does not describe
@@ -167,6 +176,13 @@ struct Knobs {
     v.Knob("segments", segmentation.segment_count, "k-means colour segments (unknown albedo)", {"fit"});
     v.Knob("max_iterations", fit.max_iterations, "alternating light/albedo iterations (unknown albedo)", {"fit"});
     v.Knob("samples", samples.count, "pixels sampled per frame for the fit", {"fit"});
+    v.Knob("light_model", light_model,
+           "light the relighting divides by: sh (order-2 SH) or nonnegative (non-negative directional light; "
+           "destinations from a frame only)",
+           {"fit", "relight"});
+    v.Knob("nonneg_directions", nonneg.direction_count, "directions of the non-negative light's grid", {"fit"});
+    v.Knob("nonneg_albedo_rounds", nonneg_albedo_rounds,
+           "light / segment-albedo alternations of the non-negative light (unknown albedo)", {"fit"});
     v.Knob("min_irradiance_fraction", relight.min_irradiance_fraction,
            "source irradiance, as a share of its mean, below which a pixel is not divided", {"relight"});
     v.Knob("relight_ratio_radius", relight.ratio_radius_px,
@@ -232,6 +248,11 @@ Knobs ReadKnobs(PipelineRun& run) {
   }
   if (k.albedo != "auto" && k.albedo != "truth" && k.albedo != "unknown")
     throw InvalidArgumentError("--set albedo=" + k.albedo + ": expected auto, unknown or truth");
+  if (k.light_model != "sh" && k.light_model != "nonnegative")
+    throw InvalidArgumentError("--set light_model=" + k.light_model + ": expected sh or nonnegative");
+  if (!k.nonneg.IsValid(&why)) throw InvalidArgumentError("--set nonneg_directions: " + why);
+  if (k.nonneg_albedo_rounds < 1 || k.nonneg_albedo_rounds > 100)
+    throw InvalidArgumentError("--set nonneg_albedo_rounds: must be in [1, 100]");
   if (k.depth_registration != "nearest" && k.depth_registration != "interpolated")
     throw InvalidArgumentError("--set depth_registration=" + k.depth_registration +
                                ": expected nearest or interpolated");
@@ -715,7 +736,48 @@ struct FrameFit {
   StageKey key;
   ShRgb light = ShRgb::Zero();
   ShFitFigures summary;  // light.json "fit"
+  // light_model nonnegative, when its fit was usable (light.json "directional").
+  std::optional<processing::NonNegativeLight> directional;
 };
+
+nlohmann::json DirectionalToJson(const processing::NonNegativeLightResult& fit) {
+  nlohmann::json directions = nlohmann::json::array(), irradiance = nlohmann::json::array();
+  for (std::size_t j = 0; j < fit.light.directions.size(); ++j) {
+    const Eigen::Vector3d& d = fit.light.directions[j];
+    const Eigen::Vector3d& w = fit.light.irradiance[j];
+    directions.push_back({d.x(), d.y(), d.z()});
+    irradiance.push_back({w.x(), w.y(), w.z()});
+  }
+  const processing::NonNegativeLightSummary& s = fit.summary;
+  return {{"convention", "E(n) = sum_j irradiance_j max(0, n . direction_j), camera frame (processing/nonneg_light.h)"},
+          {"usable", s.usable},
+          {"directions", directions},
+          {"irradiance", irradiance},
+          {"observations", s.observation_count},
+          {"outliers", s.outlier_count},
+          {"relative_rms_residual", s.relative_rms_residual},
+          {"converged", s.converged},
+          {"message", s.message}};
+}
+
+// The directional light light.json holds, if its fit was usable.
+std::optional<processing::NonNegativeLight> DirectionalFromJson(const nlohmann::json& light, const fs::path& path) {
+  const auto found = light.find("directional");
+  if (found == light.end() || !found->value("usable", false)) return std::nullopt;
+  const auto bad = [&] { return InvalidArgumentError(path.string() + ": \"directional\" is not as relume writes it"); };
+  const auto directions = found->find("directions"), irradiance = found->find("irradiance");
+  if (directions == found->end() || irradiance == found->end() || !directions->is_array() || !irradiance->is_array() ||
+      directions->size() != irradiance->size())
+    throw bad();
+  processing::NonNegativeLight out;
+  for (std::size_t i = 0; i < directions->size(); ++i) {
+    const nlohmann::json &d = directions->at(i), &w = irradiance->at(i);
+    if (!d.is_array() || d.size() != 3 || !w.is_array() || w.size() != 3) throw bad();
+    out.directions.emplace_back(d.at(0).get<double>(), d.at(1).get<double>(), d.at(2).get<double>());
+    out.irradiance.emplace_back(w.at(0).get<double>(), w.at(1).get<double>(), w.at(2).get<double>());
+  }
+  return out;
+}
 
 // A frame with at least this share of its pixels with a normal clipped gets a warning: the
 // light is fitted to the rest.
@@ -748,8 +810,9 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
     figures.clipped_pixels = cv::countNonZero(clipped);
     processing::SamplePointSelector selector(k.samples);  // fresh: the stage depends on its frame only
     processing::ShFrameFit fit;
+    cv::Mat albedo;
     if (known_albedo) {
-      const cv::Mat albedo = run.truth()->Render(camera, pair.color.utc).albedo;
+      albedo = run.truth()->Render(camera, pair.color.utc).albedo;
       fit = processing::FitShFrameKnownAlbedo(radiance.radiance.get(), geometry.normals.get(), allowed, albedo,
                                               k.fit.fit, selector);
       figures.albedo = "truth (the simulated world's; an evaluation oracle)";
@@ -776,6 +839,18 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
     figures.message = summary.message;
     nlohmann::json light = ShLightToJson(f.light, summary.order_used);
     light["fit"] = FieldsToJson(figures);
+    if (k.light_model == "nonnegative" && summary.usable) {
+      // On the SH fit's samples; with unknown albedo, from its segments' albedos.
+      const RadianceImage& image = radiance.radiance.get();
+      const cv::Mat& normals = geometry.normals.get();
+      light["directional"] = DirectionalToJson(
+          known_albedo ? processing::FitNonNegativeLight(
+                             processing::GatherObservations(image, normals, albedo, {}, fit.samples), k.nonneg)
+                       : processing::FitNonNegativeLightSegments(
+                             processing::GatherObservations(image, normals, {}, fit.segmentation.labels, fit.samples),
+                             fit.segment_albedo, fit.reference_segment, k.nonneg_albedo_rounds, k.nonneg)
+                             .fit);
+    }
     WriteJsonFile(dir / "light.json", light);
     const cv::Mat latlong =
         processing::ShToLatLong(f.light, 128, 64, processing::ShDisplayQuantity::kRadiance,
@@ -793,6 +868,14 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
   const nlohmann::json light = ReadJsonFile(light_path);
   f.light = ShLightFromJson(light, light_path.string());
   f.summary = FieldsFromJson<ShFitFigures>(Field(light, "fit"), light_path.string());
+  f.directional = DirectionalFromJson(light, light_path);
+  if (k.light_model == "nonnegative" && f.summary.usable && !f.directional) {
+    run.Decide("light-model", "warn",
+               "frame " + id + ": no non-negative light could be fitted (" +
+                   (light.contains("directional") ? light["directional"].value("message", std::string())
+                                                  : std::string("not fitted")) +
+                   "): the frame is relit by SH");
+  }
   if (!f.summary.usable) {
     throw InvalidArgumentError("frame " + id + ": no SH light could be estimated: " + f.summary.message +
                                " (the object mask has too few pixels with depth and normals?)");
@@ -1028,8 +1111,17 @@ struct Relit {
   Lazy<cv::Mat> valid;        // valid.png
 };
 
+// The destination light: SH and, when the source's fit and the destination both have one, the
+// non-negative directional light the relighting then divides by.
+struct DestinationLight {
+  ShRgb sh = ShRgb::Zero();
+  std::optional<processing::NonNegativeLight> directional;
+};
+
 Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const FrameRadiance& radiance,
-              const FrameGeometry& geometry, const FrameFit& fit, const ShRgb& dst_light) {
+              const FrameGeometry& geometry, const FrameFit& fit, const DestinationLight& dst) {
+  const ShRgb& dst_light = dst.sh;
+  const bool directional = fit.directional && dst.directional;
   const std::string id = std::to_string(pair.color.id);
   Relit out;
   out.key.Add("stage", "sh-relight-v5").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
@@ -1038,21 +1130,34 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
   out.key.Add("normals_from_noisy_depth", k.relight.normals_from_noisy_depth);
   for (int row = 0; row < processing::kShCount; ++row)
     for (int c = 0; c < 3; ++c) out.key.Add("dst", dst_light(row, c));
+  out.key.Add("directional", directional);
+  if (directional) {
+    for (std::size_t j = 0; j < dst.directional->directions.size(); ++j) {
+      for (int c = 0; c < 3; ++c) {
+        out.key.Add("dst_direction", dst.directional->directions[j](c));
+        out.key.Add("dst_irradiance", dst.directional->irradiance[j](c));
+      }
+    }
+  }
   const StageStore::Result stage = run.RunStage("relight-" + id, out.key, [&](const fs::path& dir) {
     const RadianceImage& source = radiance.radiance.get();
     const cv::Mat& mask = geometry.mask.get();
     const cv::Mat clipped = mask & radiance.clipped.get();  // lower bounds: not relit
     const processing::RelightResult r =
-        processing::RelightSh(source, geometry.normals.get(), mask & ~clipped, fit.light, dst_light, k.relight);
+        directional
+            ? processing::RelightNonNegative(source, geometry.normals.get(), mask & ~clipped, *fit.directional,
+                                             *dst.directional, k.relight)
+            : processing::RelightSh(source, geometry.normals.get(), mask & ~clipped, fit.light, dst_light, k.relight);
     calibration::SaveRadianceExr(r.relit, (dir / "relit.exr").string());
     calibration::SaveImage(r.valid, (dir / "valid.png").string());
     const RadianceImage composite = processing::Composite(r.relit, r.valid, source);
     calibration::SaveRadianceExr(composite, (dir / "composite.exr").string());
     calibration::SaveImage(RadiancePreview(composite), (dir / "composite.png").string());
     calibration::SaveImage(RadiancePreview(source), (dir / "source.png").string());
-    WriteRecord(dir / "relight.json", ShRelightFigures{r.summary.requested_pixel_count, r.summary.relit_pixel_count,
-                                                       r.summary.guarded_pixel_count, r.summary.invalid_input_count,
-                                                       cv::countNonZero(clipped), r.summary.message});
+    WriteRecord(dir / "relight.json",
+                ShRelightFigures{r.summary.requested_pixel_count, r.summary.relit_pixel_count,
+                                 r.summary.guarded_pixel_count, r.summary.invalid_input_count,
+                                 cv::countNonZero(clipped), r.summary.message, directional ? "nonnegative" : "sh"});
   });
   out.dir = stage.dir;
   out.summary = ReadRecord<ShRelightFigures>(stage.dir / "relight.json");
@@ -1578,8 +1683,9 @@ void CompareWithDestinationPhoto(PipelineRun& run, const Knobs& k, const FrameSt
 // source frame other than the destination's own) and, with compare_truth, its errors against the
 // world's truth; adds its figures to `totals`.
 ShFrameFigures RelightFrame(PipelineRun& run, const Knobs& k, const ShInputs& in, const FrameStages& f, std::size_t i,
-                            const Destination& dst, const ShRgb& dst_light, std::optional<GroundTruth>* dst_frame_truth,
-                            const ExternalShTruth* external, FrameTotals* totals) {
+                            const Destination& dst, const DestinationLight& dst_light,
+                            std::optional<GroundTruth>* dst_frame_truth, const ExternalShTruth* external,
+                            FrameTotals* totals) {
   const std::string id = std::to_string(in.pairs[i].color.id);
   ShFrameFigures m;
   m.color_frame = in.pairs[i].color.id;
@@ -1670,10 +1776,29 @@ ShPipelineSummary RunShPipeline(PipelineRun& run) {
   const FrameStages frames = FitFrames(run, k, in);
   summary.cast_shadows = CastShadows(run, in, frames);
   CheckShFitsTheScene(run, k, frames.fits, *summary.cast_shadows, &summary);
-  const ShRgb dst_light = dst.kind == "frame" ? frames.fits[*dst.frame_index].light : dst.light;
+  DestinationLight dst_light;
+  dst_light.sh = dst.kind == "frame" ? frames.fits[*dst.frame_index].light : dst.light;
+  if (k.light_model == "nonnegative") {
+    if (dst.kind == "frame") dst_light.directional = frames.fits[*dst.frame_index].directional;
+    run.Decide("light-model", "choose",
+               dst_light.directional
+                   ? "nonnegative: relit by the ratio of non-negative directional lights (" +
+                         std::to_string(dst_light.directional->directions.size()) +
+                         " directions in the destination's), the SH fits kept for light.json and the checks"
+               : dst.kind != "frame" ? "sh: the destination light is given as " + dst.kind +
+                                           ", not fitted to a frame, so the frames are relit by SH"
+                                     : "sh: the destination frame has no non-negative light, so the frames are "
+                                       "relit by SH");
+  }
   {
-    nlohmann::json dst_json = ShLightToJson(dst_light, 2);
+    nlohmann::json dst_json = ShLightToJson(dst_light.sh, 2);
     dst_json["source"] = dst.description;
+    if (dst_light.directional) {
+      processing::NonNegativeLightResult directional;
+      directional.light = *dst_light.directional;
+      directional.summary.usable = true;
+      dst_json["directional"] = DirectionalToJson(directional);
+    }
     WriteJsonFile(run.out_dir() / "target_light.json", dst_json);
     run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
   }

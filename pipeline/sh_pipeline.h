@@ -80,6 +80,7 @@ struct ShRelightFigures {
   std::int64_t requested = 0, relit = 0, guarded = 0, invalid_input = 0;
   std::int64_t clipped = 0;  // pixels with a normal left out: clipped in the colour frame (not requested)
   std::string message;
+  std::string light = "sh";  // the light divided by: "sh" or "nonnegative" (knob light_model)
   template <typename V>
   void VisitFields(V& v) {
     v.Field("requested", requested);
@@ -88,6 +89,7 @@ struct ShRelightFigures {
     v.Field("invalid_input", invalid_input);
     v.Field("clipped", clipped);
     v.Field("message", message);
+    v.Field("light", light);
   }
 };
 
