@@ -8,6 +8,7 @@
 #include <numbers>
 #include <opencv2/core.hpp>
 
+#include "processing/nonneg_light.h"
 #include "processing/relight.h"
 #include "processing/sh_pipeline.h"
 #include "processing/testing/synthetic_scene.h"
@@ -209,6 +210,51 @@ void BM_Relight(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Relight)->ArgName("ratio_radius")->Arg(0)->Arg(3)->Arg(6)->Unit(benchmark::kMillisecond);
+
+// The non-negative directional light's fit (nonneg_light.h; one outlier refit, gathering
+// included). Args: samples, directions.
+void BM_FitNonNegative(benchmark::State& state) {
+  const Fixture& f = Data();
+  const Prepared& p = PreparedData();
+  SamplePointSelector selector({.count = static_cast<int>(state.range(0)), .seed = 3});
+  const std::vector<cv::Point> points = selector.Update(f.src.object_mask & p.normals.valid);
+  NonNegativeLightOptions options;
+  options.direction_count = static_cast<int>(state.range(1));
+  NonNegativeLightResult fit;
+  for (auto _ : state) {
+    fit = FitNonNegativeLight(GatherObservations(f.src.radiance, p.normals.normal_in_camera, f.src.albedo, {}, points),
+                              options);
+  }
+  state.counters["active"] = fit.summary.active_direction_count;
+  state.counters["residual"] = fit.summary.relative_rms_residual;
+}
+BENCHMARK(BM_FitNonNegative)
+    ->ArgNames({"samples", "directions"})
+    ->Args({2000, 256})
+    ->Args({500, 512})
+    ->Args({2000, 512})
+    ->Args({8000, 512})
+    ->Unit(benchmark::kMillisecond);
+
+// RelightNonNegative at 640x480 with lights fitted to both frames (2000 samples, 512 directions),
+// the default ratio filter. Counter: active directions of the source's light.
+void BM_RelightNonNegative(benchmark::State& state) {
+  const Fixture& f = Data();
+  const Prepared& p = PreparedData();
+  SamplePointSelector selector({.count = 2000, .seed = 3});
+  const std::vector<cv::Point> points = selector.Update(f.src.object_mask & p.normals.valid);
+  const NonNegativeLightResult src =
+      FitNonNegativeLight(GatherObservations(f.src.radiance, p.normals.normal_in_camera, f.src.albedo, {}, points));
+  const NonNegativeLightResult dst =
+      FitNonNegativeLight(GatherObservations(f.dst.radiance, f.dst.normal_in_camera, f.dst.albedo, {}, points));
+  for (auto _ : state) {
+    const RelightResult r =
+        RelightNonNegative(f.src.radiance, p.normals.normal_in_camera, f.src.object_mask, src.light, dst.light);
+    benchmark::DoNotOptimize(r.relit.pixels.data);
+  }
+  state.counters["active"] = src.summary.active_direction_count;
+}
+BENCHMARK(BM_RelightNonNegative)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace relume::processing
