@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "processing/nonneg_light.h"
 #include "processing/relight.h"
 #include "processing/segmentation.h"
 #include "processing/sh.h"
@@ -188,17 +189,22 @@ py::array_t<double> ShRadiance(const py::object& light, const py::object& direct
                        [&](const Eigen::Vector3d& w) { return processing::ShRadiance(l, w); });
 }
 
-py::tuple RelightSh(const py::object& source, const py::object& normals, const py::object& source_light,
-                    const py::object& target_light, const py::object& mask, double min_irradiance_fraction,
-                    int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma) {
+processing::RelightOptions RelightOptionsOf(double min_irradiance_fraction, int ratio_radius_px,
+                                            double ratio_spatial_sigma_px, double ratio_range_sigma, const char* what) {
   processing::RelightOptions options;
   options.min_irradiance_fraction = min_irradiance_fraction;
   options.ratio_radius_px = ratio_radius_px;
   options.ratio_spatial_sigma_px = ratio_spatial_sigma_px;
   options.ratio_range_sigma = ratio_range_sigma;
-  ThrowIfInvalid(options, "relight_sh");
-  const processing::ShRgb src_light = LightFromArray(source_light, "source_light");
-  const processing::ShRgb dst_light = LightFromArray(target_light, "target_light");
+  ThrowIfInvalid(options, what);
+  return options;
+}
+
+// relight(image, normals, mask) -> RelightResult, without the GIL; the arrays and summary as
+// relight_sh and relight_nonnegative return them.
+template <typename Relight>
+py::tuple RelightArrays(const py::object& source, const py::object& normals, const py::object& mask,
+                        const Relight& relight) {
   py::array keep[3];
   const RadianceImage image = RadianceFromArray(source, "source", &keep[0]);
   const cv::Mat normal = FloatMatFromArray(normals, 3, "normals", &keep[1]);
@@ -206,7 +212,7 @@ py::tuple RelightSh(const py::object& source, const py::object& normals, const p
   processing::RelightResult result;
   {
     py::gil_scoped_release release;
-    result = processing::RelightSh(image, normal, mask_mat, src_light, dst_light, options);
+    result = relight(image, normal, mask_mat);
   }
   const processing::RelightSummary& s = result.summary;
   py::dict summary("requested_pixel_count"_a = s.requested_pixel_count, "relit_pixel_count"_a = s.relit_pixel_count,
@@ -214,6 +220,85 @@ py::tuple RelightSh(const py::object& source, const py::object& normals, const p
                    "message"_a = s.message);
   return py::make_tuple(MatToArray(std::move(result.relit.pixels)),
                         MatToArray(std::move(result.valid)).attr("astype")("bool"), summary);
+}
+
+py::tuple RelightSh(const py::object& source, const py::object& normals, const py::object& source_light,
+                    const py::object& target_light, const py::object& mask, double min_irradiance_fraction,
+                    int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma) {
+  const processing::RelightOptions options = RelightOptionsOf(min_irradiance_fraction, ratio_radius_px,
+                                                              ratio_spatial_sigma_px, ratio_range_sigma, "relight_sh");
+  const processing::ShRgb src_light = LightFromArray(source_light, "source_light");
+  const processing::ShRgb dst_light = LightFromArray(target_light, "target_light");
+  return RelightArrays(source, normals, mask, [&](const RadianceImage& image, const cv::Mat& n, const cv::Mat& m) {
+    return processing::RelightSh(image, n, m, src_light, dst_light, options);
+  });
+}
+
+// A non-negative light from Python: (directions (K, 3), irradiance (K, 3)).
+processing::NonNegativeLight NonNegativeLightFromPython(const py::handle& light, const std::string& what) {
+  const auto bad = [&] {
+    return InvalidArgumentError(what +
+                                ": expected (directions, irradiance), two (K, 3) float arrays as "
+                                "fit_nonnegative_light returns");
+  };
+  if (!py::isinstance<py::tuple>(light) && !py::isinstance<py::list>(light)) throw bad();
+  const py::sequence pair = py::reinterpret_borrow<py::sequence>(light);
+  if (pair.size() != 2) throw bad();
+  const auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(pair[0]);
+  const auto w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(pair[1]);
+  if (!d || !w || d.ndim() != 2 || w.ndim() != 2 || d.shape(1) != 3 || w.shape(1) != 3 || d.shape(0) != w.shape(0))
+    throw bad();
+  processing::NonNegativeLight out;
+  for (py::ssize_t j = 0; j < d.shape(0); ++j) {
+    out.directions.emplace_back(d.at(j, 0), d.at(j, 1), d.at(j, 2));
+    out.irradiance.emplace_back(w.at(j, 0), w.at(j, 1), w.at(j, 2));
+  }
+  return out;
+}
+
+py::array_t<double> Rows(const std::vector<Eigen::Vector3d>& rows) {
+  py::array_t<double> out({static_cast<py::ssize_t>(rows.size()), py::ssize_t{3}});
+  for (std::size_t j = 0; j < rows.size(); ++j) {
+    for (int c = 0; c < 3; ++c) out.mutable_at(static_cast<py::ssize_t>(j), c) = rows[j](c);
+  }
+  return out;
+}
+
+py::tuple FitNonNegativeLight(const py::object& radiance, const py::object& normals, const py::object& albedo,
+                              const py::object& mask, int direction_count, int min_observations, double ridge,
+                              int outlier_rounds, double outlier_mads, double min_outlier_residual) {
+  processing::NonNegativeLightOptions options;
+  options.direction_count = direction_count;
+  options.min_observations = min_observations;
+  options.ridge = ridge;
+  options.outlier_rounds = outlier_rounds;
+  options.outlier_mads = outlier_mads;
+  options.min_outlier_residual = min_outlier_residual;
+  ThrowIfInvalid(options, "fit_nonnegative_light");
+  const auto observations = Observations(radiance, normals, albedo, py::none(), mask);
+  processing::NonNegativeLightResult result;
+  {
+    py::gil_scoped_release release;
+    result = processing::FitNonNegativeLight(observations, options);
+  }
+  const processing::NonNegativeLightSummary& s = result.summary;
+  py::dict summary("usable"_a = s.usable, "observation_count"_a = s.observation_count,
+                   "outlier_count"_a = s.outlier_count, "active_direction_count"_a = s.active_direction_count,
+                   "relative_rms_residual"_a = s.relative_rms_residual, "iterations"_a = s.iterations,
+                   "converged"_a = s.converged, "message"_a = s.message, "brief"_a = s.BriefReport());
+  return py::make_tuple(py::make_tuple(Rows(result.light.directions), Rows(result.light.irradiance)), summary);
+}
+
+py::tuple RelightNonNegative(const py::object& source, const py::object& normals, const py::object& source_light,
+                             const py::object& target_light, const py::object& mask, double min_irradiance_fraction,
+                             int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma) {
+  const processing::RelightOptions options = RelightOptionsOf(
+      min_irradiance_fraction, ratio_radius_px, ratio_spatial_sigma_px, ratio_range_sigma, "relight_nonnegative");
+  const processing::NonNegativeLight src_light = NonNegativeLightFromPython(source_light, "source_light");
+  const processing::NonNegativeLight dst_light = NonNegativeLightFromPython(target_light, "target_light");
+  return RelightArrays(source, normals, mask, [&](const RadianceImage& image, const cv::Mat& n, const cv::Mat& m) {
+    return processing::RelightNonNegative(image, n, m, src_light, dst_light, options);
+  });
 }
 
 py::tuple SegmentByColor(const py::object& radiance, const py::object& mask, const py::object& normals,
@@ -376,6 +461,48 @@ Returns:
     (relit float32 HxWx3, NaN where not relit; valid bool HxW; summary dict with
     requested_pixel_count, relit_pixel_count, guarded_pixel_count (irradiance too small),
     invalid_input_count (no normal or non-finite colour), message).
+)doc");
+  const processing::NonNegativeLightOptions nn;
+  m.def("fit_nonnegative_light", &FitNonNegativeLight, "radiance"_a, "normals"_a, py::kw_only(),
+        "albedo"_a = py::none(), "mask"_a = py::none(), "direction_count"_a = nn.direction_count,
+        "min_observations"_a = nn.min_observations, "ridge"_a = nn.ridge, "outlier_rounds"_a = nn.outlier_rounds,
+        "outlier_mads"_a = nn.outlier_mads, "min_outlier_residual"_a = nn.min_outlier_residual,
+        R"doc(Fits a non-negative directional light: E(n) = sum_j w_j max(0, n . d_j), w_j >= 0 per channel, on
+a Fibonacci grid of directions (processing/nonneg_light.h). Unlike order-2 SH it follows a lamp's or the
+sun's terminator; relight with relight_nonnegative.
+
+Args:
+    radiance: float32 HxWx3 linear RGB radiance.
+    normals: float32 HxWx3 unit normals in the camera frame.
+    albedo: float32 HxWx3 per-pixel albedo (None: 1).
+    mask: HxW bool/uint8, the pixels to fit (None: all). Every masked pixel is an observation, and the
+        fit's cost grows with them: a few thousand sampled pixels are enough (the library samples 2000).
+    direction_count: directions of the grid (512: about 9 deg apart).
+    min_observations: fewer observations give an unusable fit.
+    ridge: added to the normal equations' diagonal, relative to its mean.
+    outlier_rounds, outlier_mads, min_outlier_residual: refits without the pixels whose residual
+        |I - model| (relative to the mean |I|) is above min_outlier_residual and median + outlier_mads
+        x 1.4826 MAD (wrong normals at silhouettes and creases).
+
+Returns:
+    ((directions float64 (K, 3), irradiance float64 (K, 3)): the K directions with a positive weight
+    and their RGB irradiance on a plane facing them; summary dict with usable, observation_count,
+    outlier_count, active_direction_count, relative_rms_residual, iterations, converged, message, brief).
+)doc");
+  m.def("relight_nonnegative", &RelightNonNegative, "source"_a, "normals"_a, "source_light"_a, "target_light"_a,
+        py::kw_only(), "mask"_a = py::none(),
+        "min_irradiance_fraction"_a = processing::RelightOptions{}.min_irradiance_fraction,
+        "ratio_radius_px"_a = processing::RelightOptions{}.ratio_radius_px,
+        "ratio_spatial_sigma_px"_a = processing::RelightOptions{}.ratio_spatial_sigma_px,
+        "ratio_range_sigma"_a = processing::RelightOptions{}.ratio_range_sigma,
+        R"doc(Relights by the ratio of non-negative lights' irradiances, as relight_sh does with SH lights.
+
+Args:
+    source, normals, mask, min_irradiance_fraction, ratio_*: as relight_sh.
+    source_light, target_light: (directions, irradiance) pairs as fit_nonnegative_light returns.
+
+Returns:
+    as relight_sh.
 )doc");
 }
 

@@ -137,3 +137,45 @@ def test_relight_sh_filters_the_ratio_of_noisy_normals_by_default():
     assert error_filtered < 0.5 * error_each, (error_each, error_filtered)
     with pytest.raises(relume.InvalidArgumentError, match="relight_sh"):
         relume.relight_sh(source, normals, LIGHT, target_light, ratio_range_sigma=0.0)
+
+
+def test_fit_nonnegative_light_follows_a_lamp_that_order_two_sh_cannot():
+    """Two lamps and a dim sky, clamped cosines computed here in numpy: the non-negative light's
+    ratio relighting stays within a few per cent where order-2 SH's is several times worse."""
+    up = np.array([0.0, -1.0, 0.0])
+
+    def lamps(key, fill):
+        key, fill = np.asarray(key) / np.linalg.norm(key), np.asarray(fill) / np.linalg.norm(fill)
+        return lambda n: (np.maximum(0, n @ key)[..., None] * [3.0, 2.8, 2.5]
+                          + np.maximum(0, n @ fill)[..., None] * [0.5, 0.6, 0.8]
+                          + np.pi * np.array([0.05, 0.07, 0.1]) * (1 + n @ up)[..., None] / 2)
+
+    e_src, e_dst = lamps([0.6, -0.5, -0.62], [-0.7, 0.1, -0.7]), lamps([-0.3, -0.8, -0.5], [0.8, 0.3, -0.5])
+    normals = random_normals((60, 60), 9)
+    normals[..., 2] = -np.abs(normals[..., 2])  # facing the camera
+    n64 = normals.astype(np.float64)
+    albedo = np.full((60, 60, 3), 0.5, np.float32)
+    src = (albedo * e_src(n64) / np.pi).astype(np.float32)
+    dst = (albedo * e_dst(n64) / np.pi).astype(np.float32)
+    mask = np.zeros((60, 60), bool)
+    mask[::2, ::2] = True  # 900 samples
+    light_src, summary = relume.fit_nonnegative_light(src, normals, albedo=albedo, mask=mask)
+    light_dst, _ = relume.fit_nonnegative_light(dst, normals, albedo=albedo, mask=mask)
+    assert summary["usable"] and summary["observation_count"] == 900
+    directions, irradiance_k = light_src
+    assert directions.shape == irradiance_k.shape and directions.shape[1] == 3
+    assert (irradiance_k >= 0).all() and np.allclose(np.linalg.norm(directions, axis=1), 1.0)
+
+    def error(relit, valid):
+        d = (relit - dst)[valid]
+        return np.sqrt((d * d).sum() / (dst[valid] ** 2).sum())
+
+    relit, valid, s = relume.relight_nonnegative(src, normals, light_src, light_dst, ratio_radius_px=0)
+    assert s["relit_pixel_count"] > 3000
+    sh_src, _ = relume.fit_sh(src, normals, albedo=albedo, mask=mask)
+    sh_dst, _ = relume.fit_sh(dst, normals, albedo=albedo, mask=mask)
+    relit_sh, valid_sh, _ = relume.relight_sh(src, normals, sh_src, sh_dst, ratio_radius_px=0)
+    assert error(relit, valid) < 0.04
+    assert error(relit, valid) < error(relit_sh, valid_sh) / 3
+    with pytest.raises(relume.InvalidArgumentError, match="directions, irradiance"):
+        relume.relight_nonnegative(src, normals, directions, light_dst)
