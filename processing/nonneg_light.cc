@@ -283,7 +283,7 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
   Eigen::MatrixXd grid_weights;
   NonNegativeLightResult result = FitOnce(observations, {}, grid, options, &grid_weights);
   int iterations = result.summary.iterations;
-  int outliers = 0;
+  int left_out = 0;  // by the last refit
   for (int round = 0; round < options.outlier_rounds && !result.light.directions.empty(); ++round) {
     const std::vector<double> residual = Residuals(observations, result.light);
     const double median = Median(residual);
@@ -293,7 +293,7 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
     const double threshold =
         std::max(options.min_outlier_residual, median + options.outlier_mads * 1.4826 * Median(deviation));
     std::vector<bool> use(residual.size());
-    outliers = 0;
+    int outliers = 0;
     for (std::size_t i = 0; i < residual.size(); ++i) {
       use[i] = residual[i] <= threshold;
       outliers += use[i] ? 0 : 1;
@@ -301,10 +301,11 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
     if (outliers == 0 || n - outliers < options.min_observations) break;
     result = FitOnce(observations, use, grid, options, &grid_weights);
     iterations += result.summary.iterations;
+    left_out = outliers;
   }
   NonNegativeLightSummary& summary = result.summary;
   summary.observation_count = n;
-  summary.outlier_count = outliers;
+  summary.outlier_count = left_out;
   summary.iterations = iterations;
   // The residual over every observation, outliers included.
   double residual = 0.0, total = 0.0;
@@ -373,8 +374,9 @@ NonNegativeSegmentFitResult FitNonNegativeLightSegments(const std::vector<ShObse
 
 std::string NonNegativeLightSummary::BriefReport() const {
   std::ostringstream out;
-  out << (usable ? "usable" : "NOT usable") << ", " << observation_count << " observations, " << active_direction_count
-      << " active direction(s), residual " << relative_rms_residual << ", " << iterations << " active-set step(s), "
+  out << (usable ? "usable" : "NOT usable") << ", " << observation_count << " observations (" << outlier_count
+      << " left out as outliers), " << active_direction_count << " active direction(s), residual "
+      << relative_rms_residual << ", " << iterations << " active-set step(s), "
       << (converged ? "converged" : "not converged");
   if (!message.empty()) out << ": " << message;
   return out.str();

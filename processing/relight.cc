@@ -148,19 +148,21 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
   // (not over the whole sphere: a light fitted to the normals a camera sees is extrapolated
   // behind the object, and its sphere mean L00 can be negative while every visible normal is
   // well lit). A light whose mean over those pixels is not positive cannot be divided by.
+  // `ratio` holds E_src per pixel after this pass (each pixel's irradiance is evaluated once),
+  // and E_dst / E_src where relit after the next.
+  cv::Mat ratio(size, CV_32FC3, cv::Scalar(nan, nan, nan));
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   int count = 0;
   for (int y = 0; y < size.height; ++y) {
     const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
     const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
     const cv::Vec3f* in = src.pixels.ptr<cv::Vec3f>(y);
+    cv::Vec3f* r = ratio.ptr<cv::Vec3f>(y);
     for (int x = 0; x < size.width; ++x) {
       if ((m && !m[x]) || !std::isfinite(n[x][0] + n[x][1] + n[x][2] + in[x][0] + in[x][1] + in[x][2])) continue;
-      const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
-      {
-        const Eigen::Vector3f e = e_src_of(nf);
-        sum += e.cast<double>();
-      }
+      const Eigen::Vector3f e = e_src_of(Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized());
+      r[x] = cv::Vec3f(e.x(), e.y(), e.z());
+      sum += e.cast<double>();
       ++count;
     }
   }
@@ -170,7 +172,6 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
   const Eigen::Vector3f floor_f = floor.cast<float>();
 
   // The ratio E_dst / E_src per relit pixel, then (filtered) times the source.
-  cv::Mat ratio(size, CV_32FC3, cv::Scalar(nan, nan, nan));
   for (int y = 0; y < size.height; ++y) {
     const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
     const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
@@ -184,13 +185,13 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
         ++summary.invalid_input_count;
         continue;
       }
-      const Eigen::Vector3f nf = Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized();
-      const Eigen::Vector3f e_src = e_src_of(nf);
+      const Eigen::Vector3f e_src(out[x][0], out[x][1], out[x][2]);
       if (!light_ok || (e_src - floor_f).minCoeff() < 0.0f) {
+        out[x] = cv::Vec3f(nan, nan, nan);
         ++summary.guarded_pixel_count;
         continue;
       }
-      const Eigen::Vector3f e_dst = e_dst_of(nf);
+      const Eigen::Vector3f e_dst = e_dst_of(Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized());
       for (int c = 0; c < 3; ++c) out[x][c] = e_dst(c) / e_src(c);
       valid[x] = 255;
       ++summary.relit_pixel_count;
