@@ -740,24 +740,33 @@ struct FrameFit {
   std::optional<processing::NonNegativeLight> directional;
 };
 
-nlohmann::json DirectionalToJson(const processing::NonNegativeLightResult& fit) {
+// A non-negative light as light.json's and target_light.json's "directional".
+nlohmann::json DirectionalToJson(const processing::NonNegativeLight& light) {
   nlohmann::json directions = nlohmann::json::array(), irradiance = nlohmann::json::array();
-  for (std::size_t j = 0; j < fit.light.directions.size(); ++j) {
-    const Eigen::Vector3d& d = fit.light.directions[j];
-    const Eigen::Vector3d& w = fit.light.irradiance[j];
+  for (std::size_t j = 0; j < light.directions.size(); ++j) {
+    const Eigen::Vector3d& d = light.directions[j];
+    const Eigen::Vector3d& w = light.irradiance[j];
     directions.push_back({d.x(), d.y(), d.z()});
     irradiance.push_back({w.x(), w.y(), w.z()});
   }
-  const processing::NonNegativeLightSummary& s = fit.summary;
   return {{"convention", "E(n) = sum_j irradiance_j max(0, n . direction_j), camera frame (processing/nonneg_light.h)"},
-          {"usable", s.usable},
+          {"usable", true},
           {"directions", directions},
-          {"irradiance", irradiance},
-          {"observations", s.observation_count},
-          {"outliers", s.outlier_count},
-          {"relative_rms_residual", s.relative_rms_residual},
-          {"converged", s.converged},
-          {"message", s.message}};
+          {"irradiance", irradiance}};
+}
+
+// The same with the fit's figures (light.json).
+nlohmann::json DirectionalToJson(const processing::NonNegativeLightResult& fit) {
+  nlohmann::json out = DirectionalToJson(fit.light);
+  const processing::NonNegativeLightSummary& s = fit.summary;
+  out["usable"] = s.usable;
+  out["observations"] = s.observation_count;
+  out["outliers"] = s.outlier_count;
+  out["active_directions"] = s.active_direction_count;
+  out["relative_rms_residual"] = s.relative_rms_residual;
+  out["converged"] = s.converged;
+  out["message"] = s.message;
+  return out;
 }
 
 // The directional light light.json holds, if its fit was usable.
@@ -1793,12 +1802,7 @@ ShPipelineSummary RunShPipeline(PipelineRun& run) {
   {
     nlohmann::json dst_json = ShLightToJson(dst_light.sh, 2);
     dst_json["source"] = dst.description;
-    if (dst_light.directional) {
-      processing::NonNegativeLightResult directional;
-      directional.light = *dst_light.directional;
-      directional.summary.usable = true;
-      dst_json["directional"] = DirectionalToJson(directional);
-    }
+    if (dst_light.directional) dst_json["directional"] = DirectionalToJson(*dst_light.directional);
     WriteJsonFile(run.out_dir() / "target_light.json", dst_json);
     run.AddOutput(run.out_dir() / "target_light.json", "destination light (SH)");
   }
