@@ -220,7 +220,7 @@ TEST(FieldsTest, EveryPipelineSummaryRoundTrips) {
   sh.frames.emplace();
   ShFrameFigures& frame = sh.frames->emplace_back();
   frame.fit.segment_albedo = std::vector<Eigen::Vector3d>{{0.5, 0.4, 0.3}};
-  frame.relight = ShRelightFigures{10, 9, 1, 0, 3, "ok"};
+  frame.relight = ShRelightFigures{10, 9, 1, 0, 3, 2, "ok"};
   frame.destination_photo_relative_rms = 0.04;
   frame.destination_photo_pixels = 9;
   frame.truth.relit_relative_rms = 0.05;

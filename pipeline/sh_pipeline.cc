@@ -198,6 +198,10 @@ struct Knobs {
            {"relight"});
     v.Knob("relight_noisy_ratio_range_sigma", relight.noisy_ratio_range_sigma,
            "its range sigma, in the natural log of the source's luminance", {"relight"});
+    v.Knob("relight_albedo_deviation", relight.max_albedo_deviation,
+           "the shading check: a pixel whose implied albedo is more than this factor above its "
+           "same-colour neighbours' is relit from theirs at its normal (0: off)",
+           {"relight"});
     v.Knob("compare_truth", compare_truth, "compare with the simulated world's truth", {"report"});
     v.Knob("truth_dir", truth_dir,
            "compare with a truth made outside relume: rgb.txt listing 'TIMESTAMP FILE.exr' linear renders of the "
@@ -235,7 +239,8 @@ Knobs ReadKnobs(PipelineRun& run) {
   if (!k.segmentation.IsValid(&why)) throw InvalidArgumentError("--set segments: " + why);
   if (!k.samples.IsValid(&why)) throw InvalidArgumentError("--set samples: " + why);
   if (!k.relight.IsValid(&why))
-    throw InvalidArgumentError("--set min_irradiance_fraction / relight_ratio_* / relight_noisy_ratio_*: " + why);
+    throw InvalidArgumentError(
+        "--set min_irradiance_fraction / relight_ratio_* / relight_noisy_ratio_* / relight_albedo_deviation: " + why);
   if (!(k.max_sun_shadowed_fraction >= 0.0 && k.max_sun_shadowed_fraction <= 1.0))
     throw InvalidArgumentError("--set max_sun_shadowed_fraction: must be within [0, 1]");
   if (!(k.min_sun_shadow_contrast >= 1.0 && std::isfinite(k.min_sun_shadow_contrast)))
@@ -1163,10 +1168,10 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
     calibration::SaveRadianceExr(composite, (dir / "composite.exr").string());
     calibration::SaveImage(RadiancePreview(composite), (dir / "composite.png").string());
     calibration::SaveImage(RadiancePreview(source), (dir / "source.png").string());
-    WriteRecord(dir / "relight.json",
-                ShRelightFigures{r.summary.requested_pixel_count, r.summary.relit_pixel_count,
-                                 r.summary.guarded_pixel_count, r.summary.invalid_input_count,
-                                 cv::countNonZero(clipped), r.summary.message, directional ? "nonnegative" : "sh"});
+    WriteRecord(dir / "relight.json", ShRelightFigures{r.summary.requested_pixel_count, r.summary.relit_pixel_count,
+                                                       r.summary.guarded_pixel_count, r.summary.invalid_input_count,
+                                                       cv::countNonZero(clipped), r.summary.albedo_replaced_pixel_count,
+                                                       r.summary.message, directional ? "nonnegative" : "sh"});
   });
   out.dir = stage.dir;
   out.summary = ReadRecord<ShRelightFigures>(stage.dir / "relight.json");
@@ -1177,6 +1182,14 @@ Relit Relight(PipelineRun& run, const Knobs& k, const RgbdPair& pair, const Fram
                "frame " + id + ": " + std::to_string(out.summary.guarded) +
                    " pixel(s) not divided (source irradiance below " + Percent(k.relight.min_irradiance_fraction) +
                    " of its mean over the object): masked, kept from the source in the composite");
+  }
+  if (out.summary.albedo_replaced > 0) {
+    run.Decide("relight", "shading-check",
+               "frame " + id + ": " + std::to_string(out.summary.albedo_replaced) +
+                   " pixel(s) brighter than their normal can explain (implied albedo more than " +
+                   Number(k.relight.max_albedo_deviation) +
+                   "x their same-colour neighbours') relit from those neighbours' albedo at their normal "
+                   "(relight_albedo_deviation=0: off)");
   }
   run.AddOutput(stage.dir / "relit.exr", "frame " + id + " relit (linear radiance, NaN where not relit)");
   run.AddOutput(stage.dir / "composite.png", "frame " + id + " relit over the source (preview)");

@@ -79,6 +79,8 @@ struct ShFitFigures {
 struct ShRelightFigures {
   std::int64_t requested = 0, relit = 0, guarded = 0, invalid_input = 0;
   std::int64_t clipped = 0;  // pixels with a normal left out: clipped in the colour frame (not requested)
+  // relit from their neighbours' albedo: shading contradicts the normal (relight_albedo_deviation)
+  std::int64_t albedo_replaced = 0;
   std::string message;
   std::string light = "sh";  // the light divided by: "sh" or "nonnegative" (knob light_model)
   template <typename V>
@@ -88,6 +90,7 @@ struct ShRelightFigures {
     v.Field("guarded", guarded);
     v.Field("invalid_input", invalid_input);
     v.Field("clipped", clipped);
+    v.Field("albedo_replaced", albedo_replaced);
     v.Field("message", message);
     v.Field("light", light);
   }

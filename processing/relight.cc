@@ -96,6 +96,90 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
   return out;
 }
 
+// The shading check (RelightOptions::max_albedo_deviation). `albedo` holds each relit pixel's
+// implied albedo I / E_src per channel. A pixel whose luminance albedo (sum of I over sum of
+// E_src) is more than the allowed factor above the median of its neighbours' of the same
+// chromaticity (within albedo_check_radius_px; at least kMinNeighbours of them, itself counted)
+// is brighter than its normal can explain: its ratio becomes a_ref E_dst / I, with a_ref those
+// neighbours' per-channel median albedo, so that it is relit as a_ref E_dst(n). Returns how
+// many pixels it replaced. Rows in parallel: each writes its own ratio row only.
+int ReplaceInconsistentRatios(const cv::Mat& source, const cv::Mat& albedo, const cv::Mat& valid,
+                              const RelightOptions& options, cv::Mat* ratio) {
+  constexpr int kMinNeighbours = 8;
+  const cv::Size size = source.size();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // Chromaticity (r, g) / (r + g + b) and luminance albedo per relit pixel.
+  cv::Mat chroma(size, CV_32FC2, cv::Scalar(nan, nan));
+  cv::Mat luminance_albedo(size, CV_32FC1, cv::Scalar(nan));
+  for (int y = 0; y < size.height; ++y) {
+    const unsigned char* v = valid.ptr<unsigned char>(y);
+    const cv::Vec3f* in = source.ptr<cv::Vec3f>(y);
+    const cv::Vec3f* a = albedo.ptr<cv::Vec3f>(y);
+    cv::Vec2f* ch = chroma.ptr<cv::Vec2f>(y);
+    float* la = luminance_albedo.ptr<float>(y);
+    for (int x = 0; x < size.width; ++x) {
+      const float sum = in[x][0] + in[x][1] + in[x][2];
+      if (!v[x] || !(sum > 0.0f)) continue;
+      ch[x] = cv::Vec2f(in[x][0] / sum, in[x][1] / sum);
+      // I / a = E_src per channel, so sum I / sum (I / a).
+      float e_sum = 0.0f;
+      for (int c = 0; c < 3; ++c) e_sum += a[x][c] > 0.0f ? in[x][c] / a[x][c] : 0.0f;
+      if (e_sum > 0.0f) la[x] = sum / e_sum;
+    }
+  }
+  const int radius = options.albedo_check_radius_px;
+  const float tolerance = static_cast<float>(options.albedo_check_chromaticity_tolerance);
+  const float deviation = static_cast<float>(options.max_albedo_deviation);
+  std::vector<int> replaced_per_row(static_cast<std::size_t>(size.height), 0);
+  ParallelForEach(0, size.height, [&](std::int64_t row) {
+    const int y = static_cast<int>(row);
+    std::vector<float> channel;
+    const float* la = luminance_albedo.ptr<float>(y);
+    const cv::Vec2f* ch = chroma.ptr<cv::Vec2f>(y);
+    cv::Vec3f* r = ratio->ptr<cv::Vec3f>(y);
+    const int y0 = std::max(0, y - radius), y1 = std::min(size.height - 1, y + radius);
+    // The neighbours of (x, y) of the same chromaticity, in order.
+    auto for_each_neighbour = [&](int x, auto&& visit) {
+      for (int yy = y0; yy <= y1; ++yy) {
+        const float* la_n = luminance_albedo.ptr<float>(yy);
+        const cv::Vec2f* ch_n = chroma.ptr<cv::Vec2f>(yy);
+        for (int xx = std::max(0, x - radius); xx <= std::min(size.width - 1, x + radius); ++xx) {
+          if (std::isfinite(la_n[xx]) &&
+              std::abs(ch_n[xx][0] - ch[x][0]) + std::abs(ch_n[xx][1] - ch[x][1]) <= tolerance) {
+            visit(xx, yy, la_n[xx]);
+          }
+        }
+      }
+    };
+    for (int x = 0; x < size.width; ++x) {
+      if (!std::isfinite(la[x])) continue;
+      // The median (element n / 2 in order) is below la / deviation when more than n / 2 of
+      // the n neighbours are: counting decides without sorting.
+      const float low = la[x] / deviation;
+      int count = 0, below = 0;
+      for_each_neighbour(x, [&](int, int, float a) {
+        ++count;
+        below += a < low;
+      });
+      if (count < kMinNeighbours || below < count / 2 + 1) continue;
+      // Per-channel reference albedo from the same neighbours.
+      const cv::Vec3f a = albedo.at<cv::Vec3f>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        channel.clear();
+        for_each_neighbour(x, [&](int xx, int yy, float) { channel.push_back(albedo.at<cv::Vec3f>(yy, xx)[c]); });
+        const auto middle = channel.begin() + static_cast<std::ptrdiff_t>(channel.size() / 2);
+        std::nth_element(channel.begin(), middle, channel.end());
+        // I E_dst / E_src -> a_ref E_dst = I (E_dst / E_src) (a_ref / a).
+        if (a[c] > 0.0f) r[x][c] *= *middle / a[c];
+      }
+      ++replaced_per_row[static_cast<std::size_t>(y)];
+    }
+  });
+  int replaced = 0;
+  for (int n : replaced_per_row) replaced += n;
+  return replaced;
+}
+
 }  // namespace
 
 bool RelightOptions::IsValid(std::string* why) const {
@@ -110,6 +194,15 @@ bool RelightOptions::IsValid(std::string* why) const {
   if (noisy_ratio_radius_px < 0 || noisy_ratio_radius_px > 32 || !(noisy_ratio_spatial_sigma_px > 0.0) ||
       !(noisy_ratio_range_sigma > 0.0)) {
     if (why) *why = "noisy_ratio_radius_px must be in [0, 32] and the noisy-normals ratio filter's sigmas > 0";
+    return false;
+  }
+  if (!(max_albedo_deviation == 0.0 || max_albedo_deviation > 1.0) || albedo_check_radius_px < 1 ||
+      albedo_check_radius_px > 16 || !(albedo_check_chromaticity_tolerance > 0.0)) {
+    if (why) {
+      *why =
+          "max_albedo_deviation must be 0 (off) or > 1, albedo_check_radius_px in [1, 16] and "
+          "albedo_check_chromaticity_tolerance > 0";
+    }
     return false;
   }
   return true;
@@ -171,7 +264,11 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
   const bool light_ok = mean.minCoeff() > 0.0;
   const Eigen::Vector3f floor_f = floor.cast<float>();
 
-  // The ratio E_dst / E_src per relit pixel, then (filtered) times the source.
+  // The ratio E_dst / E_src per relit pixel (and, for the shading check, the implied albedo
+  // I / E_src), then (filtered) times the source.
+  const bool check_albedo = options.max_albedo_deviation > 0.0;
+  cv::Mat albedo;
+  if (check_albedo) albedo = cv::Mat(size, CV_32FC3, cv::Scalar(nan, nan, nan));
   for (int y = 0; y < size.height; ++y) {
     const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
     const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
@@ -193,9 +290,16 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
       }
       const Eigen::Vector3f e_dst = e_dst_of(Eigen::Map<const Eigen::Vector3f>(&n[x][0]).normalized());
       for (int c = 0; c < 3; ++c) out[x][c] = e_dst(c) / e_src(c);
+      if (check_albedo) {
+        cv::Vec3f& a = albedo.at<cv::Vec3f>(y, x);
+        for (int c = 0; c < 3; ++c) a[c] = in[x][c] / e_src(c);
+      }
       valid[x] = 255;
       ++summary.relit_pixel_count;
     }
+  }
+  if (check_albedo && light_ok) {
+    summary.albedo_replaced_pixel_count = ReplaceInconsistentRatios(src.pixels, albedo, result.valid, options, &ratio);
   }
   const RatioFilter filter = RatioFilterOf(options);
   if (filter.radius_px > 0) ratio = FilterRatio(ratio, result.valid, src.pixels, filter);

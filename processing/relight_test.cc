@@ -215,6 +215,63 @@ TEST(RelightTest, NormalsFromNoisyDepthTakeTheWiderFilter) {
   EXPECT_NE(why.find("noisy"), std::string::npos) << why;
 }
 
+// A plane facing the camera of two materials (left and right halves, different
+// chromaticities) with one column, x = 5, that is really a face turned toward a grazing lamp
+// but is given the plane's normal (a box face seen edge-on, as depth gives it). Its shading is
+// 2.6x what its normal implies: the shading check relights it from its neighbours' albedo at
+// its normal. Column x = 15 lies in a shadow (0.3 of its light): darker than its normal
+// implies, it is left to the ratio, which keeps the shadow. Every other pixel, the border
+// between the materials included, is relit exactly.
+TEST(RelightTest, ShadingCheckRelightsPixelsBrighterThanTheirNormalExplains) {
+  const int width = 20, height = 12, column = 5, shadow = 15;
+  const double shadow_factor = 0.3;
+  const Eigen::Vector3d plane(0, 0, -1), grazing = Eigen::Vector3d(0.98, 0, -0.2).normalized();
+  NonNegativeLight src, dst;
+  src.directions = {grazing, plane};
+  src.irradiance = {Eigen::Vector3d::Constant(5.0), Eigen::Vector3d::Constant(1.0)};
+  dst.directions = {Eigen::Vector3d(-0.6, 0, -0.8)};
+  dst.irradiance = {Eigen::Vector3d(3.0, 2.8, 2.6)};
+  const Eigen::Vector3d left(0.6, 0.3, 0.2), right(0.2, 0.4, 0.6);
+  RadianceImage image = MakeRadianceImage(width, height);
+  cv::Mat normals(height, width, CV_32FC3, cv::Scalar(0, 0, -1));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector3d albedo = x < width / 2 ? left : right;
+      const Eigen::Vector3d e = src.Irradiance(x == column ? grazing : plane);
+      const Eigen::Vector3d radiance = albedo.cwiseProduct(e) * (x == shadow ? shadow_factor : 1.0);
+      image.pixels.at<cv::Vec3f>(y, x) = cv::Vec3f(radiance.x(), radiance.y(), radiance.z());
+    }
+  }
+  ASSERT_GT(src.Irradiance(grazing).x() / src.Irradiance(plane).x(), 2.5);
+  RelightOptions checked;
+  checked.ratio_radius_px = 0;  // each pixel by its own ratio: exact where the normal is right
+  RelightOptions unchecked = checked;
+  unchecked.max_albedo_deviation = 0.0;
+  const RelightResult with = RelightNonNegative(image, normals, {}, src, dst, checked);
+  const RelightResult without = RelightNonNegative(image, normals, {}, src, dst, unchecked);
+  EXPECT_EQ(with.summary.albedo_replaced_pixel_count, height);
+  EXPECT_EQ(without.summary.albedo_replaced_pixel_count, 0);
+  EXPECT_EQ(with.summary.relit_pixel_count, width * height);
+  const Eigen::Vector3d e_dst = dst.Irradiance(plane);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      // With the check every pixel is its material's albedo times E_dst at the given normal,
+      // the shadow kept.
+      const Eigen::Vector3d want =
+          (x < width / 2 ? left : right).cwiseProduct(e_dst) * (x == shadow ? shadow_factor : 1.0);
+      const cv::Vec3f got = with.relit.pixels.at<cv::Vec3f>(y, x), raw = without.relit.pixels.at<cv::Vec3f>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(got[c], want(c), 1e-5 * want(c)) << x << "," << y;
+        // Without it the column is multiplied by its 2.6x shading.
+        EXPECT_NEAR(raw[c], x == column ? 2.6 * want(c) : want(c), 0.01 * want(c)) << x << "," << y;
+      }
+    }
+  }
+  RelightOptions bad;
+  bad.max_albedo_deviation = 0.5;
+  EXPECT_THROW(RelightNonNegative(image, normals, {}, src, dst, bad), InvalidArgumentError);
+}
+
 TEST(RelightTest, RejectsMismatchedInputs) {
   RadianceImage image = MakeRadianceImage(4, 4);
   EXPECT_THROW(RelightSh(image, cv::Mat::zeros(3, 3, CV_32FC3), {}, ShRgb::Zero(), ShRgb::Zero()),

@@ -117,7 +117,8 @@ def sh_radiance(light: npt.ArrayLike, directions: npt.ArrayLike) -> _F64: ...
 def relight_sh(source: _F32, normals: _F32, source_light: npt.ArrayLike, target_light: npt.ArrayLike, *,
                mask: _Mask = None,
                min_irradiance_fraction: float = 0.1, ratio_radius_px: int = 3, ratio_spatial_sigma_px: float = 1.5,
-               ratio_range_sigma: float = 0.015) -> tuple[_F32, npt.NDArray[np.bool_], dict[str, Any]]: ...
+               ratio_range_sigma: float = 0.015,
+               max_albedo_deviation: float = 2.0) -> tuple[_F32, npt.NDArray[np.bool_], dict[str, Any]]: ...
 def fit_nonnegative_light(radiance: _F32, normals: _F32, *, albedo: Optional[_F32] = None, mask: _Mask = None,
                           direction_count: int = 512, min_observations: int = 50, ridge: float = 1e-07,
                           outlier_rounds: int = 1, outlier_mads: float = 3.0,
@@ -126,7 +127,8 @@ def relight_nonnegative(source: _F32, normals: _F32, source_light: tuple[npt.Arr
                         target_light: tuple[npt.ArrayLike, npt.ArrayLike], *, mask: _Mask = None,
                         min_irradiance_fraction: float = 0.1, ratio_radius_px: int = 3,
                         ratio_spatial_sigma_px: float = 1.5,
-                        ratio_range_sigma: float = 0.015) -> tuple[_F32, npt.NDArray[np.bool_], dict[str, Any]]: ...
+                        ratio_range_sigma: float = 0.015,
+               max_albedo_deviation: float = 2.0) -> tuple[_F32, npt.NDArray[np.bool_], dict[str, Any]]: ...
 
 # ColorChecker
 def load_colorchecker_reference(path: _Path) -> dict[str, Any]: ...

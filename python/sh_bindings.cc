@@ -190,8 +190,10 @@ py::array_t<double> ShRadiance(const py::object& light, const py::object& direct
 }
 
 processing::RelightOptions RelightOptionsOf(double min_irradiance_fraction, int ratio_radius_px,
-                                            double ratio_spatial_sigma_px, double ratio_range_sigma, const char* what) {
+                                            double ratio_spatial_sigma_px, double ratio_range_sigma,
+                                            double max_albedo_deviation, const char* what) {
   processing::RelightOptions options;
+  options.max_albedo_deviation = max_albedo_deviation;
   options.min_irradiance_fraction = min_irradiance_fraction;
   options.ratio_radius_px = ratio_radius_px;
   options.ratio_spatial_sigma_px = ratio_spatial_sigma_px;
@@ -217,16 +219,18 @@ py::tuple RelightArrays(const py::object& source, const py::object& normals, con
   const processing::RelightSummary& s = result.summary;
   py::dict summary("requested_pixel_count"_a = s.requested_pixel_count, "relit_pixel_count"_a = s.relit_pixel_count,
                    "guarded_pixel_count"_a = s.guarded_pixel_count, "invalid_input_count"_a = s.invalid_input_count,
-                   "message"_a = s.message);
+                   "albedo_replaced_pixel_count"_a = s.albedo_replaced_pixel_count, "message"_a = s.message);
   return py::make_tuple(MatToArray(std::move(result.relit.pixels)),
                         MatToArray(std::move(result.valid)).attr("astype")("bool"), summary);
 }
 
 py::tuple RelightSh(const py::object& source, const py::object& normals, const py::object& source_light,
                     const py::object& target_light, const py::object& mask, double min_irradiance_fraction,
-                    int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma) {
-  const processing::RelightOptions options = RelightOptionsOf(min_irradiance_fraction, ratio_radius_px,
-                                                              ratio_spatial_sigma_px, ratio_range_sigma, "relight_sh");
+                    int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma,
+                    double max_albedo_deviation) {
+  const processing::RelightOptions options =
+      RelightOptionsOf(min_irradiance_fraction, ratio_radius_px, ratio_spatial_sigma_px, ratio_range_sigma,
+                       max_albedo_deviation, "relight_sh");
   const processing::ShRgb src_light = LightFromArray(source_light, "source_light");
   const processing::ShRgb dst_light = LightFromArray(target_light, "target_light");
   return RelightArrays(source, normals, mask, [&](const RadianceImage& image, const cv::Mat& n, const cv::Mat& m) {
@@ -291,9 +295,11 @@ py::tuple FitNonNegativeLight(const py::object& radiance, const py::object& norm
 
 py::tuple RelightNonNegative(const py::object& source, const py::object& normals, const py::object& source_light,
                              const py::object& target_light, const py::object& mask, double min_irradiance_fraction,
-                             int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma) {
-  const processing::RelightOptions options = RelightOptionsOf(
-      min_irradiance_fraction, ratio_radius_px, ratio_spatial_sigma_px, ratio_range_sigma, "relight_nonnegative");
+                             int ratio_radius_px, double ratio_spatial_sigma_px, double ratio_range_sigma,
+                             double max_albedo_deviation) {
+  const processing::RelightOptions options =
+      RelightOptionsOf(min_irradiance_fraction, ratio_radius_px, ratio_spatial_sigma_px, ratio_range_sigma,
+                       max_albedo_deviation, "relight_nonnegative");
   const processing::NonNegativeLight src_light = NonNegativeLightFromPython(source_light, "source_light");
   const processing::NonNegativeLight dst_light = NonNegativeLightFromPython(target_light, "target_light");
   return RelightArrays(source, normals, mask, [&](const RadianceImage& image, const cv::Mat& n, const cv::Mat& m) {
@@ -440,6 +446,7 @@ Returns:
         "ratio_radius_px"_a = processing::RelightOptions{}.ratio_radius_px,
         "ratio_spatial_sigma_px"_a = processing::RelightOptions{}.ratio_spatial_sigma_px,
         "ratio_range_sigma"_a = processing::RelightOptions{}.ratio_range_sigma,
+        "max_albedo_deviation"_a = processing::RelightOptions{}.max_albedo_deviation,
         R"doc(Relights by the ratio of SH irradiances (Ogura & Saito eq. 7): I_t = I_s E_t(n) / E_s(n).
 
 Args:
@@ -457,10 +464,17 @@ Args:
         sh pipeline filters wider: ratio_radius_px=6, ratio_spatial_sigma_px=4.0,
         ratio_range_sigma=0.03 (RelightOptions::noisy_ratio_*).
 
+    max_albedo_deviation: the shading check: a pixel whose implied albedo I_s / E_s(n) is more
+        than this factor above the median of its neighbours' of the same chromaticity (7x7) is
+        brighter than its normal can explain (a face seen edge-on, given the normal of the face
+        beside it); it is relit as that median albedo times E_t(n) instead of being multiplied
+        by the ratio. 0: off.
+
 Returns:
     (relit float32 HxWx3, NaN where not relit; valid bool HxW; summary dict with
     requested_pixel_count, relit_pixel_count, guarded_pixel_count (irradiance too small),
-    invalid_input_count (no normal or non-finite colour), message).
+    invalid_input_count (no normal or non-finite colour), albedo_replaced_pixel_count (the
+    shading check), message).
 )doc");
   const processing::NonNegativeLightOptions nn;
   m.def("fit_nonnegative_light", &FitNonNegativeLight, "radiance"_a, "normals"_a, py::kw_only(),
@@ -495,10 +509,11 @@ Returns:
         "ratio_radius_px"_a = processing::RelightOptions{}.ratio_radius_px,
         "ratio_spatial_sigma_px"_a = processing::RelightOptions{}.ratio_spatial_sigma_px,
         "ratio_range_sigma"_a = processing::RelightOptions{}.ratio_range_sigma,
+        "max_albedo_deviation"_a = processing::RelightOptions{}.max_albedo_deviation,
         R"doc(Relights by the ratio of non-negative lights' irradiances, as relight_sh does with SH lights.
 
 Args:
-    source, normals, mask, min_irradiance_fraction, ratio_*: as relight_sh.
+    source, normals, mask, min_irradiance_fraction, ratio_*, max_albedo_deviation: as relight_sh.
     source_light, target_light: (directions, irradiance) pairs as fit_nonnegative_light returns.
 
 Returns:
