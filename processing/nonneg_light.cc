@@ -244,15 +244,24 @@ NonNegativeLightResult FitOnce(const std::vector<ShObservation>& observations, c
   return result;
 }
 
+// The light's radiance a E(n) / pi at each observation.
+std::vector<Eigen::Vector3d> Predict(const std::vector<ShObservation>& observations, const NonNegativeLight& light) {
+  std::vector<Eigen::Vector3d> model;
+  model.reserve(observations.size());
+  for (const ShObservation& o : observations)
+    model.push_back(o.albedo.cwiseProduct(light.Irradiance(o.normal)) * kInvPi);
+  return model;
+}
+
 // |I - model| per observation, summed over channels, relative to the observations' mean |I|.
-std::vector<double> Residuals(const std::vector<ShObservation>& observations, const NonNegativeLight& light) {
+std::vector<double> Residuals(const std::vector<ShObservation>& observations,
+                              const std::vector<Eigen::Vector3d>& model) {
   std::vector<double> out;
   out.reserve(observations.size());
   double level = 0.0;
-  for (const ShObservation& o : observations) {
-    const Eigen::Vector3d model = o.albedo.cwiseProduct(light.Irradiance(o.normal)) * kInvPi;
-    out.push_back((o.radiance - model).cwiseAbs().sum());
-    level += o.radiance.cwiseAbs().sum();
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    out.push_back((observations[i].radiance - model[i]).cwiseAbs().sum());
+    level += observations[i].radiance.cwiseAbs().sum();
   }
   level /= static_cast<double>(std::max<std::size_t>(1, observations.size()));
   if (level > 0.0) {
@@ -283,9 +292,11 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
   Eigen::MatrixXd grid_weights;
   NonNegativeLightResult result = FitOnce(observations, {}, grid, options, &grid_weights);
   int iterations = result.summary.iterations;
-  int left_out = 0;  // by the last refit
+  int left_out = 0;                    // by the last refit
+  std::vector<Eigen::Vector3d> model;  // Predict(result.light), or empty when not yet evaluated
   for (int round = 0; round < options.outlier_rounds && !result.light.directions.empty(); ++round) {
-    const std::vector<double> residual = Residuals(observations, result.light);
+    model = Predict(observations, result.light);
+    const std::vector<double> residual = Residuals(observations, model);
     const double median = Median(residual);
     std::vector<double> deviation;
     deviation.reserve(residual.size());
@@ -300,6 +311,7 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
     }
     if (outliers == 0 || n - outliers < options.min_observations) break;
     result = FitOnce(observations, use, grid, options, &grid_weights);
+    model.clear();
     iterations += result.summary.iterations;
     left_out = outliers;
   }
@@ -307,12 +319,13 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
   summary.observation_count = n;
   summary.outlier_count = left_out;
   summary.iterations = iterations;
-  // The residual over every observation, outliers included.
+  // The residual over every observation, outliers included (the light is evaluated once more
+  // only if a refit changed it).
+  if (model.empty()) model = Predict(observations, result.light);
   double residual = 0.0, total = 0.0;
-  for (const ShObservation& o : observations) {
-    const Eigen::Vector3d model = o.albedo.cwiseProduct(result.light.Irradiance(o.normal)) * kInvPi;
-    residual += (o.radiance - model).squaredNorm();
-    total += o.radiance.squaredNorm();
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    residual += (observations[i].radiance - model[i]).squaredNorm();
+    total += observations[i].radiance.squaredNorm();
   }
   summary.relative_rms_residual = total > 0.0 ? std::sqrt(residual / total) : 0.0;
   if (summary.active_direction_count == 0) {
