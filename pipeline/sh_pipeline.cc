@@ -138,7 +138,8 @@ struct Knobs {
   std::string truth_dir;
 
   // Stage tags: "geometry" (depth filters + normals), "registration" (the geometry stage of depth
-  // recorded unregistered only), "fit", "relight"; "plan": decides which
+  // recorded unregistered only), "fit", "fit-nonnegative" (the fit stage with
+  // light_model=nonnegative only: with sh they change nothing), "relight"; "plan": decides which
   // frames and filters run, and the keys follow from that; "report": the summary only.
   template <typename V>
   void VisitKnobs(V& v) {
@@ -180,9 +181,10 @@ struct Knobs {
            "light the relighting divides by: sh (order-2 SH) or nonnegative (non-negative directional light; "
            "destinations from a frame only)",
            {"fit", "relight"});
-    v.Knob("nonneg_directions", nonneg.direction_count, "directions of the non-negative light's grid", {"fit"});
+    v.Knob("nonneg_directions", nonneg.direction_count, "directions of the non-negative light's grid",
+           {"fit-nonnegative"});
     v.Knob("nonneg_albedo_rounds", nonneg_albedo_rounds,
-           "light / segment-albedo alternations of the non-negative light (unknown albedo)", {"fit"});
+           "light / segment-albedo alternations of the non-negative light (unknown albedo)", {"fit-nonnegative"});
     v.Knob("min_irradiance_fraction", relight.min_irradiance_fraction,
            "source irradiance, as a share of its mean, below which a pixel is not divided", {"relight"});
     v.Knob("relight_ratio_radius", relight.ratio_radius_px,
@@ -802,6 +804,7 @@ FrameFit Fit(PipelineRun& run, const Knobs& k, bool known_albedo, const RgbdPair
   FrameFit f;
   f.key.Add("stage", "sh-fit-v3").AddKey("radiance", radiance.key).AddKey("geometry", geometry.key);
   AddKnobsToKey(f.key, k, "fit");
+  if (k.light_model == "nonnegative") AddKnobsToKey(f.key, k, "fit-nonnegative");
   f.key.Add("sample_seed", static_cast<std::int64_t>(k.samples.seed)).Add("known_albedo", known_albedo);
   if (known_albedo) {
     f.key.Add("truth", run.truth()->Key());
@@ -1917,7 +1920,7 @@ PipelineEntry ShPipelineEntry() {
       WithRadianceKnobs(DescribeKnobs<Knobs>()),
       ShHeadline,
       ShFigures,
-      {"radiance", "geometry", "registration", "fit", "relight"}});
+      {"radiance", "geometry", "registration", "fit", "fit-nonnegative", "relight"}});
 }
 
 }  // namespace relume::pipeline

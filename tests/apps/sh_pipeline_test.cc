@@ -230,6 +230,9 @@ TEST(ShPipelineCliTest, StaticObjectUnderAMovingLightIsRelitCloseToTheTruthAndSt
                                    " --set light_model=sg");
   EXPECT_NE(bad_model.exit_code, 0);
   EXPECT_NE(bad_model.output.find("expected sh or nonnegative"), std::string::npos) << bad_model.output;
+  // With the SH light, the non-negative light's knobs change nothing: every stage is reused.
+  const nlohmann::json sh_again = Process(session, out, "--set albedo=unknown --set nonneg_directions=256");
+  for (const auto& [stage, action] : StageActions(sh_again)) EXPECT_EQ(action, "reuse") << stage;
 
   // Filtering noise-free depth anyway only rounds creases and silhouettes (measured 2.01 %).
   const nlohmann::json filtered = Process(session, out, "--set depth_noise_skip_below_m=0");
