@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -97,34 +98,31 @@ cv::Mat FilterRatio(const cv::Mat& ratio, const cv::Mat& valid, const cv::Mat& s
 }
 
 // The shading check (RelightOptions::max_albedo_deviation). `albedo` holds each relit pixel's
-// implied albedo I / E_src per channel. A pixel whose luminance albedo (sum of I over sum of
-// E_src) is more than the allowed factor above the median of its neighbours' of the same
-// chromaticity (within albedo_check_radius_px; at least kMinNeighbours of them, itself counted)
-// is brighter than its normal can explain: its ratio becomes a_ref E_dst / I, with a_ref those
-// neighbours' per-channel median albedo, so that it is relit as a_ref E_dst(n). Returns how
-// many pixels it replaced. Rows in parallel: each writes its own ratio row only.
-int ReplaceInconsistentRatios(const cv::Mat& source, const cv::Mat& albedo, const cv::Mat& valid,
+// implied albedo I / E_src per channel, `luminance_albedo` sum I / sum E_src (NaN where not
+// relit). A pixel whose luminance albedo is more than the allowed factor above the median of its neighbours' of the
+// same chromaticity (within albedo_check_radius_px; at least kMinNeighbours of them, itself counted) is brighter than
+// its normal can explain: its ratio becomes a_ref E_dst / I, with a_ref those neighbours' per-channel median albedo, so
+// that it is relit as a_ref E_dst(n). Returns how many pixels it replaced. Rows in parallel: each writes its own ratio
+// row only.
+int ReplaceInconsistentRatios(const cv::Mat& source, const cv::Mat& albedo, cv::Mat luminance_albedo,
                               const RelightOptions& options, cv::Mat* ratio) {
   constexpr int kMinNeighbours = 8;
   const cv::Size size = source.size();
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  // Chromaticity (r, g) / (r + g + b) and luminance albedo per relit pixel.
+  // Chromaticity (r, g) / (r + g + b) per relit pixel; black pixels are not checked.
   cv::Mat chroma(size, CV_32FC2, cv::Scalar(nan, nan));
-  cv::Mat luminance_albedo(size, CV_32FC1, cv::Scalar(nan));
   for (int y = 0; y < size.height; ++y) {
-    const unsigned char* v = valid.ptr<unsigned char>(y);
     const cv::Vec3f* in = source.ptr<cv::Vec3f>(y);
-    const cv::Vec3f* a = albedo.ptr<cv::Vec3f>(y);
     cv::Vec2f* ch = chroma.ptr<cv::Vec2f>(y);
     float* la = luminance_albedo.ptr<float>(y);
     for (int x = 0; x < size.width; ++x) {
       const float sum = in[x][0] + in[x][1] + in[x][2];
-      if (!v[x] || !(sum > 0.0f)) continue;
-      ch[x] = cv::Vec2f(in[x][0] / sum, in[x][1] / sum);
-      // I / a = E_src per channel, so sum I / sum (I / a).
-      float e_sum = 0.0f;
-      for (int c = 0; c < 3; ++c) e_sum += a[x][c] > 0.0f ? in[x][c] / a[x][c] : 0.0f;
-      if (e_sum > 0.0f) la[x] = sum / e_sum;
+      if (!std::isfinite(la[x])) continue;
+      if (sum > 0.0f) {
+        ch[x] = cv::Vec2f(in[x][0] / sum, in[x][1] / sum);
+      } else {
+        la[x] = nan;
+      }
     }
   }
   const int radius = options.albedo_check_radius_px;
@@ -267,8 +265,11 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
   // The ratio E_dst / E_src per relit pixel (and, for the shading check, the implied albedo
   // I / E_src), then (filtered) times the source.
   const bool check_albedo = options.max_albedo_deviation > 0.0;
-  cv::Mat albedo;
-  if (check_albedo) albedo = cv::Mat(size, CV_32FC3, cv::Scalar(nan, nan, nan));
+  cv::Mat albedo, luminance_albedo;
+  if (check_albedo) {
+    albedo = cv::Mat(size, CV_32FC3, cv::Scalar(nan, nan, nan));
+    luminance_albedo = cv::Mat(size, CV_32FC1, cv::Scalar(nan));
+  }
   for (int y = 0; y < size.height; ++y) {
     const unsigned char* m = mask.empty() ? nullptr : mask.ptr<unsigned char>(y);
     const cv::Vec3f* n = normal_in_camera.ptr<cv::Vec3f>(y);
@@ -293,13 +294,15 @@ RelightResult RelightByRatio(const RadianceImage& src, const cv::Mat& normal_in_
       if (check_albedo) {
         cv::Vec3f& a = albedo.at<cv::Vec3f>(y, x);
         for (int c = 0; c < 3; ++c) a[c] = in[x][c] / e_src(c);
+        luminance_albedo.at<float>(y, x) = (in[x][0] + in[x][1] + in[x][2]) / e_src.sum();
       }
       valid[x] = 255;
       ++summary.relit_pixel_count;
     }
   }
   if (check_albedo && light_ok) {
-    summary.albedo_replaced_pixel_count = ReplaceInconsistentRatios(src.pixels, albedo, result.valid, options, &ratio);
+    summary.albedo_replaced_pixel_count =
+        ReplaceInconsistentRatios(src.pixels, albedo, std::move(luminance_albedo), options, &ratio);
   }
   const RatioFilter filter = RatioFilterOf(options);
   if (filter.radius_px > 0) ratio = FilterRatio(ratio, result.valid, src.pixels, filter);
