@@ -200,22 +200,18 @@ NonNegativeLightResult FitOnce(const std::vector<ShObservation>& observations, c
     if (lit && (use.empty() || use[static_cast<std::size_t>(i)])) rows.push_back(i);
   }
   const int n = static_cast<int>(rows.size()), k = static_cast<int>(grid.size());
-  Eigen::MatrixXd cosines(n, k);  // max(0, n_i . d_j)
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d& normal = observations[static_cast<std::size_t>(rows[static_cast<std::size_t>(i)])].normal;
-    for (int j = 0; j < k; ++j) cosines(i, j) = std::max(0.0, normal.dot(grid[static_cast<std::size_t>(j)]));
-  }
   // In irradiance units, E_i = pi I_i / albedo_i per channel, each row weighted by the
   // observation's mean albedo / pi: the radiance-space least squares up to the albedo's tint,
   // with one design matrix (and one set of normal-equation columns) for the three channels.
-  Eigen::VectorXd row_weight(n);
+  // design(i, j) = weight_i max(0, n_i . d_j).
+  Eigen::MatrixXd design(n, k);
   Eigen::MatrixXd target(n, 3);
   for (int i = 0; i < n; ++i) {
     const ShObservation& o = observations[static_cast<std::size_t>(rows[static_cast<std::size_t>(i)])];
-    row_weight(i) = o.albedo.mean() * kInvPi;
-    target.row(i) = (std::numbers::pi * o.radiance.cwiseQuotient(o.albedo)).transpose() * row_weight(i);
+    const double weight = o.albedo.mean() * kInvPi;
+    target.row(i) = (std::numbers::pi * o.radiance.cwiseQuotient(o.albedo)).transpose() * weight;
+    for (int j = 0; j < k; ++j) design(i, j) = weight * std::max(0.0, o.normal.dot(grid[static_cast<std::size_t>(j)]));
   }
-  const Eigen::MatrixXd design = row_weight.asDiagonal() * cosines;
   GramColumns gram(design, options.ridge);
   const Eigen::MatrixXd rhs = design.transpose() * target;
   Eigen::MatrixXd weights(k, 3);
