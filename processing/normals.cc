@@ -132,6 +132,30 @@ bool NormalFromTangents(const cv::Vec3d& tx, const cv::Vec3d& ty, const cv::Vec3
   return true;
 }
 
+// The smooth estimate's tangents at (x, y) from the box of radius r centred there: the mean
+// vertex of its right half minus its left half, of its lower half minus its upper half. False
+// when the box leaves the image, holds a discontinuity or a half holds fewer than
+// min_valid_fraction of its pixels.
+bool BoxTangents(const Integrals& integrals, int cols, int rows, int x, int y, int r, double min_valid_fraction,
+                 cv::Vec3d* tx, cv::Vec3d* ty) {
+  if (x - r < 0 || x + r >= cols || y - r < 0 || y + r >= rows) return false;
+  // (Counting the box's last row and column too also checks their neighbours just outside the
+  // box: slightly conservative, never blind to a jump inside it.)
+  if (integrals.EdgeCount(x - r, y - r, x + r + 1, y + r + 1) != 0) return false;
+  double left[4], right[4], up[4], down[4];
+  integrals.Box(x - r, y - r, x, y + r + 1, left);
+  integrals.Box(x + 1, y - r, x + r + 1, y + r + 1, right);
+  integrals.Box(x - r, y - r, x + r + 1, y, up);
+  integrals.Box(x - r, y + 1, x + r + 1, y + r + 1, down);
+  const double min_count = min_valid_fraction * (2 * r + 1) * r;
+  if (left[3] < min_count || right[3] < min_count || up[3] < min_count || down[3] < min_count) return false;
+  *tx = cv::Vec3d(right[0] / right[3] - left[0] / left[3], right[1] / right[3] - left[1] / left[3],
+                  right[2] / right[3] - left[2] / left[3]);
+  *ty = cv::Vec3d(down[0] / down[3] - up[0] / up[3], down[1] / down[3] - up[1] / up[3],
+                  down[2] / down[3] - up[2] / up[3]);
+  return true;
+}
+
 // Pixels within r (Chebyshev) of a kink: where inverse depth w = 1/z, affine in the pixel
 // coordinates on a plane, has a second difference along the row or the column above
 // tolerance w that stands out (at least twice the second differences 2 pixels either side on
@@ -235,6 +259,7 @@ bool NormalOptions::IsValid(std::string* why) const {
     return fail("plane_step_tolerance must be in [0, 1]");
   }
   if (!(refine_creases_below_noise_at_1m_m >= 0.0)) return fail("refine_creases_below_noise_at_1m_m must be >= 0");
+  if (min_window_radius_px < 1 || min_window_radius_px > 50) return fail("min_window_radius_px must be in [1, 50]");
   if (!(min_valid_fraction > 0.0) || min_valid_fraction > 1.0) return fail("min_valid_fraction must be in (0, 1]");
   return true;
 }
@@ -291,16 +316,21 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
   Integrals integrals;
   if (r > 0) integrals.Build(vertices, edge_map);
   NormalMap result;
-  bool refine_creases = options.refine_creases && r > 0;
-  if (refine_creases && options.refine_creases_below_noise_at_1m_m > 0.0) {
+  // Noisy depth (normals.h, "Noisy depth"): said by the caller, or measured when a choice
+  // depends on it.
+  bool noisy = options.depth_noisy;
+  if (!noisy && r > 0 && (options.refine_creases || options.neighbour_boxes_on_noisy_depth) &&
+      options.refine_creases_below_noise_at_1m_m > 0.0) {
     DepthNoiseEstimate noise = EstimateDepthNoise(depth_m);
     if (!noise.NoiseFree(options.refine_creases_below_noise_at_1m_m)) {
-      refine_creases = false;
-      result.creases_skipped_for_noise = std::move(noise);
+      noisy = true;
+      if (options.refine_creases) result.creases_skipped_for_noise = std::move(noise);
     }
   }
+  const bool refine_creases = options.refine_creases && r > 0 && !noisy;
+  const bool neighbour_boxes = options.neighbour_boxes_on_noisy_depth && r > 0 && noisy;
+  const int min_r = std::min(r, options.min_window_radius_px);
   const cv::Mat near_kink = refine_creases ? NearKinks(depth_m, r, plane_tolerance) : cv::Mat();
-  const double min_count = options.min_valid_fraction * (2 * r + 1) * r;
 
   const float nan = std::numeric_limits<float>::quiet_NaN();
   result.normal_in_camera.create(rows, cols, CV_32FC3);
@@ -314,35 +344,47 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
     cv::Vec3f* n_out = result.normal_in_camera.ptr<cv::Vec3f>(y);
     unsigned char* valid = result.valid.ptr<unsigned char>(y);
     unsigned char* method = result.method.ptr<unsigned char>(y);
+    auto take = [&](int x, NormalMethod m, int* count) {
+      valid[x] = 255;
+      method[x] = static_cast<unsigned char>(m);
+      ++*count;
+    };
     for (int x = 0; x < cols; ++x) {
       if (!IsDepthValid(z[x])) continue;
-      // Smooth estimate: the full box must lie inside the image and hold no discontinuity.
-      if (r > 0 && x - r >= 0 && x + r < cols && y - r >= 0 && y + r < rows &&
-          integrals.EdgeCount(x - r, y - r, x + r + 1, y + r + 1) == 0) {
-        // (Counting the box's last row and column too also checks their neighbours just outside
-        // the box: slightly conservative, never blind to a jump inside it.)
-        double left[4], right[4], up[4], down[4];
-        integrals.Box(x - r, y - r, x, y + r + 1, left);
-        integrals.Box(x + 1, y - r, x + r + 1, y + r + 1, right);
-        integrals.Box(x - r, y - r, x + r + 1, y, up);
-        integrals.Box(x - r, y + 1, x + r + 1, y + r + 1, down);
-        if (left[3] >= min_count && right[3] >= min_count && up[3] >= min_count && down[3] >= min_count) {
-          const cv::Vec3d tx(right[0] / right[3] - left[0] / left[3], right[1] / right[3] - left[1] / left[3],
-                             right[2] / right[3] - left[2] / left[3]);
-          const cv::Vec3d ty(down[0] / down[3] - up[0] / up[3], down[1] / down[3] - up[1] / up[3],
-                             down[2] / down[3] - up[2] / up[3]);
-          if (NormalFromTangents(tx, ty, v[x], &n_out[x])) {
-            valid[x] = 255;
-            if (refine_creases && near_kink.at<unsigned char>(y, x) &&
-                CreaseNormal(vertices, integrals, x, y, r, &n_out[x])) {
-              method[x] = static_cast<unsigned char>(NormalMethod::kCreaseBox);
-              ++result.crease_count;
-              continue;
+      // Smooth estimate: the largest centred box from r down to min_r that fits.
+      cv::Vec3d tx, ty;
+      int box_r = r;
+      while (box_r >= min_r && box_r > 0 &&
+             !(BoxTangents(integrals, cols, rows, x, y, box_r, options.min_valid_fraction, &tx, &ty) &&
+               NormalFromTangents(tx, ty, v[x], &n_out[x]))) {
+        --box_r;
+      }
+      if (box_r >= min_r && box_r > 0) {
+        if (refine_creases && near_kink.at<unsigned char>(y, x) &&
+            CreaseNormal(vertices, integrals, x, y, box_r, &n_out[x])) {
+          take(x, NormalMethod::kCreaseBox, &result.crease_count);
+        } else {
+          take(x, NormalMethod::kIntegralImage, &result.integral_count);
+        }
+        continue;
+      }
+      if (neighbour_boxes) {
+        // Noisy depth: the mean tangents of the 3 x 3 boxes centred on the 8 neighbours.
+        cv::Vec3d sum_x(0, 0, 0), sum_y(0, 0, 0);
+        int boxes = 0;
+        for (int sy = -1; sy <= 1; ++sy) {
+          for (int sx = -1; sx <= 1; ++sx) {
+            if ((sx != 0 || sy != 0) &&
+                BoxTangents(integrals, cols, rows, x + sx, y + sy, 1, options.min_valid_fraction, &tx, &ty)) {
+              sum_x += tx;
+              sum_y += ty;
+              ++boxes;
             }
-            method[x] = static_cast<unsigned char>(NormalMethod::kIntegralImage);
-            ++result.integral_count;
-            continue;
           }
+        }
+        if (boxes > 0 && NormalFromTangents(sum_x, sum_y, v[x], &n_out[x])) {
+          take(x, NormalMethod::kNeighbourBoxes, &result.neighbour_box_count);
+          continue;
         }
       }
       // Fallback (eq. 3): neighbour differences, the closer-in-depth neighbour per axis.
@@ -361,11 +403,8 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
         }
         return std::isfinite(best);
       };
-      cv::Vec3d tx, ty;
       if (pick(1, 0, &tx) && pick(0, 1, &ty) && NormalFromTangents(tx, ty, v[x], &n_out[x])) {
-        valid[x] = 255;
-        method[x] = static_cast<unsigned char>(NormalMethod::kNeighbourCross);
-        ++result.cross_count;
+        take(x, NormalMethod::kNeighbourCross, &result.cross_count);
         continue;
       }
       ++result.invalid_count;

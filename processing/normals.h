@@ -5,10 +5,31 @@
 // right of the pixel minus the mean of the box left of it (rows v - r .. v + r), the vertical
 // tangent likewise with boxes below and above; the normal is their cross product. Mean
 // vertices of points on a plane stay on that plane, so a plane's normal is exact even with
-// holes in the boxes. Where the box touches a depth discontinuity (or holds too few valid
-// points) the normal falls back to the cross product of neighbour differences (Ogura & Saito
-// eq. 3), taking on each axis the neighbour (forward or backward) whose depth is closer.
-// Where neither works the normal is invalid.
+// holes in the boxes. Where the box touches a depth discontinuity, the image border or holds
+// too few valid points, smaller centred boxes are tried, down to min_window_radius_px (a pixel
+// 2 px from a silhouette gets a 5 x 2 box instead of a one-pixel difference). Where none fits,
+// the normal falls back to the cross product of neighbour differences (Ogura & Saito eq. 3),
+// taking on each axis the neighbour (forward or backward) whose depth is closer; on noisy depth
+// (below) first to the mean tangents of the 3 x 3 boxes centred on the pixel's 8 neighbours
+// that hold no discontinuity. Where nothing works the normal is invalid.
+//
+// Noisy depth. The fine-scale estimates (the crease refinement's 3 x 3 plane fits and one-pixel
+// differences) are exact on depth without noise and follow the noise on sensor depth: with
+// Kinect-like noise (~1.9 mm at 1 m, 3.6 mm pixels at 320 px over 60 deg) a one-pixel
+// difference is tens of degrees off. The depth counts as noisy when the caller says so
+// (depth_noisy: the SH geometry step's filtered depth) or when it measures noisy
+// (EstimateDepthNoise, refine_creases_below_noise_at_1m_m). On noisy depth creases are not
+// refined and the neighbours' boxes replace one-pixel differences where they can.
+// Random SH suites (relume bench --suite random --stage sh, 2026-12-07, one-off runs that no
+// test repeats), non-negative light, median / p90 relit error, 60 scenes of seed 1:
+//  - Kinect-like depth: 9.32 / 17.7 % -> 7.98 / 13.4 % with the smaller boxes -> 7.45 / 12.5 %
+//    with the neighbours' boxes too (30 scenes of seed 7: 8.82 -> 7.10 -> 6.57 % median);
+//  - exact depth (the smaller boxes only): 2.62 / 5.57 -> 2.60 / 5.17 %, smooth lights 1.72 /
+//    3.05 -> 1.55 / 2.87 %. The neighbours' boxes on exact depth were worse (20 scenes: 2.70
+//    -> 3.41 %): there a one-pixel difference is exact and a neighbour's box is a pixel off on
+//    curved surfaces.
+//  - Larger windows do not help noisy depth: radius 5 / 8 with the smaller boxes gave Kinect
+//    p90 37.9 / 41.4 % (20 scenes; 26.7 % at 3): they blend more pixels across creases.
 //
 // Conventions:
 //  - Input depth: CV_32FC1, metres along z, NaN/<=0/Inf = hole (processing/depth_filter.h).
@@ -62,11 +83,15 @@ enum class NormalMethod : unsigned char {
   kInvalid = 0,
   kIntegralImage = 1,
   kNeighbourCross = 2,
-  kCreaseBox = 3,  // a 3 x 3 box beside a crease (refine_creases)
+  kCreaseBox = 3,       // a 3 x 3 box beside a crease (refine_creases)
+  kNeighbourBoxes = 4,  // the neighbours' 3 x 3 boxes, on noisy depth (neighbour_boxes_on_noisy_depth)
 };
 
 struct NormalOptions {
-  int window_radius_px = 3;          // r: boxes are (2 r + 1) x r pixels; 0 = cross product only
+  int window_radius_px = 3;  // r: boxes are (2 r + 1) x r pixels; 0 = cross product only
+  // Where the r box does not fit, centred boxes of radius r - 1 down to this (clamped to r) are
+  // tried before the fallback; r: straight to the fallback (the estimate before 2026-12-07).
+  int min_window_radius_px = 1;
   double depth_change_ratio = 0.02;  // |dz| / z above which neighbours are on different surfaces
   double min_valid_fraction = 0.5;   // of each half box, for the smooth estimate
   // A steep step continues a plane when its inverse-depth step is within this many w of its
@@ -81,7 +106,14 @@ struct NormalOptions {
   // With refine_creases: refine only when the depth measures NoiseFree below this (at 1 m, the
   // SH pipeline's denoise rule); 0 = refine without measuring (the caller knows the depth is
   // noise-free). See "Creases" above.
+  // The same measurement decides neighbour_boxes_on_noisy_depth (when either is on).
   double refine_creases_below_noise_at_1m_m = kDenoiseSkipBelowAt1mM;
+  // On noisy depth, before the one-pixel cross product: the mean tangents of the neighbours'
+  // edge-free 3 x 3 boxes (see "Noisy depth" above).
+  bool neighbour_boxes_on_noisy_depth = true;
+  // The caller knows the depth is noisy (the SH geometry step filters only depth that measured
+  // noisy): no measurement, no crease refinement, neighbour boxes.
+  bool depth_noisy = false;
   static constexpr double kCreasePlanarity = 0.001;
   static constexpr double kCreaseGain = 20.0;
   bool IsValid(std::string* why) const;
@@ -93,8 +125,9 @@ struct NormalMap {
   cv::Mat method;            // CV_8UC1, NormalMethod per pixel
   int integral_count = 0;
   int cross_count = 0;
-  int crease_count = 0;   // refined beside a crease (not in integral_count)
-  int invalid_count = 0;  // pixels with depth but no normal
+  int crease_count = 0;         // refined beside a crease (not in integral_count)
+  int neighbour_box_count = 0;  // the neighbours' boxes, on noisy depth (not in cross_count)
+  int invalid_count = 0;        // pixels with depth but no normal
   // refine_creases asked for, but the depth measured noisy (refine_creases_below_noise_at_1m_m):
   // no pixel refined; the measurement says how noisy.
   std::optional<DepthNoiseEstimate> creases_skipped_for_noise;

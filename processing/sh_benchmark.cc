@@ -4,6 +4,7 @@
 // docs/processing-sh.md); inputs carry Kinect-like depth noise unless the name says ideal.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <opencv2/core.hpp>
@@ -104,11 +105,20 @@ BENCHMARK(BM_BilateralFilter)->ArgName("radius")->Arg(1)->Arg(2)->Arg(3)->Arg(5)
 
 // depth 0: filtered noisy depth, crease refinement off (as the SH geometry step runs it on
 // filtered depth); 1: exact depth, refinement off; 2: exact depth, refinement on.
+// Args: window radius; depth (0 filtered Kinect-like noise, said noisy as the SH geometry step
+// says it; 1 exact, creases not refined; 2 exact, refined); fallback beside discontinuities
+// (0 straight to one-pixel differences, the estimate before 2026-12-07; 1 the defaults: smaller
+// boxes, on noisy depth the neighbours' boxes).
 void BM_Normals(benchmark::State& state) {
   const Fixture& f = Data();
   NormalOptions options;
   options.window_radius_px = static_cast<int>(state.range(0));
   options.refine_creases = state.range(1) == 2;
+  options.depth_noisy = state.range(1) == 0;
+  if (state.range(2) == 0) {
+    options.min_window_radius_px = std::max(1, options.window_radius_px);
+    options.neighbour_boxes_on_noisy_depth = false;
+  }
   const cv::Mat depth = state.range(1) == 0 ? BilateralFilterDepth(f.noisy_depth_m) : f.src.depth_m;
   NormalMap normals;
   for (auto _ : state) normals = EstimateNormals(depth, f.scene.intrinsics, options);
@@ -125,13 +135,15 @@ void BM_Normals(benchmark::State& state) {
   state.counters["median_err_deg"] = errors[errors.size() / 2];
 }
 BENCHMARK(BM_Normals)
-    ->ArgNames({"window", "depth"})
-    ->Args({0, 0})
-    ->Args({3, 0})
-    ->Args({6, 0})
-    ->Args({10, 0})
-    ->Args({3, 1})
-    ->Args({3, 2})
+    ->ArgNames({"window", "depth", "fallback"})
+    ->Args({0, 0, 1})
+    ->Args({3, 0, 0})
+    ->Args({3, 0, 1})
+    ->Args({6, 0, 1})
+    ->Args({10, 0, 1})
+    ->Args({3, 1, 0})
+    ->Args({3, 1, 1})
+    ->Args({3, 2, 1})
     ->Unit(benchmark::kMillisecond);
 
 struct Prepared {

@@ -49,6 +49,7 @@ NormalMap NormalsOnRoi(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsi
   normals.integral_count = part.integral_count;
   normals.cross_count = part.cross_count;
   normals.crease_count = part.crease_count;
+  normals.neighbour_box_count = part.neighbour_box_count;
   normals.invalid_count = part.invalid_count;
   return normals;
 }
@@ -186,22 +187,25 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
     if (g.normals.normal_in_camera.size() != depth_m.size() || g.normals.valid.size() != depth_m.size()) {
       throw InvalidArgumentError("SH geometry: the previous frame's normals are not of the depth map's size");
     }
-    g.normals.integral_count = g.normals.cross_count = g.normals.crease_count = g.normals.invalid_count = 0;
+    g.normals.integral_count = g.normals.cross_count = g.normals.crease_count = g.normals.neighbour_box_count =
+        g.normals.invalid_count = 0;
   } else {
-    // Filtered depth is noisy (the reason to filter) and the filter rounds its creases: the
-    // crease refinement's 3 x 3 plane fits would fit the noise (processing/normals.h).
+    // Filtered depth is noisy (the reason to filter) and the filter rounds its creases: no
+    // crease refinement (its 3 x 3 plane fits would fit the noise) and the neighbours' boxes
+    // instead of one-pixel differences (processing/normals.h, "Noisy depth").
     NormalOptions normals = options.normals;
-    normals.refine_creases = normals.refine_creases && !filter;
-    if (normals.refine_creases && normals.refine_creases_below_noise_at_1m_m > 0.0) {
-      // Unfiltered depth is refined only when noise-free. A stream that measured its first
-      // frame has decided that; otherwise (filter_depth off) this frame is measured here, over
-      // the whole frame: the roi alone has too few windows for NoiseFree (see DecideDepthFiltering).
+    normals.depth_noisy = normals.depth_noisy || filter;
+    if (!normals.depth_noisy && (normals.refine_creases || normals.neighbour_boxes_on_noisy_depth) &&
+        normals.refine_creases_below_noise_at_1m_m > 0.0) {
+      // Unfiltered depth is noise-free or not. A stream that measured its first frame has
+      // decided that; otherwise (filter_depth off) this frame is measured here, over the whole
+      // frame: the roi alone has too few windows for NoiseFree (see DecideDepthFiltering).
       const bool stream_measured = options.filter_depth && options.skip_filter_below_at_1m_m > 0.0;
       if (!stream_measured) {
         DepthNoiseEstimate noise = EstimateDepthNoise(depth_m);
         if (!noise.NoiseFree(normals.refine_creases_below_noise_at_1m_m)) {
-          normals.refine_creases = false;
-          g.creases_skipped_for_noise = std::move(noise);
+          normals.depth_noisy = true;
+          if (normals.refine_creases) g.creases_skipped_for_noise = std::move(noise);
         }
       }
       normals.refine_creases_below_noise_at_1m_m = 0.0;

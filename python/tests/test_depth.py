@@ -37,6 +37,16 @@ def test_the_normals_of_a_plane_are_its_normal():
     # Cross products only (window 0) give the same plane.
     cross = relume.estimate_normals(depth, INTRINSICS, window_radius_px=0)
     assert cross["cross_count"] == valid.sum() and np.abs(cross["normals"][valid] - normal).max() < 2e-4
+    # Depth said to be noisy: beside the hole and the border the neighbours' 3 x 3 boxes take
+    # over from one-pixel differences (still the plane); without smaller boxes and neighbours'
+    # boxes, more pixels fall back to one-pixel differences.
+    told = relume.estimate_normals(depth, INTRINSICS, depth_noisy=True)
+    assert told["neighbour_box_count"] > 0 and told["creases_skipped_for_noise"] is None
+    assert (told["method"] == 4).sum() == told["neighbour_box_count"]
+    assert np.abs(told["normals"][valid] - normal).max() < 2e-4
+    old = relume.estimate_normals(depth, INTRINSICS, min_window_radius_px=3, neighbour_boxes_on_noisy_depth=False,
+                                  depth_noisy=True)
+    assert old["neighbour_box_count"] == 0 and old["cross_count"] > told["cross_count"]
 
 
 def test_a_crease_keeps_each_faces_normal():
