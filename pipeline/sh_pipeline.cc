@@ -159,6 +159,9 @@ struct Knobs {
            "smallest centred box tried where the window's does not fit (px; normal_window: none)", {"geometry"});
     v.Knob("normal_neighbour_boxes", geometry.normals.neighbour_boxes_on_noisy_depth,
            "on noisy depth, normals beside discontinuities from the neighbours' 3 x 3 boxes", {"geometry"});
+    v.Knob("normal_jet_radius", geometry.normals.jet_radius_px,
+           "on depth without noise, normals beside discontinuities from a quadratic jet over this radius (px; 0: off)",
+           {"geometry"});
     v.Knob("refine_creases", geometry.normals.refine_creases,
            "normals beside creases from a 3 x 3 box on the pixel's own face (depth not filtered only)", {"geometry"});
     v.Knob("normals_reuse", geometry.normals_reuse, "reuse the previous frame's normals when the depth did not change",
@@ -558,7 +561,7 @@ struct GeometryRecord {
   std::optional<double> depth_changed_fraction;  // normals_reuse: against the previous frame
   std::int64_t normals_from_frame = 0;
   std::optional<bool> normals_from_truth;  // true_normals (a diagnostic)
-  std::optional<std::int64_t> normals_integral, normals_cross, normals_crease, normals_neighbour_boxes,
+  std::optional<std::int64_t> normals_integral, normals_cross, normals_crease, normals_neighbour_boxes, normals_jet,
       normals_invalid;  // computed here
   std::int64_t mask_pixels = 0;
   template <typename V>
@@ -573,6 +576,7 @@ struct GeometryRecord {
     v.Field("normals_cross", normals_cross);
     v.Field("normals_crease", normals_crease);
     v.Field("normals_neighbour_boxes", normals_neighbour_boxes);
+    v.Field("normals_jet", normals_jet);
     v.Field("normals_invalid", normals_invalid);
     v.Field("mask_pixels", mask_pixels);
   }
@@ -702,6 +706,7 @@ FrameGeometry Geometry(PipelineRun& run, const Knobs& k, const RgbdPair& pair, c
       info.normals_cross = geometry.normals.cross_count;
       info.normals_crease = geometry.normals.crease_count;
       info.normals_neighbour_boxes = geometry.normals.neighbour_box_count;
+      info.normals_jet = geometry.normals.jet_count;
       info.normals_invalid = geometry.normals.invalid_count;
     }
     info.mask_pixels = cv::countNonZero(mask);

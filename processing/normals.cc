@@ -4,6 +4,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -246,6 +247,100 @@ cv::Mat PairJumps(const cv::Mat& depth_m, int dx, int dy, float ratio, float tol
   return jumps;
 }
 
+// Noisy depth (normals.h): the mean tangents of the 3 x 3 boxes centred on the pixel's 8
+// neighbours that fit (BoxTangents with r = 1).
+bool NeighbourBoxesNormal(const Integrals& integrals, int cols, int rows, int x, int y, double min_valid_fraction,
+                          const cv::Vec3f& point, cv::Vec3f* normal) {
+  cv::Vec3d sum_x(0, 0, 0), sum_y(0, 0, 0), tx, ty;
+  int boxes = 0;
+  for (int sy = -1; sy <= 1; ++sy) {
+    for (int sx = -1; sx <= 1; ++sx) {
+      if ((sx != 0 || sy != 0) && BoxTangents(integrals, cols, rows, x + sx, y + sy, 1, min_valid_fraction, &tx, &ty)) {
+        sum_x += tx;
+        sum_y += ty;
+        ++boxes;
+      }
+    }
+  }
+  return boxes > 0 && NormalFromTangents(sum_x, sum_y, point, normal);
+}
+
+// The jet refinement (normals.h, "Jets") of the normal at (x, y). Scratch buffers are the
+// caller's, reused across pixels.
+struct JetScratch {
+  std::vector<unsigned char> seen;
+  std::vector<cv::Point> queue;
+  std::vector<Eigen::Vector3d> points;
+};
+
+bool JetNormal(const cv::Mat& depth_m, const cv::Mat& vertices, const cv::Mat& h_jump, const cv::Mat& v_jump, int x,
+               int y, int radius, double max_residual, JetScratch* scratch, cv::Vec3f* normal) {
+  constexpr int kMinPoints = 10;
+  const int side = 2 * radius + 1;
+  scratch->seen.assign(static_cast<size_t>(side) * side, 0);
+  scratch->queue.assign(1, cv::Point(x, y));
+  scratch->seen[static_cast<size_t>(radius) * side + radius] = 1;
+  scratch->points.clear();
+  const cv::Vec3f origin = vertices.at<cv::Vec3f>(y, x);
+  // The pixel's surface within the radius: breadth first over 4-neighbour links that are not
+  // discontinuities.
+  for (size_t i = 0; i < scratch->queue.size(); ++i) {
+    const cv::Point q = scratch->queue[i];
+    const cv::Vec3f d = vertices.at<cv::Vec3f>(q.y, q.x) - origin;
+    scratch->points.emplace_back(d[0], d[1], d[2]);
+    static constexpr int kDx[4] = {1, -1, 0, 0}, kDy[4] = {0, 0, 1, -1};
+    for (int k = 0; k < 4; ++k) {
+      const int xx = q.x + kDx[k], yy = q.y + kDy[k];
+      if (xx < 0 || yy < 0 || xx >= depth_m.cols || yy >= depth_m.rows || std::abs(xx - x) > radius ||
+          std::abs(yy - y) > radius) {
+        continue;
+      }
+      unsigned char& seen = scratch->seen[static_cast<size_t>(yy - y + radius) * side + (xx - x + radius)];
+      if (seen || !IsDepthValid(depth_m.at<float>(yy, xx))) continue;
+      const bool jump = kDx[k] != 0 ? h_jump.at<unsigned char>(yy, std::min(xx, q.x)) != 0
+                                    : v_jump.at<unsigned char>(std::min(yy, q.y), xx) != 0;
+      if (jump) continue;
+      seen = 1;
+      scratch->queue.emplace_back(xx, yy);
+    }
+  }
+  if (static_cast<int>(scratch->points.size()) < kMinPoints) return false;
+  double scale = 0.0;
+  for (const Eigen::Vector3d& d : scratch->points) scale += d.squaredNorm();
+  scale = std::sqrt(scale / static_cast<double>(scratch->points.size()));
+  if (!(scale > 0.0)) return false;
+  const double inv_scale = 1.0 / scale;
+  // Two fits: in the tangent frame of the normal so far, then in the first fit's. (One fit
+  // only: random SH suites' smooth-light worst scene 5.05 -> 8.10 %, 60 scenes of seed 1.)
+  Eigen::Vector3d n((*normal)[0], (*normal)[1], (*normal)[2]);
+  for (int pass = 0; pass < 2; ++pass) {
+    const Eigen::Vector3d e_s = n.unitOrthogonal(), e_t = n.cross(e_s);
+    Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    double h_squares = 0.0;
+    for (const Eigen::Vector3d& d : scratch->points) {
+      const double s = d.dot(e_s) * inv_scale, t = d.dot(e_t) * inv_scale, h = d.dot(n) * inv_scale;
+      Eigen::Matrix<double, 6, 1> row;
+      row << 1.0, s, t, s * s, s * t, t * t;
+      normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(row);
+      rhs += row * h;
+      h_squares += h * h;
+    }
+    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt = normal_matrix.selfadjointView<Eigen::Lower>().ldlt();
+    if (ldlt.info() != Eigen::Success) return false;
+    const Eigen::Matrix<double, 6, 1> c = ldlt.solve(rhs);
+    // Residual sum of squares of the least-squares fit: |h|^2 - c . rhs.
+    const double residual =
+        std::sqrt(std::max(0.0, h_squares - c.dot(rhs)) / static_cast<double>(scratch->points.size()));
+    if (!c.allFinite() || !(residual <= max_residual)) return false;
+    const Eigen::Vector3d refined = n - c(1) * e_s - c(2) * e_t;
+    if (!(refined.norm() > 1e-12)) return false;
+    n = refined.normalized();
+  }
+  *normal = FacingCamera(cv::Vec3d(n.x(), n.y(), n.z()), origin);
+  return true;
+}
+
 }  // namespace
 
 bool NormalOptions::IsValid(std::string* why) const {
@@ -260,6 +355,8 @@ bool NormalOptions::IsValid(std::string* why) const {
   }
   if (!(refine_creases_below_noise_at_1m_m >= 0.0)) return fail("refine_creases_below_noise_at_1m_m must be >= 0");
   if (min_window_radius_px < 1 || min_window_radius_px > 50) return fail("min_window_radius_px must be in [1, 50]");
+  if (jet_radius_px < 0 || jet_radius_px > 10) return fail("jet_radius_px must be in [0, 10]");
+  if (!(jet_max_residual > 0.0) || jet_max_residual > 1.0) return fail("jet_max_residual must be in (0, 1]");
   if (!(min_valid_fraction > 0.0) || min_valid_fraction > 1.0) return fail("min_valid_fraction must be in (0, 1]");
   return true;
 }
@@ -319,8 +416,7 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
   // Noisy depth (normals.h, "Noisy depth"): said by the caller, or measured when a choice
   // depends on it.
   bool noisy = options.depth_noisy;
-  if (!noisy && r > 0 && (options.refine_creases || options.neighbour_boxes_on_noisy_depth) &&
-      options.refine_creases_below_noise_at_1m_m > 0.0) {
+  if (!noisy && options.DependsOnNoise() && options.refine_creases_below_noise_at_1m_m > 0.0) {
     DepthNoiseEstimate noise = EstimateDepthNoise(depth_m);
     if (!noise.NoiseFree(options.refine_creases_below_noise_at_1m_m)) {
       noisy = true;
@@ -329,6 +425,8 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
   }
   const bool refine_creases = options.refine_creases && r > 0 && !noisy;
   const bool neighbour_boxes = options.neighbour_boxes_on_noisy_depth && r > 0 && noisy;
+  const bool jets = options.jet_radius_px > 0 && r > 0 && !noisy;
+  JetScratch jet_scratch;
   const int min_r = std::min(r, options.min_window_radius_px);
   const cv::Mat near_kink = refine_creases ? NearKinks(depth_m, r, plane_tolerance) : cv::Mat();
 
@@ -344,11 +442,6 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
     cv::Vec3f* n_out = result.normal_in_camera.ptr<cv::Vec3f>(y);
     unsigned char* valid = result.valid.ptr<unsigned char>(y);
     unsigned char* method = result.method.ptr<unsigned char>(y);
-    auto take = [&](int x, NormalMethod m, int* count) {
-      valid[x] = 255;
-      method[x] = static_cast<unsigned char>(m);
-      ++*count;
-    };
     for (int x = 0; x < cols; ++x) {
       if (!IsDepthValid(z[x])) continue;
       // Smooth estimate: the largest centred box from r down to min_r that fits.
@@ -359,55 +452,56 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
                NormalFromTangents(tx, ty, v[x], &n_out[x]))) {
         --box_r;
       }
+      NormalMethod m = NormalMethod::kInvalid;
       if (box_r >= min_r && box_r > 0) {
-        if (refine_creases && near_kink.at<unsigned char>(y, x) &&
-            CreaseNormal(vertices, integrals, x, y, box_r, &n_out[x])) {
-          take(x, NormalMethod::kCreaseBox, &result.crease_count);
-        } else {
-          take(x, NormalMethod::kIntegralImage, &result.integral_count);
-        }
-        continue;
-      }
-      if (neighbour_boxes) {
-        // Noisy depth: the mean tangents of the 3 x 3 boxes centred on the 8 neighbours.
-        cv::Vec3d sum_x(0, 0, 0), sum_y(0, 0, 0);
-        int boxes = 0;
-        for (int sy = -1; sy <= 1; ++sy) {
-          for (int sx = -1; sx <= 1; ++sx) {
-            if ((sx != 0 || sy != 0) &&
-                BoxTangents(integrals, cols, rows, x + sx, y + sy, 1, options.min_valid_fraction, &tx, &ty)) {
-              sum_x += tx;
-              sum_y += ty;
-              ++boxes;
+        m = refine_creases && near_kink.at<unsigned char>(y, x) &&
+                    CreaseNormal(vertices, integrals, x, y, box_r, &n_out[x])
+                ? NormalMethod::kCreaseBox
+                : NormalMethod::kIntegralImage;
+      } else if (neighbour_boxes &&
+                 NeighbourBoxesNormal(integrals, cols, rows, x, y, options.min_valid_fraction, v[x], &n_out[x])) {
+        m = NormalMethod::kNeighbourBoxes;
+      } else {
+        // Fallback (eq. 3): neighbour differences, the closer-in-depth neighbour per axis.
+        auto pick = [&](int dx, int dy, cv::Vec3d* tangent) {
+          const cv::Mat& jumps = dx ? h_jump : v_jump;
+          double best = std::numeric_limits<double>::infinity();
+          for (int s : {1, -1}) {
+            const int xx = x + s * dx, yy = y + s * dy;
+            if (xx < 0 || xx >= cols || yy < 0 || yy >= rows) continue;
+            const float zz = depth_m.at<float>(yy, xx);
+            if (!IsDepthValid(zz) || jumps.at<unsigned char>(std::min(y, yy), std::min(x, xx))) continue;
+            if (std::abs(zz - z[x]) < best) {
+              best = std::abs(zz - z[x]);
+              *tangent = s * (cv::Vec3d(vertices.at<cv::Vec3f>(yy, xx)) - cv::Vec3d(v[x]));
             }
           }
-        }
-        if (boxes > 0 && NormalFromTangents(sum_x, sum_y, v[x], &n_out[x])) {
-          take(x, NormalMethod::kNeighbourBoxes, &result.neighbour_box_count);
-          continue;
+          return std::isfinite(best);
+        };
+        if (pick(1, 0, &tx) && pick(0, 1, &ty) && NormalFromTangents(tx, ty, v[x], &n_out[x])) {
+          m = NormalMethod::kNeighbourCross;
         }
       }
-      // Fallback (eq. 3): neighbour differences, the closer-in-depth neighbour per axis.
-      auto pick = [&](int dx, int dy, cv::Vec3d* tangent) {
-        const cv::Mat& jumps = dx ? h_jump : v_jump;
-        double best = std::numeric_limits<double>::infinity();
-        for (int s : {1, -1}) {
-          const int xx = x + s * dx, yy = y + s * dy;
-          if (xx < 0 || xx >= cols || yy < 0 || yy >= rows) continue;
-          const float zz = depth_m.at<float>(yy, xx);
-          if (!IsDepthValid(zz) || jumps.at<unsigned char>(std::min(y, yy), std::min(x, xx))) continue;
-          if (std::abs(zz - z[x]) < best) {
-            best = std::abs(zz - z[x]);
-            *tangent = s * (cv::Vec3d(vertices.at<cv::Vec3f>(yy, xx)) - cv::Vec3d(v[x]));
-          }
-        }
-        return std::isfinite(best);
-      };
-      if (pick(1, 0, &tx) && pick(0, 1, &ty) && NormalFromTangents(tx, ty, v[x], &n_out[x])) {
-        take(x, NormalMethod::kNeighbourCross, &result.cross_count);
+      if (m == NormalMethod::kInvalid) {
+        ++result.invalid_count;
         continue;
       }
-      ++result.invalid_count;
+      // Beside a discontinuity on depth without noise: the jet from the estimate so far.
+      if (jets && box_r < r && m != NormalMethod::kCreaseBox &&
+          JetNormal(depth_m, vertices, h_jump, v_jump, x, y, options.jet_radius_px, options.jet_max_residual,
+                    &jet_scratch, &n_out[x])) {
+        m = NormalMethod::kJet;
+      }
+      valid[x] = 255;
+      method[x] = static_cast<unsigned char>(m);
+      switch (m) {
+        case NormalMethod::kIntegralImage: ++result.integral_count; break;
+        case NormalMethod::kNeighbourCross: ++result.cross_count; break;
+        case NormalMethod::kCreaseBox: ++result.crease_count; break;
+        case NormalMethod::kNeighbourBoxes: ++result.neighbour_box_count; break;
+        case NormalMethod::kJet: ++result.jet_count; break;
+        case NormalMethod::kInvalid: break;
+      }
     }
   }
   return result;

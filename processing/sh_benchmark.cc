@@ -108,7 +108,7 @@ BENCHMARK(BM_BilateralFilter)->ArgName("radius")->Arg(1)->Arg(2)->Arg(3)->Arg(5)
 // Args: window radius; depth (0 filtered Kinect-like noise, said noisy as the SH geometry step
 // says it; 1 exact, creases not refined; 2 exact, refined); fallback beside discontinuities
 // (0 straight to one-pixel differences, the estimate before 2026-12-07; 1 the defaults: smaller
-// boxes, on noisy depth the neighbours' boxes).
+// boxes, on noisy depth the neighbours' boxes, on exact depth jets).
 void BM_Normals(benchmark::State& state) {
   const Fixture& f = Data();
   NormalOptions options;
@@ -118,6 +118,7 @@ void BM_Normals(benchmark::State& state) {
   if (state.range(2) == 0) {
     options.min_window_radius_px = std::max(1, options.window_radius_px);
     options.neighbour_boxes_on_noisy_depth = false;
+    options.jet_radius_px = 0;
   }
   const cv::Mat depth = state.range(1) == 0 ? BilateralFilterDepth(f.noisy_depth_m) : f.src.depth_m;
   NormalMap normals;

@@ -50,6 +50,7 @@ NormalMap NormalsOnRoi(const cv::Mat& depth_m, const PinholeIntrinsics& intrinsi
   normals.cross_count = part.cross_count;
   normals.crease_count = part.crease_count;
   normals.neighbour_box_count = part.neighbour_box_count;
+  normals.jet_count = part.jet_count;
   normals.invalid_count = part.invalid_count;
   return normals;
 }
@@ -188,15 +189,14 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
       throw InvalidArgumentError("SH geometry: the previous frame's normals are not of the depth map's size");
     }
     g.normals.integral_count = g.normals.cross_count = g.normals.crease_count = g.normals.neighbour_box_count =
-        g.normals.invalid_count = 0;
+        g.normals.jet_count = g.normals.invalid_count = 0;
   } else {
     // Filtered depth is noisy (the reason to filter) and the filter rounds its creases: no
     // crease refinement (its 3 x 3 plane fits would fit the noise) and the neighbours' boxes
     // instead of one-pixel differences (processing/normals.h, "Noisy depth").
     NormalOptions normals = options.normals;
     normals.depth_noisy = normals.depth_noisy || filter;
-    if (!normals.depth_noisy && (normals.refine_creases || normals.neighbour_boxes_on_noisy_depth) &&
-        normals.refine_creases_below_noise_at_1m_m > 0.0) {
+    if (!normals.depth_noisy && normals.DependsOnNoise() && normals.refine_creases_below_noise_at_1m_m > 0.0) {
       // Unfiltered depth is noise-free or not. A stream that measured its first frame has
       // decided that; otherwise (filter_depth off) this frame is measured here, over the whole
       // frame: the roi alone has too few windows for NoiseFree (see DecideDepthFiltering).

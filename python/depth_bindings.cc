@@ -80,11 +80,14 @@ py::dict EstimateDepthNoise(const py::object& depth_m, double edge_jump_fraction
 py::dict EstimateNormals(const py::object& depth_m, const py::dict& intrinsics, int window_radius_px,
                          double depth_change_ratio, double min_valid_fraction, double plane_step_tolerance,
                          bool refine_creases, double refine_creases_below_noise_at_1m_m, int min_window_radius_px,
-                         bool neighbour_boxes_on_noisy_depth, bool depth_noisy) {
+                         bool neighbour_boxes_on_noisy_depth, int jet_radius_px, double jet_max_residual,
+                         bool depth_noisy) {
   processing::NormalOptions options;
   options.window_radius_px = window_radius_px;
   options.min_window_radius_px = min_window_radius_px;
   options.neighbour_boxes_on_noisy_depth = neighbour_boxes_on_noisy_depth;
+  options.jet_radius_px = jet_radius_px;
+  options.jet_max_residual = jet_max_residual;
   options.depth_noisy = depth_noisy;
   options.depth_change_ratio = depth_change_ratio;
   options.min_valid_fraction = min_valid_fraction;
@@ -104,7 +107,8 @@ py::dict EstimateNormals(const py::object& depth_m, const py::dict& intrinsics, 
                   "valid"_a = MatToArray(std::move(map.valid)).attr("astype")("bool"),
                   "method"_a = MatToArray(std::move(map.method)), "integral_count"_a = map.integral_count,
                   "cross_count"_a = map.cross_count, "crease_count"_a = map.crease_count,
-                  "neighbour_box_count"_a = map.neighbour_box_count, "invalid_count"_a = map.invalid_count,
+                  "neighbour_box_count"_a = map.neighbour_box_count, "jet_count"_a = map.jet_count,
+                  "invalid_count"_a = map.invalid_count,
                   "creases_skipped_for_noise"_a = map.creases_skipped_for_noise
                                                       ? py::object(py::str(map.creases_skipped_for_noise->Describe()))
                                                       : py::object(py::none()));
@@ -186,12 +190,14 @@ Returns:
         "refine_creases"_a = n.refine_creases,
         "refine_creases_below_noise_at_1m_m"_a = n.refine_creases_below_noise_at_1m_m,
         "min_window_radius_px"_a = n.min_window_radius_px,
-        "neighbour_boxes_on_noisy_depth"_a = n.neighbour_boxes_on_noisy_depth, "depth_noisy"_a = n.depth_noisy,
+        "neighbour_boxes_on_noisy_depth"_a = n.neighbour_boxes_on_noisy_depth, "jet_radius_px"_a = n.jet_radius_px,
+        "jet_max_residual"_a = n.jet_max_residual, "depth_noisy"_a = n.depth_noisy,
         R"doc(Surface normals from a depth map and pinhole intrinsics (processing/normals.h).
 
 Integral-image box averages of the vertex map (Holzer et al. 2012); where the box touches a
 depth discontinuity, smaller centred boxes; where none fits, the cross product of neighbour
-differences (Ogura & Saito eq. 3), on noisy depth first the neighbours' 3 x 3 boxes. Beside a
+differences (Ogura & Saito eq. 3), on noisy depth first the neighbours' 3 x 3 boxes; on depth
+without noise those pixels' normals are refined by a quadratic jet (Cazals & Pouget 2003). Beside a
 crease (two planes meeting, depth continuous) on noise-free depth the normal of a 3 x 3 box on
 the pixel's own face.
 
@@ -211,21 +217,26 @@ Args:
         filters depth).
     refine_creases_below_noise_at_1m_m: with refine_creases or neighbour_boxes_on_noisy_depth,
         the depth's own noise is measured first (estimate_depth_noise, ~12 ms at 640x480): creases
-        are refined only when it is noise-free below this (metres at 1 m), the neighbours' boxes
-        used only when it is not; 0: noise-free without measuring.
+        are refined and jets fitted only when it is noise-free below this (metres at 1 m), the
+        neighbours' boxes used only when it is not; 0: noise-free without measuring.
     min_window_radius_px: where the window's box does not fit, centred boxes down to this radius
         are tried first (window_radius_px: none).
     neighbour_boxes_on_noisy_depth: on noisy depth, where no centred box fits, the mean tangents
         of the 3 x 3 boxes centred on the pixel's neighbours, before one-pixel differences (which
         are mostly noise there).
-    depth_noisy: the caller knows the depth is noisy: no measurement, no crease refinement.
+    jet_radius_px: on depth without noise, where the window's box does not fit, the normal of a
+        quadratic height field fitted to the pixel's surface within this radius (0: off).
+    jet_max_residual: the jet is kept when its RMS residual is at most this share of its points'
+        RMS distance to the pixel.
+    depth_noisy: the caller knows the depth is noisy: no measurement, no crease refinement, no
+        jets.
 
 Returns:
     dict: 'normals' float32 HxWx3, unit, camera frame (x right, y down, z forward), facing the
     camera (n . p < 0), NaN where invalid; 'valid' bool HxW; 'method' uint8 HxW (0 invalid,
-    1 integral image, 2 neighbour cross product, 3 crease box, 4 neighbours' boxes);
-    'integral_count', 'cross_count', 'crease_count', 'neighbour_box_count', 'invalid_count'
-    (pixels with depth but no normal);
+    1 integral image, 2 neighbour cross product, 3 crease box, 4 neighbours' boxes, 5 jet);
+    'integral_count', 'cross_count', 'crease_count', 'neighbour_box_count', 'jet_count',
+    'invalid_count' (pixels with depth but no normal);
     'creases_skipped_for_noise': None, or the measured noise (a sentence) when refine_creases
     was asked for but the depth is not noise-free.
 )doc");

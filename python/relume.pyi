@@ -97,8 +97,8 @@ def estimate_normals(depth_m: _F32, intrinsics: dict[str, Any], *, window_radius
                      depth_change_ratio: float = 0.02, min_valid_fraction: float = 0.5,
                      plane_step_tolerance: float = 1e-4, refine_creases: bool = True,
                      refine_creases_below_noise_at_1m_m: float = 5e-5, min_window_radius_px: int = 1,
-                     neighbour_boxes_on_noisy_depth: bool = True,
-                     depth_noisy: bool = False) -> dict[str, Any]: ...
+                     neighbour_boxes_on_noisy_depth: bool = True, jet_radius_px: int = 2,
+                     jet_max_residual: float = 0.01, depth_noisy: bool = False) -> dict[str, Any]: ...
 def vertex_map(depth_m: _F32, intrinsics: dict[str, Any]) -> _F32: ...
 
 # SH lighting

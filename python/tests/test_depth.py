@@ -31,9 +31,15 @@ def test_the_normals_of_a_plane_are_its_normal():
     assert valid.dtype == bool and not valid[20:24, 30:34].any()
     assert valid.sum() == 60 * 80 - 16 and result["invalid_count"] == 0
     assert np.abs(n[valid] - normal).max() < 2e-4
-    assert result["integral_count"] + result["cross_count"] == valid.sum()
+    # Beside the hole and the border the window's box does not fit: smaller boxes, and on this
+    # noise-free depth jets (method 5) refine those pixels.
+    assert result["integral_count"] + result["cross_count"] + result["jet_count"] == valid.sum()
+    assert result["jet_count"] > 0 and (result["method"] == 5).sum() == result["jet_count"]
     assert result["crease_count"] == 0  # a plane has no crease
-    assert set(np.unique(result["method"][valid])) <= {1, 2}
+    assert set(np.unique(result["method"][valid])) <= {1, 2, 5}
+    no_jets = relume.estimate_normals(depth, INTRINSICS, jet_radius_px=0)
+    assert no_jets["jet_count"] == 0 and no_jets["cross_count"] > 0
+    assert np.abs(no_jets["normals"][valid] - normal).max() < 2e-4
     # Cross products only (window 0) give the same plane.
     cross = relume.estimate_normals(depth, INTRINSICS, window_radius_px=0)
     assert cross["cross_count"] == valid.sum() and np.abs(cross["normals"][valid] - normal).max() < 2e-4
@@ -41,7 +47,7 @@ def test_the_normals_of_a_plane_are_its_normal():
     # over from one-pixel differences (still the plane); without smaller boxes and neighbours'
     # boxes, more pixels fall back to one-pixel differences.
     told = relume.estimate_normals(depth, INTRINSICS, depth_noisy=True)
-    assert told["neighbour_box_count"] > 0 and told["creases_skipped_for_noise"] is None
+    assert told["neighbour_box_count"] > 0 and told["creases_skipped_for_noise"] is None and told["jet_count"] == 0
     assert (told["method"] == 4).sum() == told["neighbour_box_count"]
     assert np.abs(told["normals"][valid] - normal).max() < 2e-4
     old = relume.estimate_normals(depth, INTRINSICS, min_window_radius_px=3, neighbour_boxes_on_noisy_depth=False,
@@ -74,7 +80,7 @@ def test_a_crease_keeps_each_faces_normal():
     assert blended["crease_count"] == 0 and refined["crease_count"] > 0
     assert np.median(angles(blended)) > 5.0
     assert np.percentile(angles(refined), 99) < 0.5
-    assert set(np.unique(refined["method"][refined["valid"]])) <= {1, 2, 3}
+    assert set(np.unique(refined["method"][refined["valid"]])) <= {1, 2, 3, 5}  # 5: jets at the border
     assert refined["creases_skipped_for_noise"] is None
     # With 2 mm of noise the depth measures noisy: no crease is refined, and the result says why
     # (the 3 x 3 fits would follow the noise); forced with a threshold of 0 they run.
