@@ -46,17 +46,17 @@ TEST(ShSuiteTest, LampLitScenesSitAboveTheOrderTwoFloor) {
 
   // The non-negative directional light follows the lamps' terminators: its floor (true
   // normals) is a seventh of order-2 SH's (measured median 1.35 %, p90 4.72 %), and from the
-  // method's normals it relights at half SH's error (5.14 %, p90 12.2 %; before the shading
-  // check 5.09 %, 19.2 %: box faces seen edge-on, relit many times too bright): at 160x120 the
-  // normals from depth are most of what is left.
+  // method's normals it relights at half SH's error (4.42 %, p90 9.81 %; before the jets at
+  // silhouettes 5.14 %, 12.2 %; before the shading check 5.09 %, 19.2 %: box faces seen edge-on,
+  // relit many times too bright): at 160x120 the normals from depth are most of what is left.
   const SuiteResult& nonneg = all[1];
   EXPECT_EQ(nonneg.suite, "sh-ideal-depth-nonneg");
   ASSERT_EQ(nonneg.method_errors.failed, 0);
   EXPECT_LT(nonneg.floor_errors.median, 0.02);
   EXPECT_LT(nonneg.floor_errors.p90, 0.06);
-  EXPECT_LT(nonneg.method_errors.median, 0.06);
+  EXPECT_LT(nonneg.method_errors.median, 0.055);
   EXPECT_LT(nonneg.method_errors.median, 0.6 * r.method_errors.median);
-  EXPECT_LT(nonneg.method_errors.p90, 0.15);
+  EXPECT_LT(nonneg.method_errors.p90, 0.12);
 
   // With the albedo unknown (the sh pipeline's default) the same scenes relight twice as far
   // off (measured median 18.7 %, p90 32.7 %; the floor here is the known-albedo method).
@@ -81,12 +81,13 @@ TEST(ShSuiteTest, KinectNoiseCostsLittleAboveExactDepth) {
   EXPECT_LT(r.method_errors.median, 0.16);
   EXPECT_LT(r.method_errors.p90, 0.44);
   EXPECT_LE(r.floor_errors.median, r.method_errors.median);
-  // The non-negative light: measured median 12.7 %, p90 25.7 % (before the shading check
-  // 37.5 %; floor 1.40 %, 4.72 %): the noisy normals are nearly all of its error.
+  // The non-negative light: measured median 11.8 %, p90 22.8 % (before the normals beside
+  // discontinuities came from the neighbours' boxes 12.7 %, 25.7 %; before the shading check
+  // p90 37.5 %; floor 1.40 %, 4.72 %): the noisy normals are nearly all of its error.
   const SuiteResult& nonneg = all[1];
   EXPECT_LT(nonneg.method_errors.median, r.method_errors.median);
   EXPECT_LT(nonneg.method_errors.median, 0.14);
-  EXPECT_LT(nonneg.method_errors.p90, 0.30);
+  EXPECT_LT(nonneg.method_errors.p90, 0.27);
   EXPECT_LT(nonneg.floor_errors.median, 0.02);
 }
 
@@ -110,14 +111,14 @@ TEST(ShSuiteTest, SmoothLightsAreWithinTheModelAndInterreflectionRaisesTheFloor)
   EXPECT_LT(direct.method_errors.median, 0.06);
   EXPECT_LT(direct.method_errors.p90, 0.10);
   // The non-negative light represents these lights almost exactly with true normals (measured
-  // median 0.08 %, p90 0.14 %) and relights from the method's normals at 3.41 %, p90 6.24 %
-  // (before the shading check 4.15 %, 8.07 %).
+  // median 0.08 %, p90 0.14 %) and relights from the method's normals at 2.96 %, p90 4.97 %
+  // (before the jets at silhouettes 3.41 %, 6.24 %; before the shading check 4.15 %, 8.07 %).
   const SuiteResult& direct_nonneg = all[1];
   ASSERT_EQ(direct_nonneg.floor_errors.failed, 0);
   EXPECT_LT(direct_nonneg.floor_errors.median, 0.002);
   EXPECT_LT(direct_nonneg.floor_errors.p90, 0.004);
   EXPECT_LT(direct_nonneg.method_errors.median, direct.method_errors.median);
-  EXPECT_LT(direct_nonneg.method_errors.p90, 0.075);
+  EXPECT_LT(direct_nonneg.method_errors.p90, 0.06);
   // Unknown albedo: measured median 10.4 %, p90 93.2 % (k-means segments that mix objects).
   EXPECT_LT(all[2].method_errors.median, 0.12);
 
