@@ -151,7 +151,7 @@ struct NormalMap {
   cv::Mat normal_in_camera;  // CV_32FC3, NaN where invalid
   cv::Mat valid;             // CV_8UC1, 255 where the normal is valid
   cv::Mat method;            // CV_8UC1, NormalMethod per pixel
-  int integral_count = 0;
+  int integral_count = 0;    // a centred box: the window's, or a smaller one beside a discontinuity
   int cross_count = 0;
   int crease_count = 0;         // refined beside a crease (not in integral_count)
   int neighbour_box_count = 0;  // the neighbours' boxes, on noisy depth (not in cross_count)
