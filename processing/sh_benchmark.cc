@@ -103,12 +103,10 @@ void BM_BilateralFilter(benchmark::State& state) {
 }
 BENCHMARK(BM_BilateralFilter)->ArgName("radius")->Arg(1)->Arg(2)->Arg(3)->Arg(5)->Unit(benchmark::kMillisecond);
 
-// depth 0: filtered noisy depth, crease refinement off (as the SH geometry step runs it on
-// filtered depth); 1: exact depth, refinement off; 2: exact depth, refinement on.
 // Args: window radius; depth (0 filtered Kinect-like noise, said noisy as the SH geometry step
-// says it; 1 exact, creases not refined; 2 exact, refined); fallback beside discontinuities
-// (0 straight to one-pixel differences, the estimate before 2026-12-07; 1 the defaults: smaller
-// boxes, on noisy depth the neighbours' boxes, on exact depth jets).
+// says it, so no crease refinement; 1 exact, creases not refined; 2 exact, refined); fallback
+// beside discontinuities (0 straight to one-pixel differences, the estimate before 2026-12-07;
+// 1 the defaults: smaller boxes, on noisy depth the neighbours' boxes, on exact depth jets).
 void BM_Normals(benchmark::State& state) {
   const Fixture& f = Data();
   NormalOptions options;
