@@ -416,7 +416,7 @@ NormalMap EstimateNormals(const cv::Mat& depth_m, const PinholeIntrinsics& intri
   // Noisy depth (normals.h, "Noisy depth"): said by the caller, or measured when a choice
   // depends on it.
   bool noisy = options.depth_noisy;
-  if (!noisy && options.DependsOnNoise() && options.refine_creases_below_noise_at_1m_m > 0.0) {
+  if (options.MeasuresNoise()) {
     DepthNoiseEstimate noise = EstimateDepthNoise(depth_m);
     if (!noise.NoiseFree(options.refine_creases_below_noise_at_1m_m)) {
       noisy = true;

@@ -125,7 +125,7 @@ struct NormalOptions {
   // With refine_creases: refine only when the depth measures NoiseFree below this (at 1 m, the
   // SH pipeline's denoise rule); 0 = refine without measuring (the caller knows the depth is
   // noise-free). See "Creases" above.
-  // The same measurement decides neighbour_boxes_on_noisy_depth and jet_radius_px (DependsOnNoise).
+  // The same measurement decides neighbour_boxes_on_noisy_depth and jet_radius_px (MeasuresNoise).
   double refine_creases_below_noise_at_1m_m = kDenoiseSkipBelowAt1mM;
   // On noisy depth, before the one-pixel cross product: the mean tangents of the neighbours'
   // edge-free 3 x 3 boxes (see "Noisy depth" above).
@@ -137,10 +137,11 @@ struct NormalOptions {
   // The caller knows the depth is noisy (the SH geometry step filters only depth that measured
   // noisy): no measurement, no crease refinement or jets, neighbour boxes.
   bool depth_noisy = false;
-  // Whether a choice depends on the depth's noise: the estimate measures it unless depth_noisy
-  // or refine_creases_below_noise_at_1m_m is 0.
-  bool DependsOnNoise() const {
-    return window_radius_px > 0 && (refine_creases || neighbour_boxes_on_noisy_depth || jet_radius_px > 0);
+  // Whether the estimate measures the depth's noise: a choice depends on it, and neither
+  // depth_noisy nor a threshold of 0 has decided it.
+  bool MeasuresNoise() const {
+    return !depth_noisy && refine_creases_below_noise_at_1m_m > 0.0 && window_radius_px > 0 &&
+           (refine_creases || neighbour_boxes_on_noisy_depth || jet_radius_px > 0);
   }
   static constexpr double kCreasePlanarity = 0.001;
   static constexpr double kCreaseGain = 20.0;

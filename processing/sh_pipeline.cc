@@ -196,7 +196,7 @@ ShGeometry EstimateShGeometry(const cv::Mat& depth_m, const PinholeIntrinsics& i
     // instead of one-pixel differences (processing/normals.h, "Noisy depth").
     NormalOptions normals = options.normals;
     normals.depth_noisy = normals.depth_noisy || filter;
-    if (!normals.depth_noisy && normals.DependsOnNoise() && normals.refine_creases_below_noise_at_1m_m > 0.0) {
+    if (normals.MeasuresNoise()) {
       // Unfiltered depth is noise-free or not. A stream that measured its first frame has
       // decided that; otherwise (filter_depth off) this frame is measured here, over the whole
       // frame: the roi alone has too few windows for NoiseFree (see DecideDepthFiltering).
