@@ -333,6 +333,12 @@ NonNegativeLightResult FitNonNegativeLight(const std::vector<ShObservation>& obs
   return result;
 }
 
+NonNegativeLightResult FitNonNegativeLightKnownSegments(const std::vector<ShObservation>& observations,
+                                                        const std::vector<Eigen::Vector3d>& segment_albedo,
+                                                        const NonNegativeLightOptions& options) {
+  return FitNonNegativeLight(WithSegmentAlbedo(observations, segment_albedo), options);
+}
+
 NonNegativeSegmentFitResult FitNonNegativeLightSegments(const std::vector<ShObservation>& observations,
                                                         std::vector<Eigen::Vector3d> segment_albedo,
                                                         int reference_segment, int rounds,
@@ -343,13 +349,7 @@ NonNegativeSegmentFitResult FitNonNegativeLightSegments(const std::vector<ShObse
     throw InvalidArgumentError("non-negative light fit: the reference segment must have a positive albedo");
   }
   if (rounds < 1) throw InvalidArgumentError("non-negative light fit: rounds must be >= 1");
-  std::vector<ShObservation> used;
-  for (const ShObservation& o : observations) {
-    if (o.segment < 0 || o.segment >= segments) {
-      throw InvalidArgumentError("non-negative light fit: an observation's segment has no albedo");
-    }
-    if (segment_albedo[static_cast<std::size_t>(o.segment)].minCoeff() > 0.0) used.push_back(o);
-  }
+  std::vector<ShObservation> used = WithSegmentAlbedo(observations, segment_albedo);
   const Eigen::Vector3d reference = segment_albedo[static_cast<std::size_t>(reference_segment)];
   NonNegativeSegmentFitResult result;
   for (int round = 0; round < rounds; ++round) {

@@ -95,6 +95,13 @@ NonNegativeSegmentFitResult FitNonNegativeLightSegments(const std::vector<ShObse
                                                         int reference_segment, int rounds,
                                                         const NonNegativeLightOptions& options = {});
 
+// Shared albedo (FitShFrameSharedAlbedo, sh_pipeline.h): the light with each segment's albedo
+// (another frame's, e.g. FitNonNegativeLightSegments') as known. Observations of segments whose
+// albedo is zero are left out; a segment without an albedo throws InvalidArgumentError.
+NonNegativeLightResult FitNonNegativeLightKnownSegments(const std::vector<ShObservation>& observations,
+                                                        const std::vector<Eigen::Vector3d>& segment_albedo,
+                                                        const NonNegativeLightOptions& options = {});
+
 // The grid FitNonNegativeLight uses: `count` unit directions on a Fibonacci sphere.
 std::vector<Eigen::Vector3d> FibonacciDirections(int count);
 

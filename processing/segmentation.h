@@ -34,8 +34,14 @@ struct SegmentationOptions {
 
 struct Segmentation {
   cv::Mat labels;                // CV_32SC1
-  std::vector<int> pixel_count;  // per label, descending
+  std::vector<int> pixel_count;  // per label; descending from SegmentByColor
   std::vector<cv::Vec3f> mean_color;
+  // Per label, in label order: the k-means centre in feature space (CV_32F, one row of 2, or 5
+  // with normals) and the RMS feature distance of the label's pixels to it. LabelByCentres
+  // reads them to label another frame of the same scene.
+  cv::Mat centres;
+  std::vector<float> spread;
+  cv::Vec3f frame_mean_color{0, 0, 0};  // over the usable pixels: the frame's colour balance
   int segment_count() const { return static_cast<int>(pixel_count.size()); }
 };
 
@@ -70,6 +76,27 @@ class SamplePointSelector {
   int kept_ = 0;
   int reselected_ = 0;
 };
+
+// Labels another frame of the same scene with `reference`'s segments (SegmentByColor's result for
+// one frame, with the same options), so that a label names the same material in both:
+//  - a usable pixel of same_surface (CV_8UC1 of the frame's size, may be empty: the pixels that
+//    show the same surface point as in the reference frame, as in a static view) keeps the
+//    reference's label there;
+//  - any other usable pixel joins the nearest of reference's centres, unless it is farther from
+//    it than max(max_spread_factor x that segment's spread, min_distance) (a material the
+//    reference frame did not see), which leaves it unlabelled (-1).
+// Labels keep reference's numbering, so pixel_count need not be descending and may hold zeros.
+struct LabelByCentresOptions {
+  double max_spread_factor = 4.0;
+  double min_distance = 0.02;  // chromaticity units (with normals: feature units)
+  // Map this frame's mean colour onto the reference's first (per channel, von Kries), so that
+  // a light of another colour does not move the materials' chromaticities.
+  bool balance_colour = true;
+  bool IsValid(std::string* why) const;
+};
+Segmentation LabelByCentres(const Segmentation& reference, const RadianceImage& radiance, const cv::Mat& mask,
+                            const cv::Mat& normal_in_camera, const SegmentationOptions& options,
+                            const LabelByCentresOptions& label_options = {}, const cv::Mat& same_surface = {});
 
 // The pixels of one label as a CV_8UC1 mask.
 cv::Mat SegmentMask(const Segmentation& segmentation, int label);

@@ -63,6 +63,88 @@ TEST(SegmentationTest, EmptyMaskGivesNoSegments) {
   EXPECT_EQ(s.segment_count(), 0);
 }
 
+// The fraction of the labelled pixels of `s` whose label is the one `reference` has there.
+double SameLabelShare(const Segmentation& s, const Segmentation& reference) {
+  int labelled = 0, same = 0;
+  for (int y = 0; y < s.labels.rows; ++y) {
+    for (int x = 0; x < s.labels.cols; ++x) {
+      const int l = s.labels.at<int>(y, x);
+      if (l < 0) continue;
+      ++labelled;
+      same += l == reference.labels.at<int>(y, x);
+    }
+  }
+  return labelled == 0 ? 0.0 : static_cast<double>(same) / labelled;
+}
+
+TEST(SegmentationTest, AnotherFrameIsLabelledWithTheReferencesSegments) {
+  const testing::SyntheticFrame frame = testing::RenderScene({}, SomeLight());
+  SegmentationOptions options;
+  options.segment_count = 3;
+  const Segmentation reference = SegmentByColor(frame.radiance, frame.object_mask, {}, options);
+  ASSERT_EQ(reference.segment_count(), 3);
+  ASSERT_EQ(reference.centres.rows, 3);
+  ASSERT_EQ(reference.spread.size(), 3u);
+  for (const float spread : reference.spread) {  // the sky's and the sun's colours: 0.010-0.024
+    EXPECT_GT(spread, 0.0f);
+    EXPECT_LT(spread, 0.05f);
+  }
+  const int usable = reference.pixel_count[0] + reference.pixel_count[1] + reference.pixel_count[2];
+
+  // The same view under a light of another colour (x1.5 red, x0.6 blue): the chromaticities
+  // move, so labelling without the colour balance loses pixels; with it, every pixel keeps its
+  // material.
+  ShRgb warm = SomeLight();
+  warm.col(0) *= 1.5;
+  warm.col(2) *= 0.6;
+  const testing::SyntheticFrame other = testing::RenderScene({}, warm);
+  const Segmentation balanced = LabelByCentres(reference, other.radiance, other.object_mask, {}, options);
+  ASSERT_EQ(balanced.segment_count(), 3);
+  EXPECT_GT(balanced.pixel_count[0] + balanced.pixel_count[1] + balanced.pixel_count[2], 0.99 * usable);
+  EXPECT_GT(SameLabelShare(balanced, reference), 0.999);
+  LabelByCentresOptions unbalanced;
+  unbalanced.balance_colour = false;
+  const Segmentation raw = LabelByCentres(reference, other.radiance, other.object_mask, {}, options, unbalanced);
+  EXPECT_LT(raw.pixel_count[0] + raw.pixel_count[1] + raw.pixel_count[2], 0.5 * usable);
+
+  // A material the reference frame did not show (red stripes on the big sphere) is left out...
+  testing::SyntheticFrame patched = testing::RenderScene({}, SomeLight());
+  int patch = 0;
+  for (int y = 0; y < patched.object_id.rows; ++y) {
+    for (int x = 0; x < patched.object_id.cols; ++x) {
+      if (patched.object_id.at<int>(y, x) != testing::kBigSphere || x % 8 >= 4) continue;
+      cv::Vec3f& c = patched.radiance.pixels.at<cv::Vec3f>(y, x);
+      const float sum = c[0] + c[1] + c[2];
+      c = cv::Vec3f(0.9f * sum, 0.05f * sum, 0.05f * sum);
+      ++patch;
+    }
+  }
+  ASSERT_GT(patch, 1000);
+  LabelByCentresOptions fixed;
+  fixed.balance_colour = false;  // the patch moves the mean colour; the light did not change
+  const Segmentation left_out = LabelByCentres(reference, patched.radiance, patched.object_mask, {}, options, fixed);
+  const int labelled = left_out.pixel_count[0] + left_out.pixel_count[1] + left_out.pixel_count[2];
+  EXPECT_NEAR(labelled, usable - patch, 0.01 * usable);
+  EXPECT_GT(SameLabelShare(left_out, reference), 0.999);
+  // ...unless the caller says those pixels show the surface the reference frame showed there.
+  const Segmentation kept =
+      LabelByCentres(reference, patched.radiance, patched.object_mask, {}, options, fixed, patched.object_mask);
+  EXPECT_EQ(kept.pixel_count, reference.pixel_count);
+  EXPECT_EQ(SameLabelShare(kept, reference), 1.0);
+
+  // Wrong inputs are refused with a reason.
+  Segmentation without_centres;
+  without_centres.pixel_count = {10};
+  EXPECT_THROW(LabelByCentres(without_centres, other.radiance, other.object_mask, {}, options), InvalidArgumentError);
+  EXPECT_THROW(
+      LabelByCentres(reference, other.radiance, other.object_mask, {}, options, {}, cv::Mat::zeros(3, 3, CV_8UC1)),
+      InvalidArgumentError);
+  LabelByCentresOptions negative;
+  negative.min_distance = -1.0;
+  EXPECT_THROW(LabelByCentres(reference, other.radiance, other.object_mask, {}, options, negative),
+               InvalidArgumentError);
+}
+
 TEST(SamplePointSelectorTest, KeepsPointsInsideAndReselectsThoseThatLeft) {
   SamplePointOptions options;
   options.count = 100;

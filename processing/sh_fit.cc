@@ -250,6 +250,23 @@ double ShConditionNumber(const std::vector<ShObservation>& observations, int ord
   return ConditionFromGram(BasisGram(observations), order);
 }
 
+std::vector<ShObservation> WithSegmentAlbedo(const std::vector<ShObservation>& observations,
+                                             const std::vector<Eigen::Vector3d>& segment_albedo) {
+  std::vector<ShObservation> used;
+  used.reserve(observations.size());
+  for (const ShObservation& o : observations) {
+    if (o.segment < 0 || o.segment >= static_cast<int>(segment_albedo.size())) {
+      throw InvalidArgumentError("an observation's segment " + std::to_string(o.segment) + " has no albedo (" +
+                                 std::to_string(segment_albedo.size()) + " given)");
+    }
+    const Eigen::Vector3d& a = segment_albedo[static_cast<std::size_t>(o.segment)];
+    if (!(a.minCoeff() > 0.0)) continue;
+    used.push_back(o);
+    used.back().albedo = a;
+  }
+  return used;
+}
+
 ShFitResult FitShKnownAlbedo(const std::vector<ShObservation>& observations, const ShFitOptions& options) {
   ThrowIfInvalid(options, "SH fit");
   ShFitResult result;

@@ -79,6 +79,12 @@ struct ShFitResult {
   ShFitSummary summary;
 };
 
+// The observations of segments whose albedo (segment_albedo[segment]) is positive, each carrying
+// it as its known albedo: another frame's segment albedos used in a known-albedo fit. Throws
+// InvalidArgumentError for an observation whose segment has no entry.
+std::vector<ShObservation> WithSegmentAlbedo(const std::vector<ShObservation>& observations,
+                                             const std::vector<Eigen::Vector3d>& segment_albedo);
+
 // Known albedo. Throws InvalidArgumentError for invalid options; a degenerate input (too few
 // observations, normals on one point) is a Summary with usable = false.
 ShFitResult FitShKnownAlbedo(const std::vector<ShObservation>& observations, const ShFitOptions& options = {});

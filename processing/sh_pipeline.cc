@@ -246,6 +246,56 @@ ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat&
   return out;
 }
 
+void SetSegmentAlbedo(int segment, const Eigen::Vector3d& albedo, ShFrameFit* fit) {
+  if (segment < 0 || static_cast<std::size_t>(segment) >= fit->segment_albedo.size() ||
+      !(fit->segment_albedo[static_cast<std::size_t>(segment)].minCoeff() > 0.0)) {
+    throw InvalidArgumentError("SH fit: segment " + std::to_string(segment) + " has no albedo to set");
+  }
+  if (!(albedo.minCoeff() > 0.0) || !albedo.allFinite())
+    throw InvalidArgumentError("SH fit: a segment's albedo must be positive and finite");
+  const Eigen::Vector3d scale = albedo.cwiseQuotient(fit->segment_albedo[static_cast<std::size_t>(segment)]);
+  for (Eigen::Vector3d& a : fit->segment_albedo) a = a.cwiseProduct(scale);
+  for (int c = 0; c < 3; ++c) fit->light.col(c) /= scale[c];
+  fit->reference_segment = segment;
+}
+
+ShFrameFit FitShFrameSharedAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
+                                  const cv::Mat& allowed, const ShFrameFit& reference, const cv::Mat& same_surface,
+                                  const SegmentationOptions& segmentation, const ShFitOptions& options,
+                                  SamplePointSelector& selector, const LabelByCentresOptions& labelling) {
+  if (reference.segment_albedo.size() != static_cast<std::size_t>(reference.segmentation.segment_count())) {
+    throw InvalidArgumentError("SH fit with shared albedo: the reference has " +
+                               std::to_string(reference.segment_albedo.size()) + " segment albedo(s) for " +
+                               std::to_string(reference.segmentation.segment_count()) +
+                               " segment(s); it must be an unknown-albedo fit");
+  }
+  ShFrameFit out;
+  out.segmentation = LabelByCentres(reference.segmentation, radiance, allowed, normal_in_camera, segmentation,
+                                    labelling, same_surface);
+  const cv::Mat& labels = out.segmentation.labels;
+  // Only segments with an albedo are sampled.
+  cv::Mat with_albedo = cv::Mat::zeros(allowed.size(), CV_8UC1);
+  for (int y = 0; y < with_albedo.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    auto* w = with_albedo.ptr<std::uint8_t>(y);
+    for (int x = 0; x < with_albedo.cols; ++x) {
+      w[x] = l[x] >= 0 && reference.segment_albedo[static_cast<std::size_t>(l[x])].maxCoeff() > 0.0 ? 255 : 0;
+    }
+  }
+  out.samples = selector.Update(with_albedo);
+  out.samples_kept = selector.kept_count();
+  out.samples_reselected = selector.reselected_count();
+  const ShFitResult fit = FitShKnownAlbedo(
+      WithSegmentAlbedo(GatherObservations(radiance, normal_in_camera, {}, out.segmentation.labels, out.samples),
+                        reference.segment_albedo),
+      options);
+  out.light = fit.light;
+  out.segment_albedo = reference.segment_albedo;
+  out.reference_segment = reference.reference_segment;
+  out.summary = fit.summary;
+  return out;
+}
+
 bool ShEstimatorOptions::IsValid(std::string* why) const {
   return geometry.IsValid(why) && segmentation.IsValid(why) && samples.IsValid(why) && fit.IsValid(why);
 }

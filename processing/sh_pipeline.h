@@ -137,6 +137,28 @@ ShFrameFit FitShFrameKnownAlbedo(const RadianceImage& radiance, const cv::Mat& n
 ShFrameFit FitShFrameUnknownAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
                                    const cv::Mat& allowed, const SegmentationOptions& segmentation,
                                    const ShAlbedoFitOptions& options, SamplePointSelector& selector);
+// Unknown albedo made absolute: segment `segment`'s albedo is `albedo`. Each channel's free scale
+// (sh_fit.h) moves to it: the segment albedos are multiplied by albedo / the segment's albedo and
+// the light divided by it, so albedo x light, and the fit's residual, stay as they were. Throws
+// InvalidArgumentError for a segment without a positive albedo or a non-positive `albedo`.
+void SetSegmentAlbedo(int segment, const Eigen::Vector3d& albedo, ShFrameFit* fit);
+
+// Unknown albedo, shared by the frames of one scene: `reference` is another frame's unknown-albedo
+// fit (its segmentation with centres and its segment albedos, from FitShFrameUnknownAlbedo with
+// the same segmentation options). This frame's pixels are labelled with the reference's
+// segments and the light is fitted with their albedos as known:
+//  - same_surface (CV_8UC1, may be empty): pixels that show the same surface point as in the
+//    reference frame (a static view: UnchangedDepthMask). They keep the reference's label,
+//    whatever the light's colour did to their chromaticity;
+//  - the other pixels join the reference's segment of the nearest chromaticity (LabelByCentres;
+//    a material the reference did not see is left out). The albedo-light ambiguity of the unknown-albedo fit is
+// then the same in both frames, so it cancels in the ratio of their lights: relighting one
+// frame to the other's light does not depend on it (the random SH suites halve their median
+// error this way, docs/processing-sh.md). Segments whose reference albedo is zero are left out.
+ShFrameFit FitShFrameSharedAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
+                                  const cv::Mat& allowed, const ShFrameFit& reference, const cv::Mat& same_surface,
+                                  const SegmentationOptions& segmentation, const ShFitOptions& options,
+                                  SamplePointSelector& selector, const LabelByCentresOptions& labelling = {});
 
 // ---- A stream in memory --------------------------------------------------------------------
 

@@ -240,6 +240,105 @@ TEST(ShPipelineTest, UnchangedDepthMaskKeepsTheSameSurfaceOnly) {
   EXPECT_DOUBLE_EQ(ChangedDepthFraction(a, b, 0.005, 3.0), 3.0 / 5.0);  // 5 pixels with depth in either
 }
 
+// max over the object of |E_a(n) / E_b(n) - E_c(n) / E_d(n)| / (E_c(n) / E_d(n)) per channel, at
+// the true normals: how far a fitted light ratio (a / b) is from the true one (c / d).
+double WorstRatioError(const testing::SyntheticFrame& frame, const ShRgb& a, const ShRgb& b, const ShRgb& c,
+                       const ShRgb& d) {
+  double worst = 0.0;
+  for (int y = 0; y < frame.object_mask.rows; y += 2) {
+    for (int x = 0; x < frame.object_mask.cols; x += 2) {
+      if (!frame.object_mask.at<std::uint8_t>(y, x)) continue;
+      const cv::Vec3f v = frame.normal_in_camera.at<cv::Vec3f>(y, x);
+      const Eigen::Vector3d n(v[0], v[1], v[2]);
+      const Eigen::Vector3d fitted = ShIrradiance(a, n).cwiseQuotient(ShIrradiance(b, n));
+      const Eigen::Vector3d truth = ShIrradiance(c, n).cwiseQuotient(ShIrradiance(d, n));
+      worst = std::max(worst, (fitted - truth).cwiseQuotient(truth).cwiseAbs().maxCoeff());
+    }
+  }
+  return worst;
+}
+
+TEST(ShPipelineTest, SharedAlbedoTakesTheReferencesSegmentsAndAlbedosAsKnown) {
+  const testing::SceneOptions scene;
+  const ShRgb src_light = SkyLight();
+  testing::SkySunOptions low;
+  low.sun_dir_in_map = Eigen::Vector3d(-0.8, 0.3, 0.35).normalized();
+  ShRgb dst_light = ProjectEnvironmentMap(testing::MakeSkySunMap(64, 32, low), testing::CameraFromMap());
+  dst_light.col(0) *= 1.4;  // a warmer light: the chromaticities move
+  dst_light.col(2) *= 0.7;
+  const testing::SyntheticFrame src = testing::RenderScene(scene, src_light);
+  const testing::SyntheticFrame dst = testing::RenderScene(scene, dst_light);
+  SegmentationOptions segmentation;
+  segmentation.segment_count = 3;
+
+  // A reference whose albedos are the truth times a per-channel scale: the shared fit finds the
+  // destination light divided by that scale, from either way of labelling.
+  ShFrameFit reference;
+  reference.segmentation = SegmentByColor(src.radiance, src.object_mask, {}, segmentation);
+  ASSERT_EQ(reference.segmentation.segment_count(), 3);
+  const Eigen::Vector3d scale(2.0, 1.0, 0.5);
+  for (int l = 0; l < 3; ++l) {
+    const cv::Scalar mean = cv::mean(src.albedo, SegmentMask(reference.segmentation, l));
+    reference.segment_albedo.push_back(Eigen::Vector3d(mean[0], mean[1], mean[2]).cwiseProduct(scale));
+  }
+  reference.reference_segment = 0;
+  ShRgb scaled = dst_light;
+  for (int c = 0; c < 3; ++c) scaled.col(c) /= scale[c];
+  for (const bool same_surface : {true, false}) {
+    SamplePointSelector selector;
+    const ShFrameFit fit =
+        FitShFrameSharedAlbedo(dst.radiance, dst.normal_in_camera, dst.object_mask, reference,
+                               same_surface ? dst.object_mask : cv::Mat(), segmentation, {}, selector);
+    ASSERT_TRUE(fit.summary.usable) << fit.summary.message;
+    EXPECT_EQ(fit.segment_albedo, reference.segment_albedo);
+    EXPECT_EQ(fit.reference_segment, 0);
+    EXPECT_EQ(fit.samples.size(), 2000u);
+    EXPECT_LT(WorstRatioError(dst, fit.light, src_light, scaled, src_light), same_surface ? 1e-4 : 1e-3)
+        << same_surface;
+  }
+
+  // From an unknown-albedo fit of the source: the ratio of the lights is the true one, whatever
+  // scale the unknown albedos took.
+  SamplePointSelector src_samples, dst_samples;
+  ShAlbedoFitOptions unknown;
+  const ShFrameFit own =
+      FitShFrameUnknownAlbedo(src.radiance, src.normal_in_camera, src.object_mask, segmentation, unknown, src_samples);
+  ASSERT_TRUE(own.summary.usable);
+  const ShFrameFit shared = FitShFrameSharedAlbedo(dst.radiance, dst.normal_in_camera, dst.object_mask, own,
+                                                   dst.object_mask, segmentation, {}, dst_samples);
+  ASSERT_TRUE(shared.summary.usable);
+  EXPECT_LT(WorstRatioError(dst, shared.light, own.light, dst_light, src_light), 1e-3);
+
+  // Made absolute by one segment's true albedo: the light and every albedo are the truth.
+  ShFrameFit absolute = own;
+  const int big = own.segmentation.labels.at<int>(120, 160);
+  ASSERT_GE(big, 0);
+  ASSERT_EQ(src.object_id.at<int>(120, 160), testing::kBigSphere);
+  SetSegmentAlbedo(big, scene.big_sphere_albedo, &absolute);
+  EXPECT_EQ(absolute.reference_segment, big);
+  ShRgb unit = ShRgb::Zero();
+  unit(0, 0) = unit(0, 1) = unit(0, 2) = 1.0;  // E(n) = const: the ratio is E itself
+  EXPECT_LT(WorstRatioError(src, absolute.light, unit, src_light, unit), 1e-3);
+  for (int l = 0; l < own.segmentation.segment_count(); ++l) {
+    const cv::Scalar mean = cv::mean(src.albedo, SegmentMask(own.segmentation, l));
+    EXPECT_LT((absolute.segment_albedo[static_cast<std::size_t>(l)] - Eigen::Vector3d(mean[0], mean[1], mean[2]))
+                  .cwiseAbs()
+                  .maxCoeff(),
+              1e-3)
+        << l;
+  }
+  EXPECT_THROW(SetSegmentAlbedo(7, scene.big_sphere_albedo, &absolute), InvalidArgumentError);
+  EXPECT_THROW(SetSegmentAlbedo(big, Eigen::Vector3d(0.5, 0.0, 0.5), &absolute), InvalidArgumentError);
+
+  // A reference that is not an unknown-albedo fit is refused.
+  ShFrameFit known;
+  known.segmentation = reference.segmentation;
+  SamplePointSelector selector;
+  EXPECT_THROW(FitShFrameSharedAlbedo(dst.radiance, dst.normal_in_camera, dst.object_mask, known, {}, segmentation, {},
+                                      selector),
+               InvalidArgumentError);
+}
+
 TEST(ShPipelineTest, RejectsMismatchedIntrinsics) {
   const testing::SceneOptions scene;
   const testing::SyntheticFrame frame = testing::RenderScene(scene, SkyLight());
