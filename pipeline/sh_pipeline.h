@@ -49,6 +49,18 @@ struct ShFitFigures {
   std::string albedo;  // truth (an oracle) or unknown (k-means segments)
   std::optional<int> segments;
   std::optional<std::vector<Eigen::Vector3d>> segment_albedo;
+  // Unknown albedo: the segment whose albedo fixed the scale, and what another frame needs to be
+  // labelled with these segments (processing::LabelByCentres): their k-means centres, spreads and
+  // the frame's mean colour. The labels are the stage's segments.exr.
+  std::optional<int> reference_segment;
+  std::optional<std::vector<std::vector<double>>> segment_centres;
+  std::optional<std::vector<double>> segment_spread;
+  std::optional<Eigen::Vector3d> frame_mean_color;
+  // shared_albedo: the colour frame whose segments and albedos this fit used as known, and how
+  // many of the fit's pixels kept that frame's label (same surface) or took the nearest
+  // chromaticity's; pixels of a material that frame did not show are left out.
+  std::optional<std::int64_t> albedo_from_frame;
+  std::optional<std::int64_t> same_surface_pixels, chromaticity_labelled_pixels, unlabelled_pixels;
   // Pixels with a normal and depth, and those of them the fit could not sample because the
   // colour frame clipped there (lower bounds).
   std::optional<std::int64_t> pixels_with_normal, clipped_pixels;
@@ -69,6 +81,14 @@ struct ShFitFigures {
     v.Field("albedo", albedo);
     v.Field("segments", segments);
     v.Field("segment_albedo", segment_albedo);
+    v.Field("reference_segment", reference_segment);
+    v.Field("segment_centres", segment_centres);
+    v.Field("segment_spread", segment_spread);
+    v.Field("frame_mean_color", frame_mean_color);
+    v.Field("albedo_from_frame", albedo_from_frame);
+    v.Field("same_surface_pixels", same_surface_pixels);
+    v.Field("chromaticity_labelled_pixels", chromaticity_labelled_pixels);
+    v.Field("unlabelled_pixels", unlabelled_pixels);
     v.Field("pixels_with_normal", pixels_with_normal);
     v.Field("clipped_pixels", clipped_pixels);
   }

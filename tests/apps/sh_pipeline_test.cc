@@ -508,7 +508,9 @@ TEST(ShPipelineCliTest, InterreflectionBetweenTheObjectsKeepsTheRelitErrorWithin
 
 TEST(ShPipelineCliTest, KinectNoiseUnderAMovingLightIsFilteredAndTheDestinationPhotographShowsTheError) {
   // The moving-light scene through Kinect-like depth noise (~1.5 mm at 1 m). Measured
-  // 2026-12-07: relit 3.81 % against the truth (unknown albedo), 3.5 % against the destination
+  // 2026-12-08: relit 2.55 % against the truth (unknown albedo shared from the destination
+  // frame; 2.91 % with each frame fitted on its own, 2.55 % with the true albedo as an oracle).
+  // 2026-12-07, before the normals beside silhouettes: 3.81 %, 3.5 % against the destination
   // photograph; 4.04 % and 3.8 % with the radius-3 ratio filter (before the noisy-normals one),
   // 4.98 % before the ratio filter.
   const fs::path root = TempDir("kinect_light");
@@ -523,12 +525,40 @@ TEST(ShPipelineCliTest, KinectNoiseUnderAMovingLightIsFilteredAndTheDestinationP
     }
   }
   ASSERT_EQ(m["compared_frames"], 3) << m.dump(1);
-  EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), 0.042);
+  EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), 0.03);
   // Not relit: 11.8 % (measured).
   EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), m["baseline_relative_rms_mean"].get<double>() / 2.0);
   ASSERT_EQ(m["destination_photo_frames"], 3) << m.dump(1);
   ExpectPhotographTracksTheTruth(m, 0.01);
   EXPECT_TRUE(m["sh_fits_scene"].get<bool>()) << m.dump(1);
+  // The albedo is shared: the destination (last) frame is fitted with unknown albedo, the others
+  // with its segments' albedos; a static view keeps its segments pixel for pixel.
+  EXPECT_EQ(CountDecisions(s, "albedo", "choose"), 2);  // unknown; shared from frame N
+  const nlohmann::json& frames = m["frames"];
+  ASSERT_EQ(frames.size(), 4u);
+  const std::int64_t reference = frames[3]["color_frame"].get<std::int64_t>();
+  EXPECT_FALSE(frames[3]["fit"].contains("albedo_from_frame"));
+  EXPECT_TRUE(frames[3]["fit"].contains("segment_centres"));
+  for (int i = 0; i < 3; ++i) {
+    const nlohmann::json& fit = frames[i]["fit"];
+    EXPECT_EQ(fit["albedo_from_frame"].get<std::int64_t>(), reference);
+    EXPECT_EQ(fit["segment_albedo"], frames[3]["fit"]["segment_albedo"]);
+    EXPECT_GT(fit["same_surface_pixels"].get<std::int64_t>(), 0.99 * fit["pixels_with_normal"].get<double>());
+    EXPECT_LT(fit["unlabelled_pixels"].get<std::int64_t>(), 0.01 * fit["pixels_with_normal"].get<double>());
+  }
+  // Each frame on its own (the fits rerun, the geometry is reused): the albedo-light ambiguity
+  // no longer cancels.
+  const nlohmann::json own = Process(session, root / "out", "--set shared_albedo=false");
+  EXPECT_EQ(CountDecisions(own, "albedo", "choose"), 1);
+  EXPECT_FALSE(own["metrics"]["frames"][0]["fit"].contains("albedo_from_frame"));
+  EXPECT_LT(own["metrics"]["relit_relative_rms_mean"].get<double>(), 0.042);
+  for (const auto& [stage, action] : StageActions(own)) {
+    if (stage.rfind("geometry-", 0) == 0) {
+      EXPECT_EQ(action, "reuse") << stage;
+    } else if (stage.rfind("fit-", 0) == 0) {
+      EXPECT_EQ(action, "run") << stage;
+    }
+  }
   fs::remove_all(root);
 }
 
@@ -629,7 +659,18 @@ TEST(ShPipelineCliTest, MovingObjectWithSensorNoiseRelitToAnShFile) {
   // The method (albedo unknown: k-means segments + alternating fit) against an absolute light:
   // measured 27.7 % (Kinect noise); with the world's albedo as an oracle (albedo=truth, the floor
   // with known reflectance) 11.5 %. Until 2026-12-03 the default silently used the oracle.
+  // 2026-12-08: 25.9 %, the oracle 5.76 %: the gap is the absolute scale, which unknown albedo
+  // cannot know (the largest segment is taken as 0.5 grey; the big sphere is 0.75 / 0.55 / 0.45).
   EXPECT_EQ(m["albedo"], "unknown");
+  // The first frame is the albedo's reference (the destination is a file); the object moves,
+  // so the other frames label part of it by chromaticity.
+  const std::int64_t first = m["frames"][0]["color_frame"].get<std::int64_t>();
+  for (std::size_t i = 1; i < m["frames"].size(); ++i) {
+    const nlohmann::json& fit = m["frames"][i]["fit"];
+    EXPECT_EQ(fit["albedo_from_frame"].get<std::int64_t>(), first);
+    EXPECT_GT(fit["chromaticity_labelled_pixels"].get<std::int64_t>(), 0);
+    EXPECT_LT(fit["unlabelled_pixels"].get<std::int64_t>(), 0.01 * fit["pixels_with_normal"].get<double>());
+  }
   EXPECT_LT(m["relit_relative_rms_mean"].get<double>(), 0.31);
   const nlohmann::json oracle = Process(session, root / "oracle", "--target-light " + light + " --set albedo=truth");
   EXPECT_EQ(oracle["metrics"]["albedo"], "truth");
@@ -638,6 +679,22 @@ TEST(ShPipelineCliTest, MovingObjectWithSensorNoiseRelitToAnShFile) {
   EXPECT_LT(oracle["metrics"]["relit_relative_rms_mean"].get<double>(), m["relit_relative_rms_mean"].get<double>());
   EXPECT_GT(m["baseline_relative_rms_mean"].get<double>(), 0.8);
   EXPECT_LT(m["irradiance_relative_rms_mean"].get<double>(), 0.08);
+  // The user knows one surface's albedo (the big sphere, at the image centre of the first
+  // frame): light and albedos become absolute and the relit frames meet the oracle's error.
+  const std::string reference = "--set reference_pixel=160,120 --set \"reference_albedo=0.75, 0.55, 0.45\"";
+  const nlohmann::json known = Process(session, root / "out", "--target-light " + light + " " + reference);
+  EXPECT_LT(known["metrics"]["relit_relative_rms_mean"].get<double>(),
+            oracle["metrics"]["relit_relative_rms_mean"].get<double>() + 0.02);
+  EXPECT_NE(known["metrics"]["frames"][0]["fit"]["albedo"].get<std::string>().find("reference_albedo at pixel 160,120"),
+            std::string::npos);
+  for (const char* bad :
+       {"--set reference_pixel=160,120", "--set reference_pixel=1,2,3 --set reference_albedo=0.5,0.5,0.5",
+        "--set reference_pixel=160,120 --set reference_albedo=0.5,1.5,0.5",
+        "--set reference_pixel=2,2 --set reference_albedo=0.5,0.5,0.5"}) {
+    const auto r = RunRelume("process " + session.string() + " --pipeline sh --out " + (root / "bad").string() +
+                             " --target-light " + light + " " + bad);
+    ExpectUserError(r, "reference_");
+  }
   // Kinect-like depth noise (measured ~1.5 mm at 1 m) is filtered.
   EXPECT_EQ(CountDecisions(s, "denoise", "run"), 1);
   // The object moves 1 cm per frame: its depth changes, so normals are recomputed every frame.
