@@ -34,8 +34,9 @@
 // Each suite also reports, on the same scenes, renders, samples and normals:
 //  - "-nonneg": the non-negative directional light (processing/nonneg_light.h) fitted and
 //    relit in place of the SH light; floor: the same fit from the true normals;
-//  - "-unknown-albedo": the sh pipeline's default fit (k-means segments, alternating SH fit);
-//    floor: the known-albedo method above (what knowing the albedo gives).
+//  - "-unknown-albedo": the sh pipeline's default fit (k-means segments and the alternating SH
+//    fit in the destination frame, the source fitted with its segments' albedos); floor: the
+//    known-albedo method above (what knowing the albedo gives).
 #include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
@@ -344,7 +345,7 @@ NormalDiagnosis DiagnoseNormals(const processing::RelightResult& relit, const cv
 // directional light (processing/nonneg_light.h) in place of the SH fit, and both with the
 // albedo unknown.
 struct ShSceneResults {
-  SceneResult sh, nonneg, unknown;
+  SceneResult sh, nonneg, unknown, nonneg_unknown;
 };
 
 // The non-negative light's method and floor: fitted where the SH fits were (the method's
@@ -393,37 +394,79 @@ SceneResult RunNonNegative(const SceneResult& base, const pt::SyntheticFrame& sr
   return r;
 }
 
-// The albedo unknown, as the sh pipeline fits by default: k-means segments and the alternating
-// SH fit (FitShFrameUnknownAlbedo, the pipeline's defaults), relit as the method is. Floor: the
-// known-albedo method on the same normals (`known`).
-SceneResult RunUnknownAlbedo(const SceneResult& known, const pt::SyntheticFrame& src, const pt::SyntheticFrame& dst,
-                             const processing::ShFrameEstimate& estimate, const processing::ShFrameEstimate& target,
-                             const processing::RelightOptions& relight) {
-  SceneResult r;
-  r.seed = known.seed;
-  r.description = known.description;
-  r.floor = known.method;
+// The albedo unknown, as the sh pipeline fits it by default: k-means segments and the
+// alternating SH fit of the destination frame (FitShFrameUnknownAlbedo, the pipeline's defaults),
+// and the source fitted with the destination's segments and albedos (FitShFrameSharedAlbedo),
+// relit as the method is. The notes give the error when each frame is fitted on its own (the
+// pipeline's shared_albedo=false). Floor: the known-albedo method on the same normals (`known`).
+// Into `sh`, and into `nonneg` the same with the non-negative light (light_model=nonnegative:
+// FitNonNegativeLightSegments in the destination, FitNonNegativeLightKnownSegments with its
+// refined albedos in the source; floor: the known-albedo non-negative method `known_nonneg`).
+void RunUnknownAlbedo(const SceneResult& known, const SceneResult& known_nonneg, const pt::SyntheticFrame& src,
+                      const pt::SyntheticFrame& dst, const processing::ShFrameEstimate& estimate,
+                      const processing::ShFrameEstimate& target, const processing::RelightOptions& relight,
+                      SceneResult* sh, SceneResult* nonneg) {
+  for (SceneResult* r : {sh, nonneg}) {
+    r->seed = known.seed;
+    r->description = known.description;
+  }
+  sh->floor = known.method;
+  nonneg->floor = known_nonneg.method;
   const auto start = std::chrono::steady_clock::now();
-  processing::SamplePointSelector src_samples, dst_samples;
-  const processing::ShFrameFit fit_src = processing::FitShFrameUnknownAlbedo(
-      src.radiance, estimate.normals.normal_in_camera, src.object_mask & estimate.normals.valid, {}, {}, src_samples);
+  processing::SamplePointSelector src_samples, dst_samples, own_samples;
   const processing::ShFrameFit fit_dst = processing::FitShFrameUnknownAlbedo(
       dst.radiance, target.normals.normal_in_camera, dst.object_mask & target.normals.valid, {}, {}, dst_samples);
-  if (!fit_src.summary.usable || !fit_dst.summary.usable) {
-    r.notes = "the unknown-albedo SH fit failed: " + (fit_src.summary.usable ? fit_dst : fit_src).summary.message;
-    return r;
+  const cv::Mat src_allowed = src.object_mask & estimate.normals.valid;
+  const processing::ShFrameFit fit_src =
+      fit_dst.summary.usable
+          ? processing::FitShFrameSharedAlbedo(src.radiance, estimate.normals.normal_in_camera, src_allowed, fit_dst,
+                                               src_allowed, {}, {}, src_samples)
+          : processing::ShFrameFit{};
+  if (!fit_dst.summary.usable || !fit_src.summary.usable) {
+    sh->notes = nonneg->notes =
+        "the unknown-albedo SH fit failed: " + (fit_dst.summary.usable ? fit_src : fit_dst).summary.message;
+    return;
   }
-  r.method = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
-                                              fit_src.light, fit_dst.light, relight),
-                        dst);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  sh->method = RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
+                                                fit_src.light, fit_dst.light, relight),
+                          dst);
+  sh->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const processing::ShFrameFit own = processing::FitShFrameUnknownAlbedo(
+      src.radiance, estimate.normals.normal_in_camera, src_allowed, {}, {}, own_samples);
   std::ostringstream notes;
   notes.precision(3);
-  notes << fit_src.segmentation.segment_count() << "/" << fit_dst.segmentation.segment_count()
-        << " segments, albedo-light condition " << fit_src.summary.albedo_light_condition_number << "/"
-        << fit_dst.summary.albedo_light_condition_number;
-  r.notes = notes.str();
-  return r;
+  notes << fit_dst.segmentation.segment_count() << " segments, albedo-light condition "
+        << fit_dst.summary.albedo_light_condition_number << "; each frame on its own: ";
+  if (own.summary.usable) {
+    notes << RelitError(processing::RelightSh(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
+                                              own.light, fit_dst.light, relight),
+                        dst);
+  } else {
+    notes << "the fit failed (" << own.summary.message << ")";
+  }
+  sh->notes = notes.str();
+
+  const auto nonneg_start = std::chrono::steady_clock::now();
+  const processing::NonNegativeSegmentFitResult light_dst = processing::FitNonNegativeLightSegments(
+      processing::GatherObservations(dst.radiance, target.normals.normal_in_camera, {}, fit_dst.segmentation.labels,
+                                     fit_dst.samples),
+      fit_dst.segment_albedo, fit_dst.reference_segment, 5, {});
+  const processing::NonNegativeLightResult light_src = processing::FitNonNegativeLightKnownSegments(
+      processing::GatherObservations(src.radiance, estimate.normals.normal_in_camera, {}, fit_src.segmentation.labels,
+                                     fit_src.samples),
+      light_dst.segment_albedo, {});
+  if (!light_dst.fit.summary.usable || !light_src.summary.usable) {
+    nonneg->notes = "the non-negative fit failed: " +
+                    (light_dst.fit.summary.usable ? light_src.summary : light_dst.fit.summary).message;
+    return;
+  }
+  nonneg->method =
+      RelitError(processing::RelightNonNegative(src.radiance, estimate.normals.normal_in_camera, src.object_mask,
+                                                light_src.light, light_dst.fit.light, relight),
+                 dst);
+  nonneg->seconds =
+      sh->seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - nonneg_start).count();
+  nonneg->notes = "on the unknown-albedo SH fit's segments and samples, 5 light / albedo alternations";
 }
 
 ShSceneResults RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, LightFamily family, bool bounces) {
@@ -474,7 +517,7 @@ ShSceneResults RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, Lig
       dst_estimator.EstimateKnownAlbedo(dst.radiance, noisy(0xa4), k, dst.object_mask, dst.albedo);
   if (!estimate.summary.usable || !target.summary.usable) {
     r.notes = "the SH fit failed: " + (estimate.summary.usable ? target : estimate).summary.message;
-    results.nonneg = results.unknown = r;
+    results.nonneg = results.unknown = results.nonneg_unknown = r;
     return results;
   }
   processing::RelightOptions relight;  // as the sh pipeline relights the method's normals
@@ -521,8 +564,9 @@ ShSceneResults RunShScene(std::uint64_t seed, bool quick, bool kinect_noise, Lig
   r.notes = notes.str();
   results.nonneg = RunNonNegative(r, src, dst, estimate, target, relight, per_pixel);
   results.nonneg.notes += bounce_notes.str();
-  results.unknown = RunUnknownAlbedo(r, src, dst, estimate, target, relight);
+  RunUnknownAlbedo(r, results.nonneg, src, dst, estimate, target, relight, &results.unknown, &results.nonneg_unknown);
   results.unknown.notes += bounce_notes.str();
+  results.nonneg_unknown.notes += bounce_notes.str();
   return results;
 }
 
@@ -548,16 +592,25 @@ std::vector<SuiteResult> RunShSuite(const SuiteOptions& options, bool kinect_noi
                   std::to_string(processing::NonNegativeLightOptions{}.direction_count) + " directions) -> relight";
   SuiteResult unknown = result;
   unknown.suite += "-unknown-albedo";
-  unknown.method = depth + " -> denoise decision -> normals -> k-means segments -> unknown-albedo SH fit (order 2, " +
-                   "the sh pipeline's default) -> relight";
+  unknown.method = depth +
+                   " -> denoise decision -> normals -> k-means segments -> unknown-albedo SH fit (order 2) of " +
+                   "the destination, the source with its segments' albedos (the sh pipeline's default) -> relight";
   unknown.floor = "the known-albedo method (the albedo given)";
+  SuiteResult nonneg_unknown = nonneg;
+  nonneg_unknown.suite += "-unknown-albedo";
+  nonneg_unknown.method = depth +
+                          " -> denoise decision -> normals -> k-means segments -> unknown-albedo SH fit of the "
+                          "destination, its segment albedos refined by the non-negative light, the source with "
+                          "them (the sh pipeline's light_model=nonnegative) -> relight";
+  nonneg_unknown.floor = "the known-albedo non-negative method (the albedo given)";
   for (int i = 0; i < options.SceneCount(); ++i) {
     ShSceneResults scene = RunShScene(options.SeedOf(i), options.quick, kinect_noise, family, bounces);
     result.scenes.push_back(std::move(scene.sh));
     nonneg.scenes.push_back(std::move(scene.nonneg));
     unknown.scenes.push_back(std::move(scene.unknown));
+    nonneg_unknown.scenes.push_back(std::move(scene.nonneg_unknown));
   }
-  return {result, nonneg, unknown};
+  return {result, nonneg, unknown, nonneg_unknown};
 }
 
 }  // namespace
