@@ -2024,6 +2024,14 @@ ShPipelineSummary RunShPipeline(PipelineRun& run) {
   run.Decide("sh", "plan", std::to_string(in.pairs.size()) + " RGB-D frame pair(s) of " + in.device);
   DecideDenoise(run, in.pairs.front(), &k);
   const Destination dst = ChooseDestination(run, in.pairs, in.camera);
+  if (!in.known_albedo && dst.kind != "frame" && !k.reference_at) {
+    run.Decide("albedo", "warn",
+               "unknown albedo relit into " + dst.description +
+                   ", an absolute light: each colour channel of the relit frames is off by the unknown albedo's "
+                   "scale (the largest colour segment is taken as 0.5 grey); give one surface of known albedo "
+                   "(a grey card, a ColorChecker patch) with --set reference_pixel=x,y --set "
+                   "reference_albedo=r,g,b");
+  }
   if (run.request().explain) return summary;
 
   const FrameStages frames = FitFrames(run, k, in, dst.kind == "frame" ? *dst.frame_index : 0);
