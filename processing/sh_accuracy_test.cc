@@ -178,6 +178,43 @@ TEST_F(ShAccuracyTest, UnknownAlbedoNoiseFree) {
   EXPECT_LT(ea.irradiance_rel_rms, 0.01);
 }
 
+// One stream, four segments for three objects (one object split between two segments): the
+// destination frame comes first and becomes the stream's albedo reference, the source is fitted
+// with its segment albedos (ShEstimatorOptions::share_albedo), so the two lights settle the
+// albedo-light ambiguity the same way.
+TEST_F(ShAccuracyTest, UnknownAlbedoSharedAlongTheStream) {
+  ShLightEstimator stream(Options(4));
+  const ShFrameEstimate dst =
+      stream.EstimateUnknownAlbedo(dst_.radiance, dst_.depth_m, scene_.intrinsics, dst_.object_mask);
+  const ShFrameEstimate src =
+      stream.EstimateUnknownAlbedo(src_.radiance, src_.depth_m, scene_.intrinsics, src_.object_mask);
+  ASSERT_TRUE(dst.summary.usable) << dst.summary.BriefReport();
+  ASSERT_TRUE(src.summary.usable) << src.summary.BriefReport();
+  EXPECT_FALSE(dst.albedo_shared);
+  EXPECT_TRUE(src.albedo_shared);
+  EXPECT_EQ(src.segment_albedo, dst.segment_albedo);
+  const Errors shared = Evaluate(src_, dst_, src.light, dst.light, src.normals);
+  Print("ideal, unknown albedo shared along the stream", shared, src.summary);
+  EXPECT_LT(shared.relit_rel_rms, 0.01);
+
+  // Each frame on its own (share_albedo = false), for the record beside it.
+  ShEstimatorOptions own_options = Options(4);
+  own_options.share_albedo = false;
+  ShLightEstimator own(own_options);
+  const ShFrameEstimate own_dst =
+      own.EstimateUnknownAlbedo(dst_.radiance, dst_.depth_m, scene_.intrinsics, dst_.object_mask);
+  const ShFrameEstimate own_src =
+      own.EstimateUnknownAlbedo(src_.radiance, src_.depth_m, scene_.intrinsics, src_.object_mask);
+  EXPECT_FALSE(own_src.albedo_shared);
+  Print("ideal, unknown albedo, each frame on its own", Evaluate(src_, dst_, own_src.light, own_dst.light, src.normals),
+        own_src.summary);
+
+  // Reset starts a new stream: its next frame is a new reference.
+  stream.Reset();
+  EXPECT_FALSE(
+      stream.EstimateUnknownAlbedo(src_.radiance, src_.depth_m, scene_.intrinsics, src_.object_mask).albedo_shared);
+}
+
 TEST_F(ShAccuracyTest, KinectNoiseThroughTheFilters) {
   // Two noisy frames of the static scene, so the temporal filter takes part.
   ShLightEstimator estimator(Options());

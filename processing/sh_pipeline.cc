@@ -306,6 +306,8 @@ ShLightEstimator::ShLightEstimator(const ShEstimatorOptions& options)
 void ShLightEstimator::Reset() {
   previous_.reset();
   selector_ = SamplePointSelector(options_.samples);
+  albedo_reference_.reset();
+  albedo_reference_depth_.release();
 }
 
 ShFrameEstimate ShLightEstimator::Prepare(const RadianceImage& radiance, const cv::Mat& depth_m,
@@ -378,9 +380,24 @@ ShFrameEstimate ShLightEstimator::EstimateWithReferenceSegment(const RadianceIma
 ShFrameEstimate ShLightEstimator::EstimateUnknownAlbedo(const RadianceImage& radiance, const cv::Mat& depth_m,
                                                         const PinholeIntrinsics& intrinsics, const cv::Mat& mask) {
   ShFrameEstimate estimate = Prepare(radiance, depth_m, intrinsics, mask);
-  Take(FitShFrameUnknownAlbedo(radiance, estimate.normals.normal_in_camera, mask & estimate.normals.valid,
-                               options_.segmentation, options_.fit, selector_),
-       &estimate);
+  const cv::Mat allowed = mask & estimate.normals.valid;
+  if (options_.share_albedo && albedo_reference_) {
+    const cv::Mat same_surface =
+        UnchangedDepthMask(albedo_reference_depth_, estimate.depth_m, options_.geometry.bilateral.range_sigma_at_1m_m,
+                           options_.geometry.reuse_sigmas);
+    Take(FitShFrameSharedAlbedo(radiance, estimate.normals.normal_in_camera, allowed, *albedo_reference_, same_surface,
+                                options_.segmentation, options_.fit.fit, selector_),
+         &estimate);
+    estimate.albedo_shared = true;
+    return estimate;
+  }
+  ShFrameFit fit = FitShFrameUnknownAlbedo(radiance, estimate.normals.normal_in_camera, allowed, options_.segmentation,
+                                           options_.fit, selector_);
+  if (options_.share_albedo && fit.summary.usable) {
+    albedo_reference_ = fit;
+    albedo_reference_depth_ = estimate.depth_m.clone();
+  }
+  Take(std::move(fit), &estimate);
   return estimate;
 }
 

@@ -151,10 +151,11 @@ void SetSegmentAlbedo(int segment, const Eigen::Vector3d& albedo, ShFrameFit* fi
 //    reference frame (a static view: UnchangedDepthMask). They keep the reference's label,
 //    whatever the light's colour did to their chromaticity;
 //  - the other pixels join the reference's segment of the nearest chromaticity (LabelByCentres;
-//    a material the reference did not see is left out). The albedo-light ambiguity of the unknown-albedo fit is
-// then the same in both frames, so it cancels in the ratio of their lights: relighting one
-// frame to the other's light does not depend on it (the random SH suites halve their median
-// error this way, docs/processing-sh.md). Segments whose reference albedo is zero are left out.
+//    a material the reference did not see is left out).
+// The albedo-light ambiguity of the unknown-albedo fit is then the same in both frames, so it
+// cancels in the ratio of their lights: relighting one frame to the other's light does not
+// depend on it (the random SH suites halve their median error this way, docs/processing-sh.md).
+// Segments whose reference albedo is zero are left out.
 ShFrameFit FitShFrameSharedAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
                                   const cv::Mat& allowed, const ShFrameFit& reference, const cv::Mat& same_surface,
                                   const SegmentationOptions& segmentation, const ShFitOptions& options,
@@ -167,6 +168,13 @@ struct ShEstimatorOptions {
   SegmentationOptions segmentation;
   SamplePointOptions samples;
   ShAlbedoFitOptions fit;  // fit.fit is used by the known-albedo paths
+  // EstimateUnknownAlbedo: the stream's first usable unknown-albedo fit (after construction or
+  // Reset) becomes its albedo reference, and every later frame is fitted with the reference's
+  // segment albedos (FitShFrameSharedAlbedo; the same surface by UnchangedDepthMask against the
+  // reference's depth, with the bilateral filter's range sigma and the geometry's reuse_sigmas),
+  // so that relighting one frame of the stream to another's light does not depend on the
+  // albedo-light ambiguity. false: each frame on its own (the ambiguity settled per frame).
+  bool share_albedo = true;
   bool IsValid(std::string* why) const;
 };
 
@@ -183,6 +191,7 @@ struct ShFrameEstimate {
   int samples_reselected = 0;
   ShRgb light = ShRgb::Zero();                  // camera frame
   std::vector<Eigen::Vector3d> segment_albedo;  // unknown-albedo path only
+  bool albedo_shared = false;                   // fitted with the stream's albedo reference (share_albedo)
   ShFitSummary summary;
 };
 
@@ -208,6 +217,8 @@ class ShLightEstimator {
   ShEstimatorOptions options_;
   std::optional<ShGeometry> previous_;  // the previous frame's geometry (temporal filter, normals reuse)
   SamplePointSelector selector_;
+  std::optional<ShFrameFit> albedo_reference_;  // share_albedo: the first usable unknown-albedo fit
+  cv::Mat albedo_reference_depth_;              // and its frame's depth
 };
 
 }  // namespace relume::processing
