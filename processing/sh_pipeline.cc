@@ -273,13 +273,13 @@ ShFrameFit FitShFrameSharedAlbedo(const RadianceImage& radiance, const cv::Mat& 
   out.segmentation = LabelByCentres(reference.segmentation, radiance, allowed, normal_in_camera, segmentation,
                                     labelling, same_surface);
   const cv::Mat& labels = out.segmentation.labels;
-  // Only segments with an albedo are sampled.
+  // Only segments with a positive albedo in every channel are sampled (as WithSegmentAlbedo keeps).
   cv::Mat with_albedo = cv::Mat::zeros(allowed.size(), CV_8UC1);
   for (int y = 0; y < with_albedo.rows; ++y) {
     const int* l = labels.ptr<int>(y);
     auto* w = with_albedo.ptr<std::uint8_t>(y);
     for (int x = 0; x < with_albedo.cols; ++x) {
-      w[x] = l[x] >= 0 && reference.segment_albedo[static_cast<std::size_t>(l[x])].maxCoeff() > 0.0 ? 255 : 0;
+      w[x] = l[x] >= 0 && reference.segment_albedo[static_cast<std::size_t>(l[x])].minCoeff() > 0.0 ? 255 : 0;
     }
   }
   out.samples = selector.Update(with_albedo);

@@ -155,7 +155,7 @@ void SetSegmentAlbedo(int segment, const Eigen::Vector3d& albedo, ShFrameFit* fi
 // The albedo-light ambiguity of the unknown-albedo fit is then the same in both frames, so it
 // cancels in the ratio of their lights: relighting one frame to the other's light does not
 // depend on it (the random SH suites halve their median error this way, docs/processing-sh.md).
-// Segments whose reference albedo is zero are left out.
+// Segments whose reference albedo is not positive in every channel are left out.
 ShFrameFit FitShFrameSharedAlbedo(const RadianceImage& radiance, const cv::Mat& normal_in_camera,
                                   const cv::Mat& allowed, const ShFrameFit& reference, const cv::Mat& same_surface,
                                   const SegmentationOptions& segmentation, const ShFitOptions& options,
